@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Installs the Debian packages relief needs, once. Safe to run again: it only
+# calls apt-get when something is missing. Retries once, because an install on
+# this kind of machine has been seen to fail half way (STACK.md).
+set -euo pipefail
+
+packages=(
+  libgdal-dev gdal-bin python3-gdal libproj-dev proj-bin
+  mesa-vulkan-drivers libvulkan1 pkg-config
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+sudo_cmd=()
+[ "$(id -u)" -ne 0 ] && sudo_cmd=(sudo)
+echo "installing Debian packages: ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+for attempt in 1 2 3; do
+  if "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"; then
+    exit 0
+  fi
+  echo "apt-get install failed (attempt $attempt); repairing and retrying"
+  "${sudo_cmd[@]}" apt-get install -f -y -qq || true
+  sleep 2
+done
+echo "could not install: ${missing[*]}" >&2
+exit 1

@@ -1,0 +1,96 @@
+//! Dirty regions: what changed in a source, in grid coordinates.
+
+use crate::grid::{Extent, TileGrid, TileKey};
+
+/// The areas of a source's output that changed. Either nothing, everything,
+/// or a list of extents in the grid's CRS (an antimeridian-crossing change
+/// is two extents).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DirtySet {
+    everything: bool,
+    extents: Vec<Extent>,
+}
+
+impl DirtySet {
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    pub fn everything() -> Self {
+        Self {
+            everything: true,
+            extents: Vec::new(),
+        }
+    }
+
+    pub fn from_extents(extents: impl IntoIterator<Item = Extent>) -> Self {
+        Self {
+            everything: false,
+            extents: extents.into_iter().filter(|e| !e.is_empty()).collect(),
+        }
+    }
+
+    pub fn is_none(&self) -> bool {
+        !self.everything && self.extents.is_empty()
+    }
+
+    pub fn is_everything(&self) -> bool {
+        self.everything
+    }
+
+    /// The extents, or the whole grid when everything is dirty.
+    pub fn extents(&self, grid: &TileGrid) -> Vec<Extent> {
+        if self.everything {
+            vec![grid.extent()]
+        } else {
+            self.extents.clone()
+        }
+    }
+
+    pub fn union(&self, other: &Self) -> Self {
+        if self.everything || other.everything {
+            return Self::everything();
+        }
+        let mut extents = self.extents.clone();
+        extents.extend(other.extents.iter().copied());
+        Self::from_extents(extents)
+    }
+
+    /// Grows each extent by (dx, dy): an op whose output sample reads its
+    /// input's neighbours (a normal map, a hillshade) dilates the dirt.
+    pub fn dilate(&self, dx: f64, dy: f64) -> Self {
+        if self.everything {
+            return self.clone();
+        }
+        Self::from_extents(self.extents.iter().map(|e| e.dilate(dx, dy)))
+    }
+
+    /// True when the tile's area (and its shared edges) may have changed.
+    pub fn touches_tile(&self, grid: &TileGrid, key: TileKey) -> bool {
+        if self.everything {
+            return true;
+        }
+        let t = grid.tile_extent(key);
+        self.extents.iter().any(|e| e.touches(&t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn union_and_dilate() {
+        let grid = TileGrid::geodetic(256).unwrap();
+        let a = DirtySet::from_extents([Extent::new(1.0, 1.0, 2.0, 2.0)]);
+        let b = DirtySet::from_extents([Extent::new(5.0, 5.0, 6.0, 6.0)]);
+        let u = a.union(&b);
+        assert_eq!(u.extents(&grid).len(), 2);
+        assert!(DirtySet::none().union(&DirtySet::none()).is_none());
+        assert!(a.union(&DirtySet::everything()).is_everything());
+        let d = a.dilate(0.5, 0.5);
+        assert_eq!(d.extents(&grid)[0], Extent::new(0.5, 0.5, 2.5, 2.5));
+        // Empty extents are dropped.
+        assert!(DirtySet::from_extents([Extent::new(1.0, 1.0, 1.0, 2.0)]).is_none());
+    }
+}

@@ -1,0 +1,49 @@
+use std::path::PathBuf;
+
+/// What went wrong inside a source. Messages read "what, then why, then the
+/// path"; the daemon adds the source id in front.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SourceError {
+    #[error("cannot read {what}: {source}: {}", path.display())]
+    Io {
+        what: &'static str,
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{message}: {}", path.display())]
+    Format { message: String, path: PathBuf },
+    #[error("unknown or unusable CRS '{crs}': {message}{}", path_suffix(path.as_ref()))]
+    Crs {
+        crs: String,
+        message: String,
+        path: Option<PathBuf>,
+    },
+    #[error("invalid option '{field}': {message}")]
+    InvalidOption { field: String, message: String },
+    #[error("input '{input}' failed: {message}")]
+    Input { input: String, message: String },
+    #[error("{0} is not supported by this source")]
+    Unsupported(&'static str),
+}
+
+fn path_suffix(path: Option<&PathBuf>) -> String {
+    path.map(|p| format!(": {}", p.display())).unwrap_or_default()
+}
+
+impl SourceError {
+    pub fn format(message: impl Into<String>, path: impl Into<PathBuf>) -> Self {
+        Self::Format {
+            message: message.into(),
+            path: path.into(),
+        }
+    }
+
+    pub fn option(field: impl Into<String>, message: impl Into<String>) -> Self {
+        Self::InvalidOption {
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,32 @@
+//! relief-source: the contract between relief's daemon and its sources.
+//!
+//! It owns the tile grids and the sample convention (written once, in
+//! [`grid`]), the payload types, dirty regions, the [`Source`] trait that every
+//! source crate implements, the named accuracy knobs, and WGS84 geodesy.
+//!
+//! It must never depend on GDAL, gRPC, the renderer or any source crate:
+//! source crates depend on it, not the other way round.
+
+pub mod geodesy;
+mod dirty;
+mod error;
+mod grid;
+mod payload;
+mod quality;
+mod source;
+
+pub use dirty::DirtySet;
+pub use error::SourceError;
+pub use grid::{
+    Direction, Extent, GridKind, Lattice, MAX_LEVEL, Neighbour, ProjectedGrid, SampleKind,
+    TileGrid, TileKey,
+};
+pub use payload::{
+    ColorTile, Feature, FeatureTile, Geometry, HeightTile, Instance, InstanceTile, MaskTile,
+    Payload, PayloadKind,
+};
+pub use quality::{Quality, Resampling};
+pub use source::{
+    GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source,
+    SourceInfo, SourceSpec,
+};

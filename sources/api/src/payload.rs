@@ -1,0 +1,187 @@
+//! Tile payloads: what a source produces for one tile.
+
+use std::collections::BTreeMap;
+
+/// The type of a source's output, checked when the source graph is built.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PayloadKind {
+    Height,
+    Color,
+    Mask,
+    Features,
+    Instances,
+}
+
+impl PayloadKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Height => "height",
+            Self::Color => "color",
+            Self::Mask => "mask",
+            Self::Features => "features",
+            Self::Instances => "instances",
+        }
+    }
+}
+
+impl std::fmt::Display for PayloadKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Heights in metres on the corner-aligned lattice, row-major from the
+/// north-west sample. NaN marks nodata.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HeightTile {
+    pub size: usize,
+    pub heights: Vec<f32>,
+}
+
+impl HeightTile {
+    pub fn nodata(size: usize) -> Self {
+        Self {
+            size,
+            heights: vec![f32::NAN; size * size],
+        }
+    }
+
+    pub fn get(&self, i: usize, j: usize) -> f32 {
+        self.heights[j * self.size + i]
+    }
+
+    pub fn is_all_nodata(&self) -> bool {
+        self.heights.iter().all(|h| h.is_nan())
+    }
+}
+
+/// RGBA8 texels (not premultiplied) on the texel-centred lattice, border included.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColorTile {
+    pub size: usize,
+    pub rgba: Vec<u8>,
+}
+
+impl ColorTile {
+    pub fn transparent(size: usize) -> Self {
+        Self {
+            size,
+            rgba: vec![0; size * size * 4],
+        }
+    }
+}
+
+/// One byte per texel (0 = outside, 255 = inside), border included.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaskTile {
+    pub size: usize,
+    pub coverage: Vec<u8>,
+}
+
+/// Geometry in the grid's CRS.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Geometry {
+    Point([f64; 3]),
+    LineString(Vec<[f64; 3]>),
+    /// Exterior ring first, then holes.
+    Polygon(Vec<Vec<[f64; 3]>>),
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Feature {
+    pub id: u64,
+    pub geometry: Geometry,
+    pub properties: BTreeMap<String, String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FeatureTile {
+    pub features: Vec<Feature>,
+}
+
+/// A placed model or billboard.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Instance {
+    pub position: [f64; 3],
+    pub model: String,
+    pub scale: f32,
+    pub rotation_deg: f32,
+}
+
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct InstanceTile {
+    pub instances: Vec<Instance>,
+}
+
+/// What a source generated for one tile.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Payload {
+    Height(HeightTile),
+    Color(ColorTile),
+    Mask(MaskTile),
+    Features(FeatureTile),
+    Instances(InstanceTile),
+}
+
+impl Payload {
+    pub fn kind(&self) -> PayloadKind {
+        match self {
+            Self::Height(_) => PayloadKind::Height,
+            Self::Color(_) => PayloadKind::Color,
+            Self::Mask(_) => PayloadKind::Mask,
+            Self::Features(_) => PayloadKind::Features,
+            Self::Instances(_) => PayloadKind::Instances,
+        }
+    }
+
+    /// Approximate memory held, for the cache's budget.
+    pub fn size_bytes(&self) -> usize {
+        match self {
+            Self::Height(t) => t.heights.len() * 4,
+            Self::Color(t) => t.rgba.len(),
+            Self::Mask(t) => t.coverage.len(),
+            Self::Features(t) => t.features.len() * 128,
+            Self::Instances(t) => t.instances.len() * 64,
+        }
+    }
+
+    /// A hash of the payload's content, stable across runs and machines: a
+    /// rebuilt tile with the same hash stops dirt from propagating.
+    pub fn content_hash(&self) -> u64 {
+        use xxhash_rust::xxh3::Xxh3;
+        let mut h = Xxh3::new();
+        h.update(self.kind().name().as_bytes());
+        match self {
+            Self::Height(t) => {
+                for v in &t.heights {
+                    // All NaNs hash alike.
+                    let bits = if v.is_nan() { f32::NAN.to_bits() } else { v.to_bits() };
+                    h.update(&bits.to_le_bytes());
+                }
+            }
+            Self::Color(t) => h.update(&t.rgba),
+            Self::Mask(t) => h.update(&t.coverage),
+            Self::Features(t) => h.update(format!("{:?}", t.features).as_bytes()),
+            Self::Instances(t) => h.update(format!("{:?}", t.instances).as_bytes()),
+        }
+        h.digest()
+    }
+}
+
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn content_hash_ignores_nan_payload_bits_and_sees_values() {
+        let a = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.0] });
+        let b = Payload::Height(HeightTile {
+            size: 2,
+            heights: vec![1.0, f32::from_bits(0x7fc0_0001), 3.0, 4.0],
+        });
+        let c = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.5] });
+        assert_eq!(a.content_hash(), b.content_hash());
+        assert_ne!(a.content_hash(), c.content_hash());
+    }
+}

@@ -1,0 +1,30 @@
+//! relief-source-gdal: rasters through GDAL (DEMs and imagery).
+//!
+//! A `gdal` source reads one raster, or a mosaic of several, into memory
+//! once, builds a nodata-aware mip pyramid, and resamples it into the scene's
+//! tile grid with the named kernel. GDAL and PROJ (through GDAL's OSR, so one
+//! PROJ serves GDAL and relief) stay inside this crate.
+//!
+//! # Nodata fill policy
+//!
+//! A source pixel is nodata when it equals the band's nodata value, is NaN,
+//! or is masked by the dataset's mask band. Nodata is never interpolated
+//! into heights:
+//! 1. kernel taps that fall on nodata are dropped and the remaining weights
+//!    are renormalised, but only while the valid taps carry at least half of
+//!    the kernel's weight; otherwise the sample is nodata (NaN in a tile,
+//!    `null` from `relief elevation`);
+//! 2. taps past the raster's edge take the edge pixel (the raster reaches its
+//!    outer pixel edge, no farther); a point beyond that edge is nodata;
+//! 3. coarser mip levels average the valid pixels of each 2 x 2 block, and
+//!    are nodata only where all four are;
+//! 4. holes are never filled from neighbours or other rasters, except that in
+//!    a mosaic the first listed raster with data at a point wins.
+
+mod crs;
+mod raster;
+mod resample;
+mod source;
+
+pub use raster::{RasterKind, VerticalUnits};
+pub use source::{GdalSource, KIND};
