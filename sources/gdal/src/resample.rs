@@ -1,0 +1,148 @@
+//! Kernels applied to a mip level at a point, with the nodata policy of the
+//! crate docs. Coordinates are pixel-edge coordinates of the base level
+//! (GDAL's convention: pixel (0, 0) spans [0, 1) x [0, 1)).
+
+use relief_source::Resampling;
+
+use crate::raster::Level;
+
+const MAX_TAPS: usize = 6;
+
+/// The taps of a 1-D kernel: clamped indices and weights.
+struct Taps {
+    index: [usize; MAX_TAPS],
+    weight: [f64; MAX_TAPS],
+    len: usize,
+}
+
+/// Taps for edge coordinate `u` on an axis of `size` pixels, or None when
+/// `u` lies beyond the raster's outer edge.
+fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
+    if !(u >= 0.0 && u <= size as f64) {
+        return None;
+    }
+    let last = size as i64 - 1;
+    let mut t = Taps { index: [0; MAX_TAPS], weight: [0.0; MAX_TAPS], len: 0 };
+    if kernel == Resampling::Nearest {
+        t.index[0] = (u.floor() as i64).clamp(0, last) as usize;
+        t.weight[0] = 1.0;
+        t.len = 1;
+        return Some(t);
+    }
+    // Centre-based coordinate: pixel i's centre is at i.
+    let f = u - 0.5;
+    let base = f.floor() as i64;
+    let radius = kernel.radius() as i64;
+    for k in (base - radius + 1)..=(base + radius) {
+        let w = kernel.weight(f - k as f64);
+        if w != 0.0 {
+            t.index[t.len] = k.clamp(0, last) as usize;
+            t.weight[t.len] = w;
+            t.len += 1;
+        }
+    }
+    Some(t)
+}
+
+/// A height at edge coordinates (u, v) of the base level, read from `level`.
+/// NaN when the point is off the raster or mostly over nodata.
+pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> f32 {
+    let (u, v) = (u / level.scale, v / level.scale);
+    let (Some(tx), Some(ty)) = (taps(u, level.width, kernel), taps(v, level.height, kernel)) else {
+        return f32::NAN;
+    };
+    let plane = &level.planes[0];
+    let (mut sum, mut valid_w, mut total_w) = (0.0f64, 0.0f64, 0.0f64);
+    for y in 0..ty.len {
+        let row = ty.index[y] * level.width;
+        for x in 0..tx.len {
+            let w = tx.weight[x] * ty.weight[y];
+            total_w += w;
+            let h = plane[row + tx.index[x]];
+            if !h.is_nan() {
+                sum += w * f64::from(h);
+                valid_w += w;
+            }
+        }
+    }
+    if valid_w > 1e-9 && valid_w >= 0.5 * total_w {
+        (sum / valid_w) as f32
+    } else {
+        f32::NAN
+    }
+}
+
+/// Premultiplied RGBA at edge coordinates (u, v); transparent off the raster.
+pub(crate) fn color_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> [f32; 4] {
+    let (u, v) = (u / level.scale, v / level.scale);
+    let (Some(tx), Some(ty)) = (taps(u, level.width, kernel), taps(v, level.height, kernel)) else {
+        return [0.0; 4];
+    };
+    let mut acc = [0.0f64; 4];
+    let mut total_w = 0.0;
+    for y in 0..ty.len {
+        let row = ty.index[y] * level.width;
+        for x in 0..tx.len {
+            let w = tx.weight[x] * ty.weight[y];
+            total_w += w;
+            for (a, plane) in acc.iter_mut().zip(&level.planes) {
+                *a += w * f64::from(plane[row + tx.index[x]]);
+            }
+        }
+    }
+    acc.map(|a| (a / total_w).clamp(0.0, 1.0) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn level(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Level {
+        let plane = (0..height).flat_map(|j| (0..width).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect();
+        Level { width, height, scale: 1.0, planes: vec![plane] }
+    }
+
+    #[test]
+    fn bilinear_reproduces_a_plane_exactly() {
+        // h = 3 i + 2 j at pixel centres; bilinear is exact for planes.
+        let l = level(8, 6, |i, j| 3.0 * i as f32 + 2.0 * j as f32);
+        let h = height_at(&l, 2.75, 3.25, Resampling::Bilinear);
+        assert!((h - (3.0 * 2.25 + 2.0 * 2.75)).abs() < 1e-5, "{h}");
+    }
+
+    #[test]
+    fn nodata_is_never_blended_into_heights() {
+        // A void next to 100 m ground.
+        let l = level(4, 4, |i, _| if i == 2 { f32::NAN } else { 100.0 });
+        for u in [1.6, 2.0, 2.4, 2.6, 3.0] {
+            let h = height_at(&l, u, 2.0, Resampling::Bilinear);
+            assert!(h.is_nan() || (h - 100.0).abs() < 1e-4, "u={u}: {h}");
+        }
+        // Mostly over the void: nodata, not an extrapolated height.
+        assert!(height_at(&l, 2.5, 2.0, Resampling::Bilinear).is_nan());
+        for kernel in Resampling::ALL {
+            let h = height_at(&l, 1.9, 2.0, kernel);
+            assert!(h.is_nan() || (h - 100.0).abs() < 1e-3, "{kernel}: {h}");
+        }
+    }
+
+    #[test]
+    fn the_raster_reaches_its_outer_edge_and_no_farther() {
+        let l = level(3, 3, |_, _| 7.0);
+        assert_eq!(height_at(&l, 0.0, 0.0, Resampling::Bilinear), 7.0);
+        assert_eq!(height_at(&l, 3.0, 3.0, Resampling::Cubic), 7.0);
+        assert!(height_at(&l, -0.01, 1.0, Resampling::Bilinear).is_nan());
+        assert!(height_at(&l, 1.0, 3.01, Resampling::Nearest).is_nan());
+        assert!(height_at(&l, f64::NAN, 1.0, Resampling::Nearest).is_nan());
+    }
+
+    proptest! {
+        #[test]
+        fn interpolated_heights_stay_within_their_taps(u in 0.0f64..16.0, v in 0.0f64..16.0, seed in 0u32..1000) {
+            let l = level(16, 16, |i, j| ((i * 31 + j * 17 + seed as usize) % 97) as f32);
+            let h = height_at(&l, u, v, Resampling::Bilinear);
+            prop_assert!((0.0..=96.0).contains(&h), "{h}");
+        }
+    }
+}

@@ -1,0 +1,396 @@
+//! The `gdal` source kind: a raster, or a mosaic of rasters, resampled into
+//! the scene's tile grid.
+
+use std::sync::{Arc, Once};
+
+use gdal::errors::CplErrType;
+use relief_source::{
+    ColorTile, DirtySet, Extent, GenerateContext, GeodeticPoint, HeightTile, Lattice, Payload,
+    PayloadKind, Quality, Refresh, SampleKind, Source, SourceError, SourceInfo,
+    SourceSpec, TileGrid, TileKey,
+};
+
+use crate::crs;
+use crate::raster::{Fingerprint, Raster, RasterKind, ReadOptions, VerticalUnits};
+use crate::resample::{color_at, height_at};
+
+/// The manifest kind of this source.
+pub const KIND: &str = "gdal";
+
+const OPTIONS: &[&str] = &["output", "crs", "vertical_datum", "vertical_units", "band"];
+
+/// Routes GDAL's own messages to tracing instead of stderr: every failure
+/// that matters comes back as an error value anyway.
+pub(crate) fn install_gdal_error_handler() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        gdal::config::set_error_handler(|class, code, msg| match class {
+            CplErrType::Fatal | CplErrType::Failure => tracing::debug!(code, "gdal: {msg}"),
+            _ => tracing::trace!(code, "gdal: {msg}"),
+        });
+    });
+}
+
+/// One raster of the mosaic, placed in the scene grid.
+#[derive(Debug)]
+struct Placed {
+    raster: Arc<Raster>,
+    /// True when the raster's CRS is the grid's: pixels are then an affine
+    /// function of grid coordinates and nothing goes through PROJ.
+    same_crs: bool,
+    extent_in_grid: Option<Extent>,
+}
+
+#[derive(Debug)]
+pub struct GdalSource {
+    id: String,
+    spec: SourceSpec,
+    kind: RasterKind,
+    read: ReadOptions,
+    vertical_datum: String,
+    grid_crs: String,
+    rasters: Vec<Placed>,
+}
+
+impl GdalSource {
+    /// Opens every raster of `spec` and places it in `grid`.
+    pub fn open(spec: &SourceSpec, grid: &TileGrid) -> Result<Self, SourceError> {
+        spec.only_options(OPTIONS)?;
+        if spec.paths.is_empty() {
+            return Err(SourceError::option("path", "a gdal source needs 'path' (or 'paths')"));
+        }
+        let kind = match spec.text("output")? {
+            None => None,
+            Some("height") => Some(RasterKind::Height),
+            Some("color" | "colour") => Some(RasterKind::Color),
+            Some(other) => return Err(SourceError::option("output", format!("'{other}' is neither \"height\" nor \"color\""))),
+        };
+        let units_override = match spec.text("vertical_units")? {
+            None => None,
+            Some("m") => Some(VerticalUnits::Metres),
+            Some("ft") => Some(VerticalUnits::Feet),
+            Some("us-ft") => Some(VerticalUnits::UsSurveyFeet),
+            Some(other) => return Err(SourceError::option("vertical_units", format!("'{other}' is not m, ft or us-ft"))),
+        };
+        let band = match spec.number("band")? {
+            None => 1,
+            Some(b) if b >= 1.0 && b.fract() == 0.0 => b as usize,
+            Some(b) => return Err(SourceError::option("band", format!("{b} is not a band number (1, 2, ...)"))),
+        };
+        let crs_override = spec.text("crs")?.map(str::to_owned);
+        if let Some(def) = &crs_override {
+            crs::spatial_ref(def, None)?;
+        }
+        let read = ReadOptions { kind, crs_override, units_override, band };
+        let rasters = spec
+            .paths
+            .iter()
+            .map(|p| Raster::open(p, &read))
+            .collect::<Result<Vec<_>, _>>()?;
+        let kind = rasters[0].kind;
+        if let Some(odd) = rasters.iter().find(|r| r.kind != kind) {
+            return Err(SourceError::format(
+                format!("mosaic mixes colour and height rasters ({:?} vs {kind:?})", odd.kind),
+                &odd.path,
+            ));
+        }
+        let vertical_datum = match spec.text("vertical_datum")? {
+            Some(d) => d.to_owned(),
+            None if rasters[0].details.get("driver").is_some_and(|d| d == "SRTMHGT") => "EGM96 geoid (SRTM)".into(),
+            None => "unknown (not stated by the file)".into(),
+        };
+        let grid_srs = crs::spatial_ref(grid.crs(), None)?;
+        let rasters = rasters
+            .into_iter()
+            .map(|raster| place(raster, grid, &grid_srs))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Self {
+            id: spec.id.clone(),
+            spec: spec.clone(),
+            kind,
+            read,
+            vertical_datum,
+            grid_crs: grid.crs().to_owned(),
+            rasters,
+        })
+    }
+
+    /// Pixel-edge coordinates of every lattice sample in `placed`'s raster.
+    fn pixel_coords(&self, placed: &Placed, lattice: &Lattice, max_error_px: f64) -> Result<(Vec<f64>, Vec<f64>), SourceError> {
+        let r = &placed.raster;
+        let (cols, rows) = (lattice.cols, lattice.rows);
+        let mut us = Vec::with_capacity(cols * rows);
+        let mut vs = Vec::with_capacity(cols * rows);
+        if placed.same_crs {
+            for j in 0..rows {
+                let y = lattice.y(j);
+                for i in 0..cols {
+                    let (u, v) = r.pixel_of(lattice.x(i), y);
+                    us.push(u);
+                    vs.push(v);
+                }
+            }
+            return Ok((us, vs));
+        }
+        let to_pixels = |points: &[(usize, usize)]| -> Result<Vec<(f64, f64)>, SourceError> {
+            let mut xs: Vec<f64> = points.iter().map(|&(i, _)| lattice.x(i)).collect();
+            let mut ys: Vec<f64> = points.iter().map(|&(_, j)| lattice.y(j)).collect();
+            crs::transform(&self.grid_crs, &r.crs_wkt, &mut xs, &mut ys)?;
+            Ok(xs.iter().zip(&ys).map(|(x, y)| r.pixel_of(*x, *y)).collect())
+        };
+        // Transform a coarse lattice exactly and interpolate between, halving
+        // the step until the interpolation error at cell centres is small
+        // enough (GDAL's approximate transformer does the same per scanline).
+        let mut step = 32usize.min(cols.saturating_sub(1)).max(1);
+        while max_error_px > 0.0 && step > 1 {
+            let idx = |n: usize| -> Vec<usize> {
+                let mut v: Vec<usize> = (0..n).step_by(step).collect();
+                if *v.last().expect("n > 0") != n - 1 {
+                    v.push(n - 1);
+                }
+                v
+            };
+            let (ci, cj) = (idx(cols), idx(rows));
+            let coarse_points: Vec<(usize, usize)> = cj.iter().flat_map(|&j| ci.iter().map(move |&i| (i, j))).collect();
+            let coarse = to_pixels(&coarse_points)?;
+            let centres: Vec<(usize, usize)> = cj
+                .windows(2)
+                .flat_map(|wj| ci.windows(2).map(move |wi| (usize::midpoint(wi[0], wi[1]), usize::midpoint(wj[0], wj[1]))))
+                .collect();
+            let exact = to_pixels(&centres)?;
+            let interp = |i: usize, j: usize| -> (f64, f64) {
+                let a = ci.partition_point(|&c| c <= i).clamp(1, ci.len() - 1) - 1;
+                let b = cj.partition_point(|&c| c <= j).clamp(1, cj.len() - 1) - 1;
+                let fx = (i - ci[a]) as f64 / (ci[a + 1] - ci[a]) as f64;
+                let fy = (j - cj[b]) as f64 / (cj[b + 1] - cj[b]) as f64;
+                let p = |x: usize, y: usize| coarse[y * ci.len() + x];
+                let (p00, p10, p01, p11) = (p(a, b), p(a + 1, b), p(a, b + 1), p(a + 1, b + 1));
+                let lerp = |s: f64, t: f64, k: fn((f64, f64)) -> f64| {
+                    (1.0 - t) * ((1.0 - s) * k(p00) + s * k(p10)) + t * ((1.0 - s) * k(p01) + s * k(p11))
+                };
+                (lerp(fx, fy, |p| p.0), lerp(fx, fy, |p| p.1))
+            };
+            let worst = centres
+                .iter()
+                .zip(&exact)
+                .map(|(&(i, j), e)| {
+                    let (u, v) = interp(i, j);
+                    (u - e.0).hypot(v - e.1)
+                })
+                .fold(0.0f64, |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) });
+            if worst <= max_error_px {
+                for j in 0..rows {
+                    for i in 0..cols {
+                        let (u, v) = interp(i, j);
+                        us.push(u);
+                        vs.push(v);
+                    }
+                }
+                return Ok((us, vs));
+            }
+            step /= 2;
+        }
+        let all: Vec<(usize, usize)> = (0..rows).flat_map(|j| (0..cols).map(move |i| (i, j))).collect();
+        for (u, v) in to_pixels(&all)? {
+            us.push(u);
+            vs.push(v);
+        }
+        Ok((us, vs))
+    }
+
+    /// The mip level whose pixels are at most as large as the output
+    /// samples near the tile's centre.
+    fn mip_for(placed: &Placed, us: &[f64], vs: &[f64], cols: usize, rows: usize) -> usize {
+        let c = (rows / 2) * cols + cols / 2;
+        let (dx, dy) = if cols > 1 && rows > 1 {
+            ((us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]), (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]))
+        } else {
+            (1.0, 1.0)
+        };
+        let ratio = dx.max(dy);
+        if !ratio.is_finite() || ratio < 2.0 {
+            return 0;
+        }
+        (ratio.log2().floor() as usize).min(placed.raster.levels.len() - 1)
+    }
+
+    fn generate_into(&self, key: TileKey, grid: &TileGrid, quality: &Quality) -> Result<Payload, SourceError> {
+        let sample_kind = match self.kind {
+            RasterKind::Height => SampleKind::Corner,
+            RasterKind::Color => SampleKind::TexelWithBorder,
+        };
+        let lattice = grid.lattice(key, sample_kind);
+        let n = lattice.cols * lattice.rows;
+        let reach = grid.tile_extent(key).dilate(lattice.step_x, lattice.step_y);
+        let mut heights = vec![f32::NAN; if self.kind == RasterKind::Height { n } else { 0 }];
+        let mut colors = vec![[0.0f32; 4]; if self.kind == RasterKind::Color { n } else { 0 }];
+        for placed in &self.rasters {
+            if !placed.extent_in_grid.is_some_and(|e| e.touches(&reach)) {
+                continue;
+            }
+            let (us, vs) = self.pixel_coords(placed, &lattice, quality.reprojection_error_px)?;
+            let level = &placed.raster.levels[Self::mip_for(placed, &us, &vs, lattice.cols, lattice.rows)];
+            match self.kind {
+                RasterKind::Height => {
+                    for ((h, u), v) in heights.iter_mut().zip(&us).zip(&vs) {
+                        if h.is_nan() {
+                            *h = height_at(level, *u, *v, quality.resampling);
+                        }
+                    }
+                }
+                RasterKind::Color => {
+                    for ((c, u), v) in colors.iter_mut().zip(&us).zip(&vs) {
+                        if c[3] < 1.0 {
+                            let new = color_at(level, *u, *v, quality.resampling);
+                            // Earlier rasters stay on top: "over" compositing.
+                            let keep = 1.0 - c[3];
+                            for k in 0..4 {
+                                c[k] += keep * new[k];
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        Ok(match self.kind {
+            RasterKind::Height => Payload::Height(HeightTile { size: lattice.cols, heights }),
+            RasterKind::Color => {
+                let mut rgba = Vec::with_capacity(n * 4);
+                for c in colors {
+                    let a = c[3];
+                    let un = |v: f32| if a > 0.0 { (v / a * 255.0).round().clamp(0.0, 255.0) as u8 } else { 0 };
+                    rgba.extend([un(c[0]), un(c[1]), un(c[2]), (a * 255.0).round() as u8]);
+                }
+                Payload::Color(ColorTile { size: lattice.cols, rgba })
+            }
+        })
+    }
+}
+
+fn place(raster: Raster, grid: &TileGrid, grid_srs: &gdal::spatial_ref::SpatialRef) -> Result<Placed, SourceError> {
+    let srs = crs::spatial_ref(&raster.crs_wkt, Some(&raster.path))?;
+    let same_crs = srs == *grid_srs;
+    let bounds = raster.bounds();
+    let extent_in_grid = if same_crs {
+        Some(bounds)
+    } else {
+        crs::transform_bounds(&raster.crs_wkt, grid.crs(), bounds)
+    }
+    .map(|[a, b, c, d]| Extent::new(a, b, c, d))
+    .and_then(|e| e.intersection(&grid.extent()).or(Some(e)));
+    if extent_in_grid.is_none() {
+        return Err(SourceError::format(
+            format!("raster extent cannot be placed in the scene grid ({})", grid.crs()),
+            &raster.path,
+        ));
+    }
+    Ok(Placed { raster: Arc::new(raster), same_crs, extent_in_grid })
+}
+
+impl Source for GdalSource {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        KIND
+    }
+
+    fn output(&self) -> PayloadKind {
+        match self.kind {
+            RasterKind::Height => PayloadKind::Height,
+            RasterKind::Color => PayloadKind::Color,
+        }
+    }
+
+    fn info(&self) -> SourceInfo {
+        let first = &self.rasters[0].raster;
+        let extent = self
+            .rasters
+            .iter()
+            .filter_map(|p| p.extent_in_grid)
+            .reduce(|a, b| a.union(&b));
+        let mut details = first.details.clone();
+        if self.rasters.len() > 1 {
+            details.insert("mosaic".into(), format!("{} rasters", self.rasters.len()));
+        }
+        SourceInfo {
+            files: self.rasters.iter().map(|p| p.raster.path.clone()).collect(),
+            extent,
+            crs: first.crs_name.clone(),
+            vertical_datum: if self.kind == RasterKind::Height { self.vertical_datum.clone() } else { String::new() },
+            vertical_units: if self.kind == RasterKind::Height {
+                format!("m (file: {})", first.units.name())
+            } else {
+                String::new()
+            },
+            details,
+        }
+    }
+
+    fn generate(&self, key: TileKey, ctx: &GenerateContext<'_>) -> Result<Payload, SourceError> {
+        self.generate_into(key, ctx.grid, ctx.quality)
+    }
+
+    fn refresh(&self, grid: &TileGrid) -> Result<Refresh, SourceError> {
+        let mut changed = false;
+        let mut dirty = DirtySet::none();
+        let mut rasters = Vec::with_capacity(self.rasters.len());
+        for placed in &self.rasters {
+            let path = &placed.raster.path;
+            if Fingerprint::of(path)? == placed.raster.fingerprint {
+                rasters.push(Placed {
+                    raster: Arc::clone(&placed.raster),
+                    same_crs: placed.same_crs,
+                    extent_in_grid: placed.extent_in_grid,
+                });
+                continue;
+            }
+            let grid_srs = crs::spatial_ref(grid.crs(), None)?;
+            let new = place(Raster::open(path, &self.read)?, grid, &grid_srs)?;
+            // Until block hashes land, a changed raster dirties its old and
+            // new extents whole.
+            let extents = [placed.extent_in_grid, new.extent_in_grid].into_iter().flatten();
+            dirty = dirty.union(&DirtySet::from_extents(extents));
+            changed = true;
+            rasters.push(new);
+        }
+        if !changed {
+            return Ok(Refresh::Unchanged);
+        }
+        Ok(Refresh::Changed {
+            source: Arc::new(Self {
+                id: self.id.clone(),
+                spec: self.spec.clone(),
+                kind: self.kind,
+                read: self.read.clone(),
+                vertical_datum: self.vertical_datum.clone(),
+                grid_crs: self.grid_crs.clone(),
+                rasters,
+            }),
+            dirty,
+        })
+    }
+
+    fn sample_heights(&self, points: &[GeodeticPoint], quality: &Quality) -> Result<Vec<Option<f64>>, SourceError> {
+        if self.kind != RasterKind::Height {
+            return Err(SourceError::Unsupported("sampling elevations of a colour raster"));
+        }
+        let mut out: Vec<Option<f64>> = vec![None; points.len()];
+        for placed in &self.rasters {
+            let r = &placed.raster;
+            let mut xs: Vec<f64> = points.iter().map(|p| p.lon_deg).collect();
+            let mut ys: Vec<f64> = points.iter().map(|p| p.lat_deg).collect();
+            crs::transform("EPSG:4326", &r.crs_wkt, &mut xs, &mut ys)?;
+            for ((slot, x), y) in out.iter_mut().zip(&xs).zip(&ys) {
+                if slot.is_none() {
+                    let (u, v) = r.pixel_of(*x, *y);
+                    let h = height_at(&r.levels[0], u, v, quality.resampling);
+                    *slot = (!h.is_nan()).then_some(f64::from(h));
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
