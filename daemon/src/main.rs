@@ -1,1 +1,150 @@
-fn main(){}
+//! reliefd: the relief scene daemon.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::{Parser, Subcommand};
+use relief_daemon::scene::Scene;
+use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
+
+#[derive(Parser)]
+#[command(name = "reliefd", version, about = "relief scene daemon: watches GIS files, serves tiles and views over gRPC")]
+struct Args {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Serve a scene over gRPC.
+    Serve {
+        /// The scene manifest (TOML).
+        manifest: PathBuf,
+        /// Address to bind; port 0 picks a free one.
+        #[arg(long, default_value = "127.0.0.1:50051")]
+        listen: SocketAddr,
+        /// Start even if some sources fail to load (they show as failed).
+        #[arg(long)]
+        keep_going: bool,
+        /// Tile worker threads (default: one per core).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Load a scene, report every problem, and exit.
+    Check {
+        manifest: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_writer(std::io::stderr)
+        .init();
+    let args = Args::parse();
+    match run(args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("reliefd: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+fn threads(asked: Option<usize>) -> usize {
+    asked.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, std::num::NonZero::get))
+}
+
+/// Loads the scene, printing each error on its own line.
+fn load(manifest: &std::path::Path, keep_going: bool, threads: usize) -> Option<Scene> {
+    match Scene::load(manifest, keep_going, threads) {
+        Ok((scene, warnings)) => {
+            for w in warnings {
+                tracing::warn!("{w}");
+            }
+            Some(scene)
+        }
+        Err(errors) => {
+            for e in errors {
+                eprintln!("reliefd: {e}");
+            }
+            None
+        }
+    }
+}
+
+fn run(args: Args) -> anyhow::Result<ExitCode> {
+    match args.command {
+        Command::Check { manifest } => {
+            let Some(scene) = load(&manifest, false, 1) else { return Ok(ExitCode::from(2)) };
+            let snap = scene.snapshot();
+            #[expect(clippy::print_stdout, reason = "check reports to the terminal")]
+            {
+                println!("ok: scene '{}' with {} sources", snap.manifest.name, snap.slots.len());
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Serve { manifest, listen, keep_going, threads: asked } => {
+            let Some(scene) = load(&manifest, keep_going, threads(asked)) else { return Ok(ExitCode::from(2)) };
+            let runtime = tokio::runtime::Builder::new_multi_thread()
+                .enable_all()
+                .thread_name("relief-rt")
+                .build()
+                .context("cannot start the async runtime")?;
+            runtime.block_on(serve(Arc::new(scene), listen))?;
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
+    let listener = tokio::net::TcpListener::bind(listen).await.with_context(|| format!("cannot listen on {listen}"))?;
+    let addr = listener.local_addr().context("cannot read the bound address")?;
+    let shutdown = CancellationToken::new();
+    let tasks = TaskTracker::new();
+    tasks.spawn(relief_daemon::watcher::poll(Arc::clone(&scene), shutdown.clone()));
+    let server = tasks.spawn(relief_daemon::service::serve(Arc::clone(&scene), listener, shutdown.clone()));
+    tasks.close();
+    #[expect(clippy::print_stdout, reason = "the one line clients and tests read the address from")]
+    {
+        println!("listening on {addr}");
+    }
+    use std::io::Write as _;
+    let _ = std::io::stdout().flush();
+    tracing::info!(%addr, scene = %scene.snapshot().manifest.name, "serving");
+
+    tokio::select! {
+        () = shutdown_signal() => tracing::info!("shutting down"),
+        result = server => {
+            // The server stopped on its own: report why.
+            result.context("the gRPC server task failed")??;
+        }
+    }
+    shutdown.cancel();
+    if tokio::time::timeout(Duration::from_secs(5), tasks.wait()).await.is_err() {
+        tracing::warn!("tasks still running after 5 s; exiting anyway");
+    }
+    Ok(())
+}
+
+async fn shutdown_signal() {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    {
+        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(s) => s,
+            Err(_) => return ctrl_c.await.unwrap_or(()),
+        };
+        tokio::select! {
+            _ = ctrl_c => {}
+            _ = term.recv() => {}
+        }
+    }
+    #[cfg(not(unix))]
+    let _ = ctrl_c.await;
+}

@@ -1,1 +1,217 @@
-fn main(){}
+//! relief: the command-line client of reliefd.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::{Parser, Subcommand};
+use relief_proto::v1 as pb;
+use relief_proto::v1::scene_service_client::SceneServiceClient;
+use relief_proto::v1::tile_service_client::TileServiceClient;
+use serde_json::{Value, json};
+use tokio_stream::StreamExt;
+use tonic::transport::Channel;
+
+mod output;
+
+#[derive(Parser)]
+#[command(name = "relief", version, about = "Talk to a running reliefd")]
+struct Args {
+    /// reliefd's gRPC address.
+    #[arg(long, global = true, default_value = "http://127.0.0.1:50051", env = "RELIEF_SERVER")]
+    server: String,
+    /// Print JSON for scripts instead of text.
+    #[arg(long, global = true)]
+    json: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// The scene: sources and their status, generation, effects, counters.
+    State,
+    /// Follow scene events (new generations, source errors) as they happen.
+    Watch {
+        /// Only events after this generation.
+        #[arg(long, default_value_t = 0)]
+        from: u64,
+    },
+    /// Wait until the scene reaches a generation.
+    Wait {
+        generation: u64,
+        #[arg(long, default_value_t = 30.0)]
+        timeout: f64,
+    },
+    /// Fetch one tile: heights as a GeoTIFF, colour as a PNG.
+    Tile {
+        source: String,
+        level: u32,
+        x: u32,
+        y: u32,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Resampling kernel for this request (nearest, bilinear, cubic, lanczos).
+        #[arg(long)]
+        resampling: Option<String>,
+    },
+    /// Elevations at points given as LON,LAT (degrees); null where there is no data.
+    Elevation {
+        #[arg(required = true, value_name = "LON,LAT")]
+        points: Vec<String>,
+        /// Height source; the scene's height layer by default.
+        #[arg(long)]
+        source: Option<String>,
+    },
+    /// Re-read source files now (all, or the named sources).
+    Reload { sources: Vec<String> },
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+        Ok(rt) => rt,
+        Err(e) => {
+            eprintln!("relief: cannot start the async runtime: {e}");
+            return ExitCode::from(1);
+        }
+    };
+    match runtime.block_on(run(args)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("relief: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+async fn connect(server: &str) -> anyhow::Result<Channel> {
+    Channel::from_shared(server.to_owned())
+        .with_context(|| format!("invalid server address '{server}'"))?
+        .connect()
+        .await
+        .with_context(|| format!("cannot reach reliefd at {server}"))
+}
+
+/// Turns a gRPC status into a plain error with its message.
+fn rpc<T>(result: Result<tonic::Response<T>, tonic::Status>) -> anyhow::Result<T> {
+    result.map(tonic::Response::into_inner).map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))
+}
+
+fn parse_point(text: &str) -> anyhow::Result<pb::GeodeticPoint> {
+    let Some((lon, lat)) = text.split_once(',') else {
+        bail!("'{text}' is not LON,LAT");
+    };
+    let lon_deg: f64 = lon.trim().parse().with_context(|| format!("'{lon}' is not a longitude"))?;
+    let lat_deg: f64 = lat.trim().parse().with_context(|| format!("'{lat}' is not a latitude"))?;
+    Ok(pb::GeodeticPoint { lon_deg, lat_deg })
+}
+
+async fn run(args: Args) -> anyhow::Result<()> {
+    let channel = connect(&args.server).await?;
+    let mut scene = SceneServiceClient::new(channel.clone());
+    let mut tiles = TileServiceClient::new(channel).max_decoding_message_size(256 * 1024 * 1024);
+    match args.command {
+        Command::State => {
+            let state = rpc(scene.get_state(pb::GetStateRequest {}).await)?;
+            output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
+        }
+        Command::Watch { from } => {
+            let mut stream = rpc(scene.watch(pb::WatchRequest { from_generation: from }).await)?;
+            while let Some(event) = stream.next().await {
+                let event = event.map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))?;
+                output::emit(args.json, &output::event_json(&event), || output::event_text(&event));
+            }
+        }
+        Command::Wait { generation, timeout } => {
+            if !(timeout.is_finite() && timeout >= 0.0) {
+                bail!("--timeout {timeout} is not a number of seconds");
+            }
+            let state = rpc(scene
+                .wait_for_generation(pb::WaitForGenerationRequest {
+                    min_generation: generation,
+                    timeout_ms: (timeout * 1000.0).min(f64::from(u32::MAX)) as u32,
+                })
+                .await)?;
+            output::emit(args.json, &json!({"generation": state.generation}), || format!("generation {}", state.generation));
+        }
+        Command::Tile { source, level, x, y, output: path, resampling } => {
+            let tile = rpc(tiles
+                .get_tile(pb::GetTileRequest {
+                    source_id: source,
+                    key: Some(pb::TileKey { level, x, y }),
+                    quality: Some(pb::QualityOverrides { resampling, ..Default::default() }),
+                })
+                .await)?;
+            write_tile(&tile, &path)?;
+            let summary = json!({
+                "source": tile.source_id, "level": level, "x": x, "y": y,
+                "generation": tile.generation, "content_hash": format!("{:016x}", tile.content_hash),
+                "width": tile.width, "height": tile.height, "crs": tile.crs, "path": path.display().to_string(),
+            });
+            output::emit(args.json, &summary, || {
+                format!(
+                    "wrote {}x{} tile {level}/{x}/{y} of '{}' (generation {}, hash {:016x}) to {}",
+                    tile.width, tile.height, tile.source_id, tile.generation, tile.content_hash, path.display()
+                )
+            });
+        }
+        Command::Elevation { points, source } => {
+            let points = points.iter().map(|p| parse_point(p)).collect::<anyhow::Result<Vec<_>>>()?;
+            let answer = rpc(tiles
+                .sample_elevation(pb::SampleElevationRequest { points: points.clone(), source_id: source.unwrap_or_default() })
+                .await)?;
+            let heights: Vec<Value> = answer.samples.iter().map(|s| s.height_m.map_or(Value::Null, |h| json!(h))).collect();
+            output::emit(args.json, &json!({"source": answer.source_id, "generation": answer.generation, "heights_m": heights}), || {
+                points
+                    .iter()
+                    .zip(&answer.samples)
+                    .map(|(p, s)| match s.height_m {
+                        Some(h) => format!("{:.6},{:.6}\t{h:.3}", p.lon_deg, p.lat_deg),
+                        None => format!("{:.6},{:.6}\tnull", p.lon_deg, p.lat_deg),
+                    })
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            });
+        }
+        Command::Reload { sources } => {
+            let state = rpc(scene.reload(pb::ReloadRequest { source_ids: sources }).await)?;
+            output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
+        }
+    }
+    Ok(())
+}
+
+/// Heights become a single-band Float32 GeoTIFF whose pixel centres are the
+/// tile's corner-aligned samples; colour is written as the PNG it came as.
+fn write_tile(tile: &pb::GetTileResponse, path: &Path) -> anyhow::Result<()> {
+    match &tile.payload {
+        Some(pb::get_tile_response::Payload::ColorPng(png)) => {
+            std::fs::write(path, png).with_context(|| format!("cannot write {}", path.display()))
+        }
+        Some(pb::get_tile_response::Payload::HeightsF32Le(bytes)) => {
+            let (w, h) = (tile.width as usize, tile.height as usize);
+            if bytes.len() != w * h * 4 || w < 2 || h < 2 {
+                bail!("reliefd sent {} bytes for a {w}x{h} height tile", bytes.len());
+            }
+            let heights: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+            let e = tile.extent.context("reliefd sent a tile without an extent")?;
+            let (step_x, step_y) = ((e.max_x - e.min_x) / (w - 1) as f64, (e.max_y - e.min_y) / (h - 1) as f64);
+            let driver = gdal::DriverManager::get_driver_by_name("GTiff").context("GDAL has no GTiff driver")?;
+            let mut ds = driver
+                .create_with_band_type::<f32, _>(path, w, h, 1)
+                .with_context(|| format!("cannot create {}", path.display()))?;
+            ds.set_geo_transform(&[e.min_x - step_x / 2.0, step_x, 0.0, e.max_y + step_y / 2.0, 0.0, -step_y])?;
+            let srs = gdal::spatial_ref::SpatialRef::from_definition(&tile.crs)
+                .with_context(|| format!("reliefd sent an unknown CRS '{}'", tile.crs))?;
+            ds.set_spatial_ref(&srs)?;
+            let mut band = ds.rasterband(1)?;
+            band.set_no_data_value(Some(f64::NAN))?;
+            let mut buffer = gdal::raster::Buffer::new((w, h), heights);
+            band.write((0, 0), (w, h), &mut buffer)?;
+            Ok(())
+        }
+        Some(pb::get_tile_response::Payload::MaskU8(_)) => bail!("mask tiles cannot be written yet"),
+        None => bail!("reliefd sent a tile without a payload"),
+    }
+}

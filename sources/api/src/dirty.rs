@@ -4,11 +4,13 @@ use crate::grid::{Extent, TileGrid, TileKey};
 
 /// The areas of a source's output that changed. Either nothing, everything,
 /// or a list of extents in the grid's CRS (an antimeridian-crossing change
-/// is two extents).
+/// is two extents). An op that reads its input's neighbouring samples adds a
+/// margin counted in samples, since a sample's size depends on the level.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DirtySet {
     everything: bool,
     extents: Vec<Extent>,
+    margin_samples: u32,
 }
 
 impl DirtySet {
@@ -20,6 +22,7 @@ impl DirtySet {
         Self {
             everything: true,
             extents: Vec::new(),
+            margin_samples: 0,
         }
     }
 
@@ -27,6 +30,7 @@ impl DirtySet {
         Self {
             everything: false,
             extents: extents.into_iter().filter(|e| !e.is_empty()).collect(),
+            margin_samples: 0,
         }
     }
 
@@ -53,7 +57,18 @@ impl DirtySet {
         }
         let mut extents = self.extents.clone();
         extents.extend(other.extents.iter().copied());
-        Self::from_extents(extents)
+        Self {
+            margin_samples: self.margin_samples.max(other.margin_samples),
+            ..Self::from_extents(extents)
+        }
+    }
+
+    /// Grows the dirt by `samples` samples of whatever level a tile is at.
+    pub fn dilate_samples(&self, samples: u32) -> Self {
+        Self {
+            margin_samples: self.margin_samples + samples,
+            ..self.clone()
+        }
     }
 
     /// Grows each extent by (dx, dy): an op whose output sample reads its
@@ -70,7 +85,11 @@ impl DirtySet {
         if self.everything {
             return true;
         }
-        let t = grid.tile_extent(key);
+        let lattice = grid.lattice(key, crate::grid::SampleKind::Corner);
+        let margin = f64::from(self.margin_samples);
+        let t = grid
+            .tile_extent(key)
+            .dilate(margin * lattice.step_x, margin * lattice.step_y);
         self.extents.iter().any(|e| e.touches(&t))
     }
 }
@@ -90,6 +109,11 @@ mod tests {
         assert!(a.union(&DirtySet::everything()).is_everything());
         let d = a.dilate(0.5, 0.5);
         assert_eq!(d.extents(&grid)[0], Extent::new(0.5, 0.5, 2.5, 2.5));
+        // A margin in samples reaches one sample further at each level.
+        let edge = grid.tile_extent(TileKey::new(8, 300, 40));
+        let beside = DirtySet::from_extents([Extent::new(edge.max_x + 0.001, edge.min_y, edge.max_x + 0.002, edge.max_y)]);
+        assert!(!beside.touches_tile(&grid, TileKey::new(8, 300, 40)));
+        assert!(beside.dilate_samples(1).touches_tile(&grid, TileKey::new(8, 300, 40)));
         // Empty extents are dropped.
         assert!(DirtySet::from_extents([Extent::new(1.0, 1.0, 1.0, 2.0)]).is_none());
     }

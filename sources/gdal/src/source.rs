@@ -53,7 +53,8 @@ pub struct GdalSource {
 }
 
 impl GdalSource {
-    /// Opens every raster of `spec` and places it in `grid`.
+    /// Opens every raster of `spec` and places it in `grid`. Only the grid's
+    /// CRS matters here: the source serves any grid in that CRS.
     pub fn open(spec: &SourceSpec, grid: &TileGrid) -> Result<Self, SourceError> {
         spec.only_options(OPTIONS)?;
         if spec.paths.is_empty() {
@@ -276,8 +277,7 @@ fn place(raster: Raster, grid: &TileGrid, grid_srs: &gdal::spatial_ref::SpatialR
     } else {
         crs::transform_bounds(&raster.crs_wkt, grid.crs(), bounds)
     }
-    .map(|[a, b, c, d]| Extent::new(a, b, c, d))
-    .and_then(|e| e.intersection(&grid.extent()).or(Some(e)));
+    .map(|[a, b, c, d]| Extent::new(a, b, c, d));
     if extent_in_grid.is_none() {
         return Err(SourceError::format(
             format!("raster extent cannot be placed in the scene grid ({})", grid.crs()),

@@ -1,1 +1,10 @@
+//! relief-source-ops: derived sources, computed from other sources' tiles.
+//!
+//! Ops never read files: their inputs arrive as tiles through
+//! `GenerateContext::inputs`, so they depend on `relief-source` only.
 
+mod hillshade;
+mod window;
+
+pub use hillshade::{HILLSHADE_INPUTS, HILLSHADE_KIND, Hillshade};
+pub use window::HeightWindow;

@@ -1,0 +1,151 @@
+//! Text for people and JSON for scripts, from the same answers.
+
+use relief_proto::v1 as pb;
+use serde_json::{Value, json};
+
+#[expect(clippy::print_stdout, reason = "the CLI's output")]
+pub fn emit(as_json: bool, value: &Value, text: impl FnOnce() -> String) {
+    if as_json {
+        println!("{value}");
+    } else {
+        println!("{}", text());
+    }
+}
+
+fn status_name(status: i32) -> &'static str {
+    match pb::SourceStatus::try_from(status) {
+        Ok(pb::SourceStatus::Ready) => "ready",
+        Ok(pb::SourceStatus::Error) => "error",
+        Ok(pb::SourceStatus::Failed) => "failed",
+        _ => "unknown",
+    }
+}
+
+fn payload_name(kind: i32) -> &'static str {
+    match pb::PayloadKind::try_from(kind) {
+        Ok(pb::PayloadKind::Height) => "height",
+        Ok(pb::PayloadKind::Color) => "color",
+        Ok(pb::PayloadKind::Mask) => "mask",
+        Ok(pb::PayloadKind::Features) => "features",
+        Ok(pb::PayloadKind::Instances) => "instances",
+        _ => "unknown",
+    }
+}
+
+fn extent_json(e: Option<&pb::Extent>) -> Value {
+    e.map_or(Value::Null, |e| json!([e.min_x, e.min_y, e.max_x, e.max_y]))
+}
+
+pub fn state_json(s: &pb::SceneState) -> Value {
+    let sources: Vec<Value> = s
+        .sources
+        .iter()
+        .map(|src| {
+            json!({
+                "id": src.id, "kind": src.kind, "output": payload_name(src.output), "inputs": src.inputs,
+                "status": status_name(src.status), "error": (!src.error.is_empty()).then_some(&src.error),
+                "files": src.files, "version": src.version, "active": src.active,
+                "extent": extent_json(src.extent.as_ref()), "crs": src.crs,
+                "vertical_datum": src.vertical_datum, "vertical_units": src.vertical_units,
+                "tiles_generated": src.tiles_generated, "details": src.details,
+            })
+        })
+        .collect();
+    let grid = s.grid.as_ref().map(|g| {
+        json!({"kind": g.kind, "crs": g.crs, "tile_size": g.tile_size, "extent": extent_json(g.extent.as_ref()),
+               "level0_columns": g.level0_columns, "level0_rows": g.level0_rows})
+    });
+    let effects: Vec<Value> = s.effects.iter().map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran})).collect();
+    let c = s.counters.unwrap_or_default();
+    json!({
+        "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
+        "sources": sources, "layers": s.layers, "effects": effects, "quality": s.quality,
+        "counters": {"tiles_generated": c.tiles_generated, "cache_hits": c.cache_hits, "cache_misses": c.cache_misses,
+                     "cache_entries": c.cache_entries, "cache_bytes": c.cache_bytes, "cache_budget_bytes": c.cache_budget_bytes},
+    })
+}
+
+pub fn state_text(s: &pb::SceneState) -> String {
+    let mut out = format!("scene '{}' at generation {}\n  manifest: {}\n", s.name, s.generation, s.manifest);
+    if let Some(g) = &s.grid {
+        out += &format!("  grid: {} {} (tiles of {} samples, {}x{} at level 0)\n", g.kind, g.crs, g.tile_size, g.level0_columns, g.level0_rows);
+    }
+    out += "  sources:\n";
+    for src in &s.sources {
+        out += &format!(
+            "    {:<12} {:<10} {:<7} {:<6} v{} {}{} tiles={}\n",
+            src.id,
+            src.kind,
+            payload_name(src.output),
+            status_name(src.status),
+            src.version,
+            if src.active { "active" } else { "idle" },
+            if src.crs.is_empty() { String::new() } else { format!(" crs={}", src.crs) },
+            src.tiles_generated
+        );
+        if !src.vertical_datum.is_empty() {
+            out += &format!("                 heights: {}, datum {}\n", src.vertical_units, src.vertical_datum);
+        }
+        if !src.error.is_empty() {
+            out += &format!("                 error: {}\n", src.error);
+        }
+    }
+    let mut layers: Vec<_> = s.layers.iter().collect();
+    layers.sort();
+    out += &format!("  layers: {}\n", layers.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
+    out += &format!("  effects: {}\n", s.effects.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(" "));
+    let mut quality: Vec<_> = s.quality.iter().collect();
+    quality.sort();
+    out += &format!("  quality: {}\n", quality.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
+    if let Some(c) = s.counters {
+        out += &format!(
+            "  cache: {} tiles, {:.1} of {:.0} MiB; {} hits, {} misses; {} tiles generated",
+            c.cache_entries,
+            c.cache_bytes as f64 / 1048576.0,
+            c.cache_budget_bytes as f64 / 1048576.0,
+            c.cache_hits,
+            c.cache_misses,
+            c.tiles_generated
+        );
+    }
+    out
+}
+
+pub fn event_json(e: &pb::SceneEvent) -> Value {
+    match &e.event {
+        Some(pb::scene_event::Event::Snapshot(s)) => json!({"generation": e.generation, "snapshot": state_json(s)}),
+        Some(pb::scene_event::Event::GenerationChanged(g)) => json!({
+            "generation": e.generation, "changed_sources": g.changed_sources, "reason": g.reason,
+            "dirty": g.dirty.iter().map(|d| json!({"source": d.source_id, "extents": d.extents.iter().map(|x| extent_json(Some(x))).collect::<Vec<_>>()})).collect::<Vec<_>>(),
+            "tiles_rebuilt": g.tiles_rebuilt, "tiles_invalidated": g.tiles_invalidated, "elapsed_ms": g.elapsed_ms,
+        }),
+        Some(pb::scene_event::Event::SourceError(err)) => json!({
+            "generation": e.generation, "source_error": {"source": err.source_id, "error": err.error, "kept_last_good": err.kept_last_good},
+        }),
+        None => json!({"generation": e.generation}),
+    }
+}
+
+pub fn event_text(e: &pb::SceneEvent) -> String {
+    match &e.event {
+        Some(pb::scene_event::Event::Snapshot(s)) => format!("[{}] {}", e.generation, state_text(s)),
+        Some(pb::scene_event::Event::GenerationChanged(g)) => format!(
+            "[{}] {}: changed {} ({} dirty regions, {} tiles invalidated, {} rebuilt) in {:.1} ms",
+            e.generation,
+            g.reason,
+            g.changed_sources.join(", "),
+            g.dirty.iter().map(|d| d.extents.len()).sum::<usize>(),
+            g.tiles_invalidated,
+            g.tiles_rebuilt,
+            g.elapsed_ms
+        ),
+        Some(pb::scene_event::Event::SourceError(err)) => format!(
+            "[{}] error on source '{}': {}{}",
+            e.generation,
+            err.source_id,
+            err.error,
+            if err.kept_last_good { " (last good version kept)" } else { "" }
+        ),
+        None => format!("[{}]", e.generation),
+    }
+}

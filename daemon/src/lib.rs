@@ -1,0 +1,14 @@
+//! reliefd's library: the scene manifest, the source graph, the tile store
+//! and scheduler, file watching and the gRPC service.
+//!
+//! It depends on the source crates (registered in `registry`) and on
+//! relief-proto at the gRPC edge only (`service`). It never renders: the
+//! renderer is its own crate.
+
+pub mod graph;
+pub mod manifest;
+pub mod registry;
+pub mod scene;
+pub mod service;
+pub mod tiles;
+pub mod watcher;

@@ -1,0 +1,348 @@
+//! The scene manifest (TOML): parsing and the checks that need no file.
+//! Every error names the manifest, the source id (when there is one) and
+//! the field.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use relief_source::{OptionValue, Quality, SourceSpec};
+use serde::Deserialize;
+
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ManifestError {
+    #[error("cannot read manifest: {source}: {}", path.display())]
+    Read {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("invalid manifest: {message}: {}", path.display())]
+    Parse { path: PathBuf, message: String },
+    #[error("invalid manifest: field '{field}': {message}: {}", path.display())]
+    Field { path: PathBuf, field: String, message: String },
+    #[error("invalid manifest: source '{source_id}', field '{field}': {message}: {}", path.display())]
+    Source {
+        path: PathBuf,
+        source_id: String,
+        field: String,
+        message: String,
+    },
+}
+
+/// The effects a scene may declare, and the layers each one reads.
+pub const EFFECTS: &[(&str, &[&str])] = &[
+    ("lighting", &["height"]),
+    ("atmosphere", &[]),
+    ("fog", &[]),
+    ("shadows", &["height"]),
+    ("water", &["water"]),
+    ("vegetation", &["vegetation"]),
+];
+
+/// Layers the renderer reads, and the payload each must have.
+pub const LAYERS: &[&str] = &["height", "color", "water", "vegetation"];
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawManifest {
+    scene: RawScene,
+    #[serde(default, rename = "source")]
+    sources: Vec<RawSource>,
+    #[serde(default)]
+    layers: BTreeMap<String, String>,
+    #[serde(default)]
+    effects: BTreeMap<String, toml::Table>,
+    #[serde(default)]
+    quality: RawQuality,
+    #[serde(default)]
+    cache: RawCache,
+    #[serde(default)]
+    watch: RawWatch,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: String,
+    #[serde(default = "default_grid")]
+    grid: RawGrid,
+    #[serde(default)]
+    tile_size: Option<u32>,
+}
+
+fn default_grid() -> RawGrid {
+    RawGrid::Named("geodetic".into())
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum RawGrid {
+    Named(String),
+    Projected(RawProjected),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawProjected {
+    crs: String,
+    /// [min x, min y, max x, max y]; derived from the sources when absent.
+    extent: Option<[f64; 4]>,
+}
+
+#[derive(Debug, Deserialize)]
+struct RawSource {
+    id: Option<String>,
+    kind: Option<String>,
+    path: Option<String>,
+    paths: Option<Vec<String>>,
+    #[serde(default)]
+    inputs: Vec<String>,
+    #[serde(flatten)]
+    options: BTreeMap<String, toml::Value>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawQuality {
+    resampling: Option<String>,
+    reprojection_error_px: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCache {
+    memory_mb: Option<u64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWatch {
+    poll_ms: Option<u64>,
+}
+
+/// How the scene's grid is declared.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GridSpec {
+    Geodetic,
+    Projected { crs: String, extent: Option<[f64; 4]> },
+}
+
+/// A parsed manifest: shape checked, paths resolved, graph not yet built.
+#[derive(Debug, Clone)]
+pub struct Manifest {
+    pub path: PathBuf,
+    pub name: String,
+    pub grid: GridSpec,
+    pub tile_size: u32,
+    pub sources: Vec<SourceSpec>,
+    pub layers: BTreeMap<String, String>,
+    pub effects: Vec<String>,
+    pub quality: Quality,
+    pub cache_budget_bytes: u64,
+    pub poll_ms: u64,
+}
+
+impl Manifest {
+    pub fn load(path: &Path) -> Result<Self, ManifestError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ManifestError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    pub fn parse(text: &str, path: &Path) -> Result<Self, ManifestError> {
+        let path = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+        let raw: RawManifest = toml::from_str(text).map_err(|e| ManifestError::Parse {
+            path: path.clone(),
+            message: e.to_string().trim().replace('\n', " "),
+        })?;
+        let field = |field: &str, message: String| ManifestError::Field {
+            path: path.clone(),
+            field: field.into(),
+            message,
+        };
+        let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+
+        let grid = match raw.scene.grid {
+            RawGrid::Named(name) if name == "geodetic" => GridSpec::Geodetic,
+            RawGrid::Named(other) => {
+                return Err(field(
+                    "scene.grid",
+                    format!("'{other}' is not a grid (use \"geodetic\" or {{ crs = \"EPSG:...\" }})"),
+                ));
+            }
+            RawGrid::Projected(p) => {
+                if let Some(e) = p.extent
+                    && !(e.iter().all(|v| v.is_finite()) && e[2] > e[0] && e[3] > e[1])
+                {
+                    return Err(field("scene.grid.extent", format!("{e:?} is not [min_x, min_y, max_x, max_y]")));
+                }
+                GridSpec::Projected { crs: p.crs, extent: p.extent }
+            }
+        };
+
+        let mut sources: Vec<SourceSpec> = Vec::new();
+        for (index, s) in raw.sources.into_iter().enumerate() {
+            let id = s
+                .id
+                .filter(|id| !id.trim().is_empty())
+                .ok_or_else(|| field(&format!("source[{index}].id"), "every source needs an id".into()))?;
+            let source_err = |f: &str, message: String| ManifestError::Source {
+                path: path.clone(),
+                source_id: id.clone(),
+                field: f.into(),
+                message,
+            };
+            if sources.iter().any(|other| other.id == id) {
+                return Err(source_err("id", "two sources have this id".into()));
+            }
+            let kind = s.kind.ok_or_else(|| source_err("kind", "missing".into()))?;
+            let mut paths: Vec<PathBuf> = Vec::new();
+            match (s.path, s.paths) {
+                (Some(_), Some(_)) => return Err(source_err("paths", "give 'path' or 'paths', not both".into())),
+                (Some(p), None) => paths.push(base.join(p)),
+                (None, Some(ps)) => paths.extend(ps.into_iter().map(|p| base.join(p))),
+                (None, None) => {}
+            }
+            let mut options = BTreeMap::new();
+            for (key, value) in s.options {
+                let v = match value {
+                    toml::Value::String(s) => OptionValue::Text(s),
+                    toml::Value::Integer(i) => OptionValue::Number(i as f64),
+                    toml::Value::Float(f) => OptionValue::Number(f),
+                    toml::Value::Boolean(b) => OptionValue::Bool(b),
+                    other => return Err(source_err(&key, format!("unsupported value {other}"))),
+                };
+                options.insert(key, v);
+            }
+            sources.push(SourceSpec { id, kind, paths, inputs: s.inputs, options });
+        }
+
+        for (layer, id) in &raw.layers {
+            if !LAYERS.contains(&layer.as_str()) {
+                return Err(field(&format!("layers.{layer}"), format!("unknown layer (known: {})", LAYERS.join(", "))));
+            }
+            if !sources.iter().any(|s| &s.id == id) {
+                return Err(field(&format!("layers.{layer}"), format!("no source has id '{id}'")));
+            }
+        }
+        let mut effects = Vec::new();
+        for (name, _params) in raw.effects {
+            let Some((_, needs)) = EFFECTS.iter().find(|(e, _)| *e == name) else {
+                let known: Vec<&str> = EFFECTS.iter().map(|(e, _)| *e).collect();
+                return Err(field(&format!("effects.{name}"), format!("unknown effect (known: {})", known.join(", "))));
+            };
+            if let Some(missing) = needs.iter().find(|l| !raw.layers.contains_key(**l)) {
+                return Err(field(&format!("effects.{name}"), format!("needs a '{missing}' layer in [layers]")));
+            }
+            effects.push(name);
+        }
+
+        let mut quality = Quality::default();
+        if let Some(r) = raw.quality.resampling {
+            quality.resampling = r.parse().map_err(|e: String| field("quality.resampling", e))?;
+        }
+        if let Some(e) = raw.quality.reprojection_error_px {
+            if !(e.is_finite() && (0.0..=16.0).contains(&e)) {
+                return Err(field("quality.reprojection_error_px", format!("{e} is not between 0 and 16")));
+            }
+            quality.reprojection_error_px = e;
+        }
+        let tile_size = raw.scene.tile_size.unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
+        if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
+            return Err(field("scene.tile_size", format!("{tile_size} is not a power of two from 16 to 4096")));
+        }
+        let memory_mb = raw.cache.memory_mb.unwrap_or(512);
+        if memory_mb == 0 {
+            return Err(field("cache.memory_mb", "must be at least 1".into()));
+        }
+        let poll_ms = raw.watch.poll_ms.unwrap_or(500);
+        if poll_ms < 10 {
+            return Err(field("watch.poll_ms", format!("{poll_ms} is below 10 ms")));
+        }
+        Ok(Self {
+            path,
+            name: raw.scene.name,
+            grid,
+            tile_size,
+            sources,
+            layers: raw.layers,
+            effects,
+            quality,
+            cache_budget_bytes: memory_mb * 1024 * 1024,
+            poll_ms,
+        })
+    }
+
+    pub fn source(&self, id: &str) -> Option<&SourceSpec> {
+        self.sources.iter().find(|s| s.id == id)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Manifest, ManifestError> {
+        Manifest::parse(text, Path::new("/scenes/alps/scene.toml"))
+    }
+
+    #[test]
+    fn the_documented_shape_parses() {
+        let m = parse(
+            r#"
+            [scene]
+            name = "alps"
+            grid = "geodetic"
+            [[source]]
+            id = "dem"
+            kind = "gdal"
+            path = "N43E007.hgt"
+            [[source]]
+            id = "ortho"
+            kind = "gdal"
+            path = "ortho.tif"
+            [layers]
+            height = "dem"
+            color = "ortho"
+            [effects]
+            lighting = {}
+            [quality]
+            resampling = "bilinear"
+            "#,
+        )
+        .unwrap();
+        assert_eq!(m.name, "alps");
+        assert_eq!(m.grid, GridSpec::Geodetic);
+        assert_eq!(m.sources[0].paths, vec![PathBuf::from("/scenes/alps/N43E007.hgt")]);
+        assert_eq!(m.effects, vec!["lighting".to_string()]);
+        assert_eq!(m.layers["color"], "ortho");
+    }
+
+    #[test]
+    fn projected_grids_parse() {
+        let m = parse("[scene]\nname = \"storm\"\ngrid = { crs = \"EPSG:32612\" }\n").unwrap();
+        assert_eq!(m.grid, GridSpec::Projected { crs: "EPSG:32612".into(), extent: None });
+    }
+
+    #[test]
+    fn errors_name_the_source_and_the_field() {
+        let cases = [
+            ("[scene]\nname='a'\n[[source]]\nid='dem'\n", "source 'dem', field 'kind'"),
+            ("[scene]\nname='a'\n[quality]\nresampling='bicubic'\n", "field 'quality.resampling'"),
+            ("[scene]\nname='a'\n[effects]\nsparkles={}\n", "field 'effects.sparkles'"),
+            ("[scene]\nname='a'\n[layers]\nheight='nope'\n", "field 'layers.height'"),
+            ("[scene]\nname='a'\ngrid='mercator'\n", "field 'scene.grid'"),
+            ("[scene]\nname='a'\n[[source]]\nid='x'\nkind='gdal'\n[[source]]\nid='x'\nkind='gdal'\n", "source 'x', field 'id'"),
+            ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
+            ("[scene]\nname = \n", "invalid manifest"),
+        ];
+        for (text, expected) in cases {
+            let msg = parse(text).unwrap_err().to_string();
+            assert!(msg.contains(expected), "{msg:?} should contain {expected:?}");
+            assert!(msg.ends_with("/scenes/alps/scene.toml"), "{msg}");
+        }
+    }
+}

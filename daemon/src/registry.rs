@@ -1,0 +1,51 @@
+//! The source kinds reliefd knows, and how to open each. This is the one
+//! place where source crates are plugged in.
+
+use std::sync::Arc;
+
+use relief_source::{PayloadKind, Source, SourceError, SourceSpec, TileGrid};
+
+type OpenFn = fn(&SourceSpec, &TileGrid) -> Result<Arc<dyn Source>, SourceError>;
+
+pub struct Kind {
+    pub name: &'static str,
+    pub open: OpenFn,
+    /// The payloads of the inputs, in order; empty for file-backed sources.
+    pub inputs: &'static [PayloadKind],
+    /// The output payload when it is known without opening the source.
+    pub output: Option<PayloadKind>,
+}
+
+pub struct Registry {
+    kinds: Vec<Kind>,
+}
+
+impl Registry {
+    /// Every kind built into this reliefd.
+    pub fn builtin() -> Self {
+        Self {
+            kinds: vec![
+                Kind {
+                    name: relief_source_gdal::KIND,
+                    open: |spec, grid| Ok(Arc::new(relief_source_gdal::GdalSource::open(spec, grid)?)),
+                    inputs: &[],
+                    output: None,
+                },
+                Kind {
+                    name: relief_source_ops::HILLSHADE_KIND,
+                    open: |spec, _grid| Ok(Arc::new(relief_source_ops::Hillshade::open(spec)?)),
+                    inputs: relief_source_ops::HILLSHADE_INPUTS,
+                    output: Some(PayloadKind::Color),
+                },
+            ],
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<&Kind> {
+        self.kinds.iter().find(|k| k.name == name)
+    }
+
+    pub fn names(&self) -> Vec<&'static str> {
+        self.kinds.iter().map(|k| k.name).collect()
+    }
+}

@@ -1,0 +1,163 @@
+//! Conversions between relief's types and relief.v1 messages.
+
+use relief_proto::v1 as pb;
+use relief_source::{Extent, PayloadKind, Quality, TileGrid, TileKey};
+use tonic::Status;
+
+use crate::graph::SceneSnapshot;
+use crate::manifest::EFFECTS;
+use crate::scene::{EventKind, SceneEvent};
+use crate::service::status::invalid_field;
+use crate::tiles::TileStore;
+
+pub fn extent(e: Extent) -> pb::Extent {
+    pb::Extent { min_x: e.min_x, min_y: e.min_y, max_x: e.max_x, max_y: e.max_y }
+}
+
+pub fn payload_kind(kind: PayloadKind) -> pb::PayloadKind {
+    match kind {
+        PayloadKind::Height => pb::PayloadKind::Height,
+        PayloadKind::Color => pb::PayloadKind::Color,
+        PayloadKind::Mask => pb::PayloadKind::Mask,
+        PayloadKind::Features => pb::PayloadKind::Features,
+        PayloadKind::Instances => pb::PayloadKind::Instances,
+    }
+}
+
+pub fn tile_key(key: Option<&pb::TileKey>) -> Result<TileKey, Status> {
+    let key = key.ok_or_else(|| invalid_field("key", "missing"))?;
+    let level = u8::try_from(key.level)
+        .ok()
+        .filter(|l| *l <= relief_source::MAX_LEVEL)
+        .ok_or_else(|| invalid_field("key.level", format!("{} is above the finest level {}", key.level, relief_source::MAX_LEVEL)))?;
+    Ok(TileKey::new(level, key.x, key.y))
+}
+
+pub fn key(k: TileKey) -> pb::TileKey {
+    pb::TileKey { level: u32::from(k.level), x: k.x, y: k.y }
+}
+
+/// The scene's quality with a request's overrides applied.
+pub fn quality(base: Quality, overrides: Option<&pb::QualityOverrides>) -> Result<Quality, Status> {
+    let mut q = base;
+    let Some(o) = overrides else { return Ok(q) };
+    if let Some(r) = &o.resampling {
+        q.resampling = r.parse().map_err(|e: String| invalid_field("quality.resampling", e))?;
+    }
+    if let Some(e) = o.reprojection_error_px {
+        if !(e.is_finite() && (0.0..=16.0).contains(&e)) {
+            return Err(invalid_field("quality.reprojection_error_px", format!("{e} is not between 0 and 16")));
+        }
+        q.reprojection_error_px = e;
+    }
+    Ok(q)
+}
+
+fn grid_info(grid: &TileGrid) -> pb::GridInfo {
+    let (cols, rows) = grid.tiles_at(0);
+    pb::GridInfo {
+        kind: if grid.is_geodetic() { "geodetic" } else { "projected" }.into(),
+        crs: grid.crs().into(),
+        tile_size: grid.tile_size(),
+        extent: Some(extent(grid.extent())),
+        level0_columns: cols,
+        level0_rows: rows,
+    }
+}
+
+pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
+    let sources = snap
+        .slots
+        .iter()
+        .map(|slot| {
+            let info = slot.source.as_ref().map(|s| s.info()).unwrap_or_default();
+            let status = match (&slot.source, &slot.error) {
+                (Some(_), None) => pb::SourceStatus::Ready,
+                (Some(_), Some(_)) => pb::SourceStatus::Error,
+                (None, _) => pb::SourceStatus::Failed,
+            };
+            pb::SourceState {
+                id: slot.spec.id.clone(),
+                kind: slot.spec.kind.clone(),
+                output: slot.source.as_ref().map_or(pb::PayloadKind::Unspecified, |s| payload_kind(s.output())) as i32,
+                inputs: slot.spec.inputs.clone(),
+                status: status as i32,
+                error: slot.error.clone().unwrap_or_default(),
+                files: if info.files.is_empty() { &slot.spec.paths } else { &info.files }
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect(),
+                version: slot.version,
+                active: slot.active,
+                extent: info.extent.map(extent),
+                crs: info.crs,
+                vertical_datum: info.vertical_datum,
+                vertical_units: info.vertical_units,
+                tiles_generated: store.generated_for(&slot.spec.id),
+                details: info.details.into_iter().collect(),
+            }
+        })
+        .collect();
+    let m = &snap.manifest;
+    let effects = m
+        .effects
+        .iter()
+        .map(|name| {
+            let layers = EFFECTS.iter().find(|(e, _)| e == name).map(|(_, l)| *l).unwrap_or_default();
+            pb::EffectState {
+                name: name.clone(),
+                sources: layers.iter().filter_map(|l| m.layers.get(*l).cloned()).collect(),
+                ran: false,
+                last_cost_ms: 0.0,
+            }
+        })
+        .collect();
+    let c = store.counters();
+    pb::SceneState {
+        name: m.name.clone(),
+        generation: snap.generation,
+        grid: Some(grid_info(&snap.grid)),
+        sources,
+        effects,
+        layers: m.layers.clone().into_iter().collect(),
+        quality: [
+            ("resampling".to_string(), m.quality.resampling.to_string()),
+            ("reprojection_error_px".to_string(), m.quality.reprojection_error_px.to_string()),
+            ("tile_size".to_string(), snap.grid.tile_size().to_string()),
+        ]
+        .into_iter()
+        .collect(),
+        counters: Some(pb::Counters {
+            tiles_generated: c.tiles_generated,
+            cache_hits: c.hits,
+            cache_misses: c.misses,
+            cache_entries: c.entries,
+            cache_bytes: c.bytes,
+            cache_budget_bytes: c.budget_bytes,
+            frames_rendered: 0,
+        }),
+        manifest: m.path.display().to_string(),
+    }
+}
+
+pub fn scene_event(e: SceneEvent) -> pb::SceneEvent {
+    let event = match e.kind {
+        EventKind::Generation { changed_sources, dirty, tiles_invalidated, tiles_rebuilt, elapsed_ms, reason } => {
+            pb::scene_event::Event::GenerationChanged(pb::GenerationEvent {
+                changed_sources,
+                dirty: dirty
+                    .into_iter()
+                    .map(|d| pb::DirtyRegion { source_id: d.source_id, extents: d.extents.into_iter().map(extent).collect() })
+                    .collect(),
+                tiles_rebuilt,
+                tiles_invalidated,
+                elapsed_ms,
+                reason,
+            })
+        }
+        EventKind::SourceError { source_id, error, kept_last_good } => {
+            pb::scene_event::Event::SourceError(pb::SourceErrorEvent { source_id, error, kept_last_good })
+        }
+    };
+    pb::SceneEvent { generation: e.generation, event: Some(event) }
+}

@@ -1,0 +1,41 @@
+//! The gRPC edge: relief.v1 services over the scene. prost types stop
+//! here; `convert` turns them into relief's own types and back.
+
+mod convert;
+mod scene;
+mod status;
+mod tiles;
+mod view;
+
+use std::sync::Arc;
+
+use relief_proto::v1::scene_service_server::SceneServiceServer;
+use relief_proto::v1::tile_service_server::TileServiceServer;
+use relief_proto::v1::view_service_server::ViewServiceServer;
+use tokio::net::TcpListener;
+use tokio_stream::wrappers::TcpListenerStream;
+use tokio_util::sync::CancellationToken;
+
+use crate::scene::Scene;
+
+/// Serves every relief.v1 service, gRPC health and reflection on
+/// `listener` until `shutdown` is cancelled.
+pub async fn serve(scene: Arc<Scene>, listener: TcpListener, shutdown: CancellationToken) -> anyhow::Result<()> {
+    let (health, health_service) = tonic_health::server::health_reporter();
+    health.set_serving::<SceneServiceServer<scene::SceneApi>>().await;
+    health.set_serving::<TileServiceServer<tiles::TileApi>>().await;
+    health.set_serving::<ViewServiceServer<view::ViewApi>>().await;
+    let reflection = tonic_reflection::server::Builder::configure()
+        .register_encoded_file_descriptor_set(relief_proto::FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+        .build_v1()?;
+    tonic::transport::Server::builder()
+        .add_service(health_service)
+        .add_service(reflection)
+        .add_service(SceneServiceServer::new(scene::SceneApi::new(Arc::clone(&scene), shutdown.clone())))
+        .add_service(TileServiceServer::new(tiles::TileApi::new(Arc::clone(&scene))))
+        .add_service(ViewServiceServer::new(view::ViewApi))
+        .serve_with_incoming_shutdown(TcpListenerStream::new(listener), shutdown.cancelled_owned())
+        .await?;
+    Ok(())
+}

@@ -1,0 +1,71 @@
+//! Reading an input's height samples by global sample index, across tile
+//! borders, the antimeridian and the poles.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use relief_source::{GenerateContext, GridKind, Payload, SourceError, TileKey};
+
+/// Height samples of one input at one level, addressed by global
+/// corner-sample index (column X grows east, row Y grows south). Tiles are
+/// fetched from the input on first use.
+pub struct HeightWindow<'a, 'c> {
+    ctx: &'a GenerateContext<'c>,
+    input: usize,
+    level: u8,
+    tiles: HashMap<TileKey, Arc<Payload>>,
+}
+
+impl<'a, 'c> HeightWindow<'a, 'c> {
+    pub fn new(ctx: &'a GenerateContext<'c>, input: usize, level: u8) -> Self {
+        Self { ctx, input, level, tiles: HashMap::new() }
+    }
+
+    /// The height at global sample (X, Y); NaN for nodata. On the geodetic
+    /// grid columns wrap and rows past a pole continue half way round the
+    /// planet; a projected grid repeats its edge samples.
+    pub fn get(&mut self, gx: i64, gy: i64) -> Result<f32, SourceError> {
+        let grid = self.ctx.grid;
+        let n = i64::from(grid.tile_size());
+        let (cols, rows) = grid.tiles_at(self.level);
+        let (total_x, total_y) = (i64::from(cols) * n, i64::from(rows) * n);
+        let (mut x, mut y) = (gx, gy);
+        match grid.kind {
+            GridKind::Geodetic => {
+                if y < 0 {
+                    y = -y;
+                    x += total_x / 2;
+                } else if y > total_y {
+                    y = 2 * total_y - y;
+                    x += total_x / 2;
+                }
+                x = x.rem_euclid(total_x);
+            }
+            GridKind::Projected(_) => {
+                x = x.clamp(0, total_x);
+                y = y.clamp(0, total_y);
+            }
+        }
+        // Samples on a tile edge belong to both tiles; take the tile to the
+        // south-east unless that is past the grid.
+        let tx = (x / n).min(i64::from(cols) - 1);
+        let ty = (y / n).min(i64::from(rows) - 1);
+        let key = TileKey::new(self.level, tx as u32, ty as u32);
+        let tile = match self.tiles.get(&key) {
+            Some(t) => Arc::clone(t),
+            None => {
+                let t = self.ctx.inputs.tile(self.input, key)?;
+                self.tiles.insert(key, Arc::clone(&t));
+                t
+            }
+        };
+        let Payload::Height(h) = tile.as_ref() else {
+            return Err(SourceError::Input {
+                input: self.input.to_string(),
+                message: format!("expected a height tile, got a {} tile", tile.kind()),
+            });
+        };
+        let (i, j) = ((x - tx * n) as usize, (y - ty * n) as usize);
+        Ok(h.get(i, j))
+    }
+}
