@@ -228,6 +228,15 @@ pub fn open_source(spec: &SourceSpec, grid: &TileGrid, registry: &Registry) -> R
 /// errors returned beside the snapshot.
 pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
     let order = order(&manifest, registry)?;
+    if let GridSpec::Projected { crs, .. } = &manifest.grid
+        && let Err(e) = relief_source_gdal::describe_crs(crs)
+    {
+        return Err(vec![LoadError::Manifest(ManifestError::Field {
+            path: manifest.path.clone(),
+            field: "scene.grid.crs".into(),
+            message: e.to_string(),
+        })]);
+    }
     // A projected grid's CRS is all a source needs to open; its extent may
     // come from the sources themselves.
     let provisional = match &manifest.grid {

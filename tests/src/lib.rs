@@ -1,1 +1,36 @@
+//! Helpers for relief's end-to-end tests: start the real `reliefd` on
+//! loopback, make analytic fixtures with GDAL, and ask GDAL itself for
+//! reference values.
 
+pub mod daemon;
+pub mod fixtures;
+pub mod reference;
+
+use std::path::PathBuf;
+
+/// The workspace root.
+pub fn workspace_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// A binary of the workspace, built next to the running test.
+pub fn bin(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("the test knows where it runs from");
+    // target/<profile>/deps/<test> -> target/<profile>/<name>
+    let dir = exe.parent().and_then(|deps| deps.parent()).expect("tests run from target/<profile>/deps");
+    dir.join(name)
+}
+
+/// `../shared/data` beside the checkout (or `RELIEF_SHARED_DATA`), which CI
+/// always has. None, with a note on stderr, in a clone without it.
+pub fn shared_data(test: &str) -> Option<PathBuf> {
+    let dir = std::env::var_os("RELIEF_SHARED_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| workspace_root().join("../shared/data"));
+    if dir.join("SOURCES.md").exists() {
+        Some(dir)
+    } else {
+        eprintln!("skipping {test}: it needs the shared GIS data at {} (CI has it)", dir.display());
+        None
+    }
+}

@@ -28,3 +28,8 @@ mod source;
 
 pub use raster::{RasterKind, VerticalUnits};
 pub use source::{GdalSource, KIND};
+
+/// Checks that GDAL and PROJ know a CRS; returns its short description.
+pub fn describe_crs(definition: &str) -> Result<String, relief_source::SourceError> {
+    crs::spatial_ref(definition, None).map(|srs| crs::describe(&srs))
+}

@@ -1,0 +1,126 @@
+//! A real reliefd process on 127.0.0.1, for tests.
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex, mpsc};
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use tonic::transport::Channel;
+
+/// A running reliefd. Dropping it kills the process; `stop` shuts it down
+/// gracefully and returns what it logged.
+pub struct Reliefd {
+    child: Child,
+    pub addr: String,
+    log: Arc<Mutex<Vec<String>>>,
+}
+
+impl Reliefd {
+    /// Starts `reliefd serve MANIFEST --listen 127.0.0.1:0` and waits for
+    /// its `listening on ADDR` line.
+    pub fn start(manifest: &Path, extra: &[&str]) -> anyhow::Result<Self> {
+        let mut child = Command::new(crate::bin("reliefd"))
+            .arg("serve")
+            .arg(manifest)
+            .args(["--listen", "127.0.0.1:0"])
+            .args(extra)
+            .env("RUST_LOG", "info")
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .context("cannot start reliefd (is it built? cargo build --workspace)")?;
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let stderr = child.stderr.take().context("reliefd has no stderr")?;
+        let err_log = Arc::clone(&log);
+        std::thread::Builder::new().name("reliefd-stderr".into()).spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                err_log.lock().expect("log lock").push(line);
+            }
+        })?;
+        let stdout = child.stdout.take().context("reliefd has no stdout")?;
+        let (tx, rx) = mpsc::sync_channel(1);
+        std::thread::Builder::new().name("reliefd-stdout".into()).spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(addr) = line.strip_prefix("listening on ") {
+                    let _ = tx.send(addr.to_owned());
+                }
+            }
+        })?;
+        match rx.recv_timeout(Duration::from_secs(60)) {
+            Ok(addr) => Ok(Self { child, addr, log }),
+            Err(_) => {
+                let _ = child.kill();
+                let _ = child.wait();
+                bail!("reliefd did not start: {}", log.lock().expect("log lock").join("\n"))
+            }
+        }
+    }
+
+    pub fn url(&self) -> String {
+        format!("http://{}", self.addr)
+    }
+
+    pub async fn channel(&self) -> anyhow::Result<Channel> {
+        Ok(Channel::from_shared(self.url())?.connect().await?)
+    }
+
+    pub fn is_running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
+    }
+
+    pub fn log(&self) -> Vec<String> {
+        self.log.lock().expect("log lock").clone()
+    }
+
+    /// SIGTERM, wait for a clean exit, and return the log. Fails if the
+    /// daemon logged a WARN or ERROR line that no `allowed` text explains.
+    pub fn stop(mut self, allowed: &[&str]) -> anyhow::Result<Vec<String>> {
+        let pid = self.child.id().to_string();
+        Command::new("kill").args(["-TERM", &pid]).status()?;
+        for _ in 0..100 {
+            if let Some(status) = self.child.try_wait()? {
+                if !status.success() {
+                    bail!("reliefd exited with {status}: {}", self.log().join("\n"));
+                }
+                std::thread::sleep(Duration::from_millis(50));
+                let log = self.log();
+                let unexpected: Vec<&String> = log
+                    .iter()
+                    .filter(|l| l.contains(" WARN ") || l.contains(" ERROR "))
+                    .filter(|l| !allowed.iter().any(|a| l.contains(a)))
+                    .collect();
+                if !unexpected.is_empty() {
+                    bail!("reliefd logged unexpected warnings: {unexpected:#?}");
+                }
+                return Ok(log);
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        bail!("reliefd did not stop within 5 s of SIGTERM")
+    }
+}
+
+impl Drop for Reliefd {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Runs `reliefd check MANIFEST`: (exit code, stderr).
+pub fn check(manifest: &Path) -> anyhow::Result<(i32, String)> {
+    let out = Command::new(crate::bin("reliefd")).arg("check").arg(manifest).output()?;
+    Ok((out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned()))
+}
+
+/// Runs the `relief` CLI against `daemon`: (exit code, stdout, stderr).
+pub fn relief(daemon: &Reliefd, args: &[&str]) -> anyhow::Result<(i32, String, String)> {
+    let out = Command::new(crate::bin("relief")).args(["--server", &daemon.url()]).args(args).output()?;
+    Ok((
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    ))
+}
