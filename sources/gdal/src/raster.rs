@@ -119,7 +119,7 @@ impl Raster {
     pub(crate) fn open(path: &Path, options: &ReadOptions) -> Result<Self, SourceError> {
         crate::source::install_gdal_error_handler();
         let fingerprint = Fingerprint::of(path)?;
-        let ds = Dataset::open(path).map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
+        let ds = open_dataset(path)?;
         let (width, height) = ds.raster_size();
         if width == 0 || height == 0 || ds.raster_count() == 0 {
             return Err(format_err("raster has no pixels or no bands", path));
@@ -194,6 +194,25 @@ impl Raster {
     pub(crate) fn pixel_of(&self, x: f64, y: f64) -> (f64, f64) {
         apply(&self.inverse, x, y)
     }
+}
+
+/// Opens a raster read-only, with GDAL's own words when it cannot.
+fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
+    use gdal::{DatasetOptions, GdalOpenFlags};
+    let options = DatasetOptions {
+        open_flags: GdalOpenFlags::GDAL_OF_RASTER | GdalOpenFlags::GDAL_OF_READONLY | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
+        ..DatasetOptions::default()
+    };
+    Dataset::open_ex(path, options).map_err(|e| {
+        let message = match e {
+            gdal::errors::GdalError::NullPointer { msg, .. } if !msg.trim().is_empty() => msg,
+            gdal::errors::GdalError::NullPointer { .. } => "no GDAL driver recognises it (corrupt, truncated or not a raster)".into(),
+            other => other.to_string(),
+        };
+        // GDAL repeats the path inside its message; we put it last once.
+        let message = message.replace(&format!("`{}' ", path.display()), "").replace(&path.display().to_string(), "the file");
+        format_err(format!("cannot open raster: {}", message.trim()), path)
+    })
 }
 
 fn apply(gt: &[f64; 6], a: f64, b: f64) -> (f64, f64) {
