@@ -128,14 +128,32 @@ fn order(manifest: &Manifest, registry: &Registry) -> Result<Vec<usize>, Vec<Loa
             message,
         })
     };
-    let index: HashMap<&str, usize> = manifest.sources.iter().enumerate().map(|(i, s)| (s.id.as_str(), i)).collect();
+    let index: HashMap<&str, usize> = manifest
+        .sources
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.id.as_str(), i))
+        .collect();
     for spec in &manifest.sources {
         match registry.get(&spec.kind) {
-            None => errors.push(err(spec, "kind", format!("unknown kind '{}' (known: {})", spec.kind, registry.names().join(", ")))),
+            None => errors.push(err(
+                spec,
+                "kind",
+                format!(
+                    "unknown kind '{}' (known: {})",
+                    spec.kind,
+                    registry.names().join(", ")
+                ),
+            )),
             Some(kind) if kind.inputs.len() != spec.inputs.len() => errors.push(err(
                 spec,
                 "inputs",
-                format!("kind '{}' takes {} input(s), got {}", spec.kind, kind.inputs.len(), spec.inputs.len()),
+                format!(
+                    "kind '{}' takes {} input(s), got {}",
+                    spec.kind,
+                    kind.inputs.len(),
+                    spec.inputs.len()
+                ),
             )),
             Some(_) => {}
         }
@@ -187,16 +205,30 @@ fn order(manifest: &Manifest, registry: &Registry) -> Result<Vec<usize>, Vec<Loa
     let mut out = Vec::new();
     for i in 0..manifest.sources.len() {
         if let Err(cycle) = visit(i, manifest, &index, &mut marks, &mut Vec::new(), &mut out) {
-            let names: Vec<&str> = cycle.iter().map(|&c| manifest.sources[c].id.as_str()).collect();
-            return Err(vec![err(&manifest.sources[cycle[0]], "inputs", format!("cycle {}", names.join(" -> ")))]);
+            let names: Vec<&str> = cycle
+                .iter()
+                .map(|&c| manifest.sources[c].id.as_str())
+                .collect();
+            return Err(vec![err(
+                &manifest.sources[cycle[0]],
+                "inputs",
+                format!("cycle {}", names.join(" -> ")),
+            )]);
         }
     }
     Ok(out)
 }
 
-fn grid_for(manifest: &Manifest, extents: impl Iterator<Item = relief_source::Extent>) -> Result<TileGrid, LoadError> {
+fn grid_for(
+    manifest: &Manifest,
+    extents: impl Iterator<Item = relief_source::Extent>,
+) -> Result<TileGrid, LoadError> {
     let field = |field: &str, message: String| {
-        LoadError::Manifest(ManifestError::Field { path: manifest.path.clone(), field: field.into(), message })
+        LoadError::Manifest(ManifestError::Field {
+            path: manifest.path.clone(),
+            field: field.into(),
+            message,
+        })
     };
     let kind = match &manifest.grid {
         GridSpec::Geodetic => GridKind::Geodetic,
@@ -210,15 +242,26 @@ fn grid_for(manifest: &Manifest, extents: impl Iterator<Item = relief_source::Ex
                     [u.min_x, u.min_y, u.max_x, u.max_y]
                 }
             };
-            GridKind::Projected(ProjectedGrid { crs: crs.clone(), min_x, min_y, size: (max_x - min_x).max(max_y - min_y) })
+            GridKind::Projected(ProjectedGrid {
+                crs: crs.clone(),
+                min_x,
+                min_y,
+                size: (max_x - min_x).max(max_y - min_y),
+            })
         }
     };
     TileGrid::new(kind, manifest.tile_size).map_err(|m| field("scene.grid", m))
 }
 
 /// Opens one source for `grid`.
-pub fn open_source(spec: &SourceSpec, grid: &TileGrid, registry: &Registry) -> Result<Arc<dyn Source>, LoadError> {
-    let kind = registry.get(&spec.kind).ok_or_else(|| source_error(spec, SourceError::Unsupported("this kind")))?;
+pub fn open_source(
+    spec: &SourceSpec,
+    grid: &TileGrid,
+    registry: &Registry,
+) -> Result<Arc<dyn Source>, LoadError> {
+    let kind = registry
+        .get(&spec.kind)
+        .ok_or_else(|| source_error(spec, SourceError::Unsupported("this kind")))?;
     (kind.open)(spec, grid).map_err(|e| source_error(spec, e))
 }
 
@@ -226,7 +269,10 @@ pub fn open_source(spec: &SourceSpec, grid: &TileGrid, registry: &Registry) -> R
 /// kinds, missing inputs, cycles, type mismatches, bad layers) fail the
 /// build; sources that fail to open are kept as failed slots and their
 /// errors returned beside the snapshot.
-pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
+pub fn build(
+    manifest: Manifest,
+    registry: &Registry,
+) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
     let order = order(&manifest, registry)?;
     if let GridSpec::Projected { crs, .. } = &manifest.grid
         && let Err(e) = relief_source_gdal::describe_crs(crs)
@@ -242,24 +288,45 @@ pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, 
     let provisional = match &manifest.grid {
         GridSpec::Geodetic => grid_for(&manifest, std::iter::empty()).map_err(|e| vec![e])?,
         GridSpec::Projected { crs, .. } => TileGrid::new(
-            GridKind::Projected(ProjectedGrid { crs: crs.clone(), min_x: 0.0, min_y: 0.0, size: 1.0 }),
+            GridKind::Projected(ProjectedGrid {
+                crs: crs.clone(),
+                min_x: 0.0,
+                min_y: 0.0,
+                size: 1.0,
+            }),
             manifest.tile_size,
         )
-        .map_err(|m| vec![LoadError::Manifest(ManifestError::Field { path: manifest.path.clone(), field: "scene.tile_size".into(), message: m })])?,
+        .map_err(|m| {
+            vec![LoadError::Manifest(ManifestError::Field {
+                path: manifest.path.clone(),
+                field: "scene.tile_size".into(),
+                message: m,
+            })]
+        })?,
     };
     let mut open_errors = Vec::new();
     let opened: Vec<Option<Arc<dyn Source>>> = order
         .iter()
         .map(|&i| {
             let spec = &manifest.sources[i];
-            open_source(spec, &provisional, registry).map_err(|e| open_errors.push(e)).ok()
+            open_source(spec, &provisional, registry)
+                .map_err(|e| open_errors.push(e))
+                .ok()
         })
         .collect();
     // An unknown CRS for the grid shows up as every source failing on it;
     // say so once, about the grid.
-    let grid = grid_for(&manifest, opened.iter().flatten().filter_map(|s| s.info().extent)).map_err(|e| vec![e])?;
+    let grid = grid_for(
+        &manifest,
+        opened.iter().flatten().filter_map(|s| s.info().extent),
+    )
+    .map_err(|e| vec![e])?;
 
-    let position: HashMap<&str, usize> = order.iter().enumerate().map(|(pos, &i)| (manifest.sources[i].id.as_str(), pos)).collect();
+    let position: HashMap<&str, usize> = order
+        .iter()
+        .enumerate()
+        .map(|(pos, &i)| (manifest.sources[i].id.as_str(), pos))
+        .collect();
     let mut slots: Vec<Slot> = order
         .iter()
         .zip(opened)
@@ -267,17 +334,32 @@ pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, 
         .map(|((&i, source), error)| {
             let spec = manifest.sources[i].clone();
             let inputs = spec.inputs.iter().map(|id| position[id.as_str()]).collect();
-            Slot { spec, source, error: error.clone(), version: 1, effective_version: 0, inputs, active: false }
+            Slot {
+                spec,
+                source,
+                error: error.clone(),
+                version: 1,
+                effective_version: 0,
+                inputs,
+                active: false,
+            }
         })
         .collect();
 
     // Type checks: op inputs and layers.
     let mut errors = Vec::new();
     let type_err = |id: &str, field: String, message: String| {
-        LoadError::Manifest(ManifestError::Source { path: manifest.path.clone(), source_id: id.into(), field, message })
+        LoadError::Manifest(ManifestError::Source {
+            path: manifest.path.clone(),
+            source_id: id.into(),
+            field,
+            message,
+        })
     };
     for slot in &slots {
-        let Some(kind) = registry.get(&slot.spec.kind) else { continue };
+        let Some(kind) = registry.get(&slot.spec.kind) else {
+            continue;
+        };
         for (n, (&input, expected)) in slot.inputs.iter().zip(kind.inputs).enumerate() {
             if let Some(actual) = slots[input].output(registry)
                 && actual != *expected
@@ -285,7 +367,10 @@ pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, 
                 errors.push(type_err(
                     &slot.spec.id,
                     format!("inputs[{n}]"),
-                    format!("'{}' gives {actual} tiles, kind '{}' needs {expected}", slots[input].spec.id, slot.spec.kind),
+                    format!(
+                        "'{}' gives {actual} tiles, kind '{}' needs {expected}",
+                        slots[input].spec.id, slot.spec.kind
+                    ),
                 ));
             }
         }
@@ -304,7 +389,9 @@ pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, 
             errors.push(LoadError::Manifest(ManifestError::Field {
                 path: manifest.path.clone(),
                 field: format!("layers.{layer}"),
-                message: format!("source '{id}' gives {actual} tiles, the {layer} layer needs {expected}"),
+                message: format!(
+                    "source '{id}' gives {actual} tiles, the {layer} layer needs {expected}"
+                ),
             }));
         }
     }
@@ -317,10 +404,18 @@ pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, 
     let mut wanted: Vec<&str> = manifest.layers.values().map(String::as_str).collect();
     for effect in &manifest.effects {
         if let Some((_, layers)) = EFFECTS.iter().find(|(e, _)| e == effect) {
-            wanted.extend(layers.iter().filter_map(|l| manifest.layers.get(*l)).map(String::as_str));
+            wanted.extend(
+                layers
+                    .iter()
+                    .filter_map(|l| manifest.layers.get(*l))
+                    .map(String::as_str),
+            );
         }
     }
-    let mut stack: Vec<usize> = wanted.iter().filter_map(|id| position.get(id).copied()).collect();
+    let mut stack: Vec<usize> = wanted
+        .iter()
+        .filter_map(|id| position.get(id).copied())
+        .collect();
     while let Some(i) = stack.pop() {
         if needed.insert(i) {
             stack.extend(slots[i].inputs.iter().copied());
@@ -330,13 +425,22 @@ pub fn build(manifest: Manifest, registry: &Registry) -> Result<(SceneSnapshot, 
         slots[i].active = true;
     }
 
-    let mut snapshot = SceneSnapshot { generation: 1, manifest: Arc::new(manifest), grid, slots };
+    let mut snapshot = SceneSnapshot {
+        generation: 1,
+        manifest: Arc::new(manifest),
+        grid,
+        slots,
+    };
     snapshot.recompute_versions();
     Ok((snapshot, open_errors))
 }
 
 /// The error text of each source in `order`, None where it opened.
-fn open_errors_for(order: &[usize], manifest: &Manifest, errors: &[LoadError]) -> Vec<Option<String>> {
+fn open_errors_for(
+    order: &[usize],
+    manifest: &Manifest,
+    errors: &[LoadError],
+) -> Vec<Option<String>> {
     order
         .iter()
         .map(|&i| {

@@ -13,7 +13,11 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 #[derive(Parser)]
-#[command(name = "reliefd", version, about = "relief scene daemon: watches GIS files, serves tiles and views over gRPC")]
+#[command(
+    name = "reliefd",
+    version,
+    about = "relief scene daemon: watches GIS files, serves tiles and views over gRPC"
+)]
 struct Args {
     #[command(subcommand)]
     command: Command,
@@ -36,14 +40,14 @@ enum Command {
         threads: Option<usize>,
     },
     /// Load a scene, report every problem, and exit.
-    Check {
-        manifest: PathBuf,
-    },
+    Check { manifest: PathBuf },
 }
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
@@ -82,16 +86,29 @@ fn load(manifest: &std::path::Path, keep_going: bool, threads: usize) -> Option<
 fn run(args: Args) -> anyhow::Result<ExitCode> {
     match args.command {
         Command::Check { manifest } => {
-            let Some(scene) = load(&manifest, false, 1) else { return Ok(ExitCode::from(2)) };
+            let Some(scene) = load(&manifest, false, 1) else {
+                return Ok(ExitCode::from(2));
+            };
             let snap = scene.snapshot();
             #[expect(clippy::print_stdout, reason = "check reports to the terminal")]
             {
-                println!("ok: scene '{}' with {} sources", snap.manifest.name, snap.slots.len());
+                println!(
+                    "ok: scene '{}' with {} sources",
+                    snap.manifest.name,
+                    snap.slots.len()
+                );
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Serve { manifest, listen, keep_going, threads: asked } => {
-            let Some(scene) = load(&manifest, keep_going, threads(asked)) else { return Ok(ExitCode::from(2)) };
+        Command::Serve {
+            manifest,
+            listen,
+            keep_going,
+            threads: asked,
+        } => {
+            let Some(scene) = load(&manifest, keep_going, threads(asked)) else {
+                return Ok(ExitCode::from(2));
+            };
             let runtime = tokio::runtime::Builder::new_multi_thread()
                 .enable_all()
                 .thread_name("relief-rt")
@@ -104,14 +121,28 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
 }
 
 async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
-    let listener = tokio::net::TcpListener::bind(listen).await.with_context(|| format!("cannot listen on {listen}"))?;
-    let addr = listener.local_addr().context("cannot read the bound address")?;
+    let listener = tokio::net::TcpListener::bind(listen)
+        .await
+        .with_context(|| format!("cannot listen on {listen}"))?;
+    let addr = listener
+        .local_addr()
+        .context("cannot read the bound address")?;
     let shutdown = CancellationToken::new();
     let tasks = TaskTracker::new();
-    tasks.spawn(relief_daemon::watcher::poll(Arc::clone(&scene), shutdown.clone()));
-    let server = tasks.spawn(relief_daemon::service::serve(Arc::clone(&scene), listener, shutdown.clone()));
+    tasks.spawn(relief_daemon::watcher::poll(
+        Arc::clone(&scene),
+        shutdown.clone(),
+    ));
+    let server = tasks.spawn(relief_daemon::service::serve(
+        Arc::clone(&scene),
+        listener,
+        shutdown.clone(),
+    ));
     tasks.close();
-    #[expect(clippy::print_stdout, reason = "the one line clients and tests read the address from")]
+    #[expect(
+        clippy::print_stdout,
+        reason = "the one line clients and tests read the address from"
+    )]
     {
         println!("listening on {addr}");
     }
@@ -127,7 +158,10 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
         }
     }
     shutdown.cancel();
-    if tokio::time::timeout(Duration::from_secs(5), tasks.wait()).await.is_err() {
+    if tokio::time::timeout(Duration::from_secs(5), tasks.wait())
+        .await
+        .is_err()
+    {
         tracing::warn!("tasks still running after 5 s; exiting anyway");
     }
     Ok(())
@@ -137,9 +171,10 @@ async fn shutdown_signal() {
     let ctrl_c = tokio::signal::ctrl_c();
     #[cfg(unix)]
     {
-        let mut term = match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(s) => s,
-            Err(_) => return ctrl_c.await.unwrap_or(()),
+        let Ok(mut term) =
+            tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+        else {
+            return ctrl_c.await.unwrap_or(());
         };
         tokio::select! {
             _ = ctrl_c => {}

@@ -27,7 +27,9 @@ impl Registry {
             kinds: vec![
                 Kind {
                     name: relief_source_gdal::KIND,
-                    open: |spec, grid| Ok(Arc::new(relief_source_gdal::GdalSource::open(spec, grid)?)),
+                    open: |spec, grid| {
+                        Ok(Arc::new(relief_source_gdal::GdalSource::open(spec, grid)?))
+                    },
                     inputs: &[],
                     output: None,
                 },

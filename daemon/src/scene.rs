@@ -58,7 +58,11 @@ impl Scene {
     /// Loads the manifest and opens every source. With `keep_going`, sources
     /// that fail to open are served as failed (their errors are returned
     /// for logging); without it any error fails the load.
-    pub fn load(manifest_path: &std::path::Path, keep_going: bool, threads: usize) -> Result<(Self, Vec<LoadError>), Vec<LoadError>> {
+    pub fn load(
+        manifest_path: &std::path::Path,
+        keep_going: bool,
+        threads: usize,
+    ) -> Result<(Self, Vec<LoadError>), Vec<LoadError>> {
         let manifest = Manifest::load(manifest_path).map_err(|e| vec![LoadError::from(e)])?;
         let budget = manifest.cache_budget_bytes;
         let registry = Registry::builtin();
@@ -97,7 +101,10 @@ impl Scene {
     /// generation if anything changed. A source that fails keeps its last
     /// good version and shows the error. Blocking: run it off the runtime.
     pub fn refresh(&self, only: Option<&[String]>, reason: &str) -> u64 {
-        let _one_at_a_time = self.refresh_lock.lock().expect("refresh lock is never poisoned");
+        let _one_at_a_time = self
+            .refresh_lock
+            .lock()
+            .expect("refresh lock is never poisoned");
         let started = Instant::now();
         let old = self.snapshot();
         let mut new = (*old).clone();
@@ -107,15 +114,20 @@ impl Scene {
         let mut status_changed = false;
         let mut error_events = Vec::new();
 
-        for i in 0..count {
-            let slot = &mut new.slots[i];
+        for (slot, slot_dirt) in new.slots.iter_mut().zip(dirt.iter_mut()) {
             if only.is_some_and(|ids| !ids.contains(&slot.spec.id)) || !slot.inputs.is_empty() {
                 continue;
             }
             let result = match &slot.source {
-                Some(source) => source.refresh(&new.grid).map_err(|e| graph::source_error(&slot.spec, e)),
-                None => graph::open_source(&slot.spec, &new.grid, &self.registry)
-                    .map(|source| Refresh::Changed { source, dirty: DirtySet::everything() }),
+                Some(source) => source
+                    .refresh(&new.grid)
+                    .map_err(|e| graph::source_error(&slot.spec, e)),
+                None => graph::open_source(&slot.spec, &new.grid, &self.registry).map(|source| {
+                    Refresh::Changed {
+                        source,
+                        dirty: DirtySet::everything(),
+                    }
+                }),
             };
             match result {
                 Ok(Refresh::Unchanged) => {
@@ -127,7 +139,7 @@ impl Scene {
                     slot.source = Some(source);
                     slot.version += 1;
                     slot.error = None;
-                    dirt[i] = dirty;
+                    *slot_dirt = dirty;
                     changed_sources.push(slot.spec.id.clone());
                 }
                 Err(e) => {
@@ -170,10 +182,12 @@ impl Scene {
             if old_slot.effective_version == new_slot.effective_version {
                 continue;
             }
-            let (carried, invalidated) =
-                self.store.carry_over(&new_slot.spec.id, old_slot.effective_version, new_slot.effective_version, |k| {
-                    !d.touches_tile(&new.grid, k)
-                });
+            let (carried, invalidated) = self.store.carry_over(
+                &new_slot.spec.id,
+                old_slot.effective_version,
+                new_slot.effective_version,
+                |k| !d.touches_tile(&new.grid, k),
+            );
             tracing::debug!(source.id = %new_slot.spec.id, carried, invalidated, "tiles carried over");
             tiles_invalidated += invalidated;
         }
@@ -181,7 +195,10 @@ impl Scene {
             .iter()
             .zip(&new.slots)
             .filter(|(d, _)| !d.is_none())
-            .map(|(d, s)| DirtyRegion { source_id: s.spec.id.clone(), extents: d.extents(&new.grid) })
+            .map(|(d, s)| DirtyRegion {
+                source_id: s.spec.id.clone(),
+                extents: d.extents(&new.grid),
+            })
             .collect();
         let generation = new.generation;
         *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);

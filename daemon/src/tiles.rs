@@ -30,7 +30,11 @@ pub enum TileError {
     #[error("source '{id}' has no data to serve: {reason}")]
     Unavailable { id: String, reason: String },
     #[error("source '{id}' could not generate tile {key}: {message}")]
-    Generate { id: String, key: TileKey, message: String },
+    Generate {
+        id: String,
+        key: TileKey,
+        message: String,
+    },
     #[error("the tile worker pool shut down")]
     Cancelled,
 }
@@ -74,7 +78,9 @@ impl TileStore {
     pub fn new(budget_bytes: u64, threads: usize) -> Self {
         let cache = Cache::builder()
             .max_capacity(budget_bytes)
-            .weigher(|_k: &CacheKey, t: &Arc<Tile>| u32::try_from(t.payload.size_bytes() + 96).unwrap_or(u32::MAX))
+            .weigher(|_k: &CacheKey, t: &Arc<Tile>| {
+                u32::try_from(t.payload.size_bytes() + 96).unwrap_or(u32::MAX)
+            })
             .build();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))
@@ -93,7 +99,13 @@ impl TileStore {
 
     /// The tile `key` of source number `index` in `snap`, from the cache or
     /// generated now (its inputs first). Blocking: call it from the pool.
-    pub fn tile(&self, snap: &SceneSnapshot, index: usize, key: TileKey, quality: &Quality) -> Result<Arc<Tile>, TileError> {
+    pub fn tile(
+        &self,
+        snap: &SceneSnapshot,
+        index: usize,
+        key: TileKey,
+        quality: &Quality,
+    ) -> Result<Arc<Tile>, TileError> {
         let slot = &snap.slots[index];
         let id = slot.spec.id.as_str();
         if !snap.grid.contains_key(key) {
@@ -106,7 +118,12 @@ impl TileStore {
                 reason: slot.error.clone().unwrap_or_else(|| "never loaded".into()),
             });
         };
-        let cache_key = CacheKey { source: Arc::from(id), version: slot.effective_version, quality: quality_key(quality), key };
+        let cache_key = CacheKey {
+            source: Arc::from(id),
+            version: slot.effective_version,
+            quality: quality_key(quality),
+            key,
+        };
         if let Some(t) = self.cache.get(&cache_key) {
             self.hits.fetch_add(1, Ordering::Relaxed);
             return Ok(t);
@@ -115,33 +132,75 @@ impl TileStore {
             .try_get_with(cache_key, || {
                 self.misses.fetch_add(1, Ordering::Relaxed);
                 let started = std::time::Instant::now();
-                let inputs = Inputs { store: self, snap, index, quality };
-                let ctx = GenerateContext { grid: &snap.grid, quality, inputs: &inputs };
-                let payload = source.generate(key, &ctx).map_err(|e| TileError::Generate {
-                    id: id.into(),
-                    key,
-                    message: e.to_string(),
-                })?;
-                *self.generated.lock().expect("counter lock is never poisoned").entry(id.to_owned()).or_default() += 1;
-                tracing::trace!(source.id = id, tile.level = key.level, tile.x = key.x, tile.y = key.y, elapsed_ms = started.elapsed().as_secs_f64() * 1e3, "tile generated");
+                let inputs = Inputs {
+                    store: self,
+                    snap,
+                    index,
+                    quality,
+                };
+                let ctx = GenerateContext {
+                    grid: &snap.grid,
+                    quality,
+                    inputs: &inputs,
+                };
+                let payload = source
+                    .generate(key, &ctx)
+                    .map_err(|e| TileError::Generate {
+                        id: id.into(),
+                        key,
+                        message: e.to_string(),
+                    })?;
+                *self
+                    .generated
+                    .lock()
+                    .expect("counter lock is never poisoned")
+                    .entry(id.to_owned())
+                    .or_default() += 1;
+                tracing::trace!(
+                    source.id = id,
+                    tile.level = key.level,
+                    tile.x = key.x,
+                    tile.y = key.y,
+                    elapsed_ms = started.elapsed().as_secs_f64() * 1e3,
+                    "tile generated"
+                );
                 let content_hash = payload.content_hash();
-                Ok(Arc::new(Tile { payload: Arc::new(payload), content_hash }))
+                Ok(Arc::new(Tile {
+                    payload: Arc::new(payload),
+                    content_hash,
+                }))
             })
             .map_err(|e: Arc<TileError>| (*e).clone())
     }
 
     /// Generates many tiles: coarse levels first, then in graph order, in
     /// parallel on the pool. Results come back in the order asked.
-    pub fn build(&self, snap: &SceneSnapshot, requests: &[(usize, TileKey)], quality: &Quality) -> Vec<Result<Arc<Tile>, TileError>> {
+    pub fn build(
+        &self,
+        snap: &SceneSnapshot,
+        requests: &[(usize, TileKey)],
+        quality: &Quality,
+    ) -> Vec<Result<Arc<Tile>, TileError>> {
         let mut order: Vec<usize> = (0..requests.len()).collect();
-        order.sort_by_key(|&i| (requests[i].1.level, requests[i].0, requests[i].1.y, requests[i].1.x));
+        order.sort_by_key(|&i| {
+            (
+                requests[i].1.level,
+                requests[i].0,
+                requests[i].1.y,
+                requests[i].1.x,
+            )
+        });
         let mut results: Vec<Option<Result<Arc<Tile>, TileError>>> = vec![None; requests.len()];
         self.pool.install(|| {
             // One level at a time, so no fine tile starts before every coarse one is done.
             let mut start = 0;
             while start < order.len() {
                 let level = requests[order[start]].1.level;
-                let end = start + order[start..].iter().take_while(|&&i| requests[i].1.level == level).count();
+                let end = start
+                    + order[start..]
+                        .iter()
+                        .take_while(|&&i| requests[i].1.level == level)
+                        .count();
                 let done: Vec<(usize, Result<Arc<Tile>, TileError>)> = order[start..end]
                     .par_iter()
                     .map(|&i| (i, self.tile(snap, requests[i].0, requests[i].1, quality)))
@@ -152,11 +211,17 @@ impl TileStore {
                 start = end;
             }
         });
-        results.into_iter().map(|r| r.unwrap_or(Err(TileError::Cancelled))).collect()
+        results
+            .into_iter()
+            .map(|r| r.unwrap_or(Err(TileError::Cancelled)))
+            .collect()
     }
 
     /// Runs blocking work on the tile pool and awaits its answer.
-    pub async fn run<R: Send + 'static>(&self, job: impl FnOnce() -> R + Send + 'static) -> Result<R, TileError> {
+    pub async fn run<R: Send + 'static>(
+        &self,
+        job: impl FnOnce() -> R + Send + 'static,
+    ) -> Result<R, TileError> {
         let (tx, rx) = tokio::sync::oneshot::channel();
         self.pool.spawn(move || {
             let _receiver_gone = tx.send(job());
@@ -165,19 +230,36 @@ impl TileStore {
     }
 
     pub fn generated_for(&self, id: &str) -> u64 {
-        self.generated.lock().expect("counter lock is never poisoned").get(id).copied().unwrap_or(0)
+        self.generated
+            .lock()
+            .expect("counter lock is never poisoned")
+            .get(id)
+            .copied()
+            .unwrap_or(0)
     }
 
     /// Copies the cached tiles of `source` at `from` that `keep` accepts to
     /// version `to`. Returns (carried, left behind).
-    pub fn carry_over(&self, source: &str, from: u64, to: u64, keep: impl Fn(TileKey) -> bool) -> (u64, u64) {
+    pub fn carry_over(
+        &self,
+        source: &str,
+        from: u64,
+        to: u64,
+        keep: impl Fn(TileKey) -> bool,
+    ) -> (u64, u64) {
         let (mut carried, mut dropped) = (0, 0);
         for (k, tile) in &self.cache {
             if &*k.source != source || k.version != from {
                 continue;
             }
             if keep(k.key) {
-                self.cache.insert(CacheKey { version: to, ..(*k).clone() }, tile);
+                self.cache.insert(
+                    CacheKey {
+                        version: to,
+                        ..(*k).clone()
+                    },
+                    tile,
+                );
                 carried += 1;
             } else {
                 dropped += 1;
@@ -189,7 +271,12 @@ impl TileStore {
     pub fn counters(&self) -> StoreCounters {
         self.cache.run_pending_tasks();
         StoreCounters {
-            tiles_generated: self.generated.lock().expect("counter lock is never poisoned").values().sum(),
+            tiles_generated: self
+                .generated
+                .lock()
+                .expect("counter lock is never poisoned")
+                .values()
+                .sum(),
             hits: self.hits.load(Ordering::Relaxed),
             misses: self.misses.load(Ordering::Relaxed),
             entries: self.cache.entry_count(),
@@ -211,11 +298,17 @@ impl InputTiles for Inputs<'_> {
     fn tile(&self, input: usize, key: TileKey) -> Result<Arc<Payload>, SourceError> {
         let slot = &self.snap.slots[self.index];
         let Some(&input_index) = slot.inputs.get(input) else {
-            return Err(SourceError::Input { input: input.to_string(), message: "no such input".into() });
+            return Err(SourceError::Input {
+                input: input.to_string(),
+                message: "no such input".into(),
+            });
         };
         self.store
             .tile(self.snap, input_index, key, self.quality)
             .map(|t| Arc::clone(&t.payload))
-            .map_err(|e| SourceError::Input { input: self.snap.slots[input_index].spec.id.clone(), message: e.to_string() })
+            .map_err(|e| SourceError::Input {
+                input: self.snap.slots[input_index].spec.id.clone(),
+                message: e.to_string(),
+            })
     }
 }

@@ -21,7 +21,10 @@ pub async fn poll(scene: Arc<Scene>, shutdown: CancellationToken) {
             _ = ticks.tick() => {}
         }
         let scene = Arc::clone(&scene);
-        if tokio::task::spawn_blocking(move || scene.refresh(None, "files changed")).await.is_err() {
+        if tokio::task::spawn_blocking(move || scene.refresh(None, "files changed"))
+            .await
+            .is_err()
+        {
             tracing::error!("the refresh task panicked; stopping the watcher");
             return;
         }

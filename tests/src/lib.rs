@@ -3,8 +3,10 @@
 //! reference values.
 
 pub mod daemon;
-pub mod fixtures;
 pub mod reference;
+
+/// Analytic fixtures live with the example scenes.
+pub use relief_examples as fixtures;
 
 use std::path::PathBuf;
 
@@ -17,7 +19,10 @@ pub fn workspace_root() -> PathBuf {
 pub fn bin(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("the test knows where it runs from");
     // target/<profile>/deps/<test> -> target/<profile>/<name>
-    let dir = exe.parent().and_then(|deps| deps.parent()).expect("tests run from target/<profile>/deps");
+    let dir = exe
+        .parent()
+        .and_then(|deps| deps.parent())
+        .expect("tests run from target/<profile>/deps");
     dir.join(name)
 }
 
@@ -30,7 +35,10 @@ pub fn shared_data(test: &str) -> Option<PathBuf> {
     if dir.join("SOURCES.md").exists() {
         Some(dir)
     } else {
-        eprintln!("skipping {test}: it needs the shared GIS data at {} (CI has it)", dir.display());
+        eprintln!(
+            "skipping {test}: it needs the shared GIS data at {} (CI has it)",
+            dir.display()
+        );
         None
     }
 }

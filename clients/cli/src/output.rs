@@ -1,5 +1,7 @@
 //! Text for people and JSON for scripts, from the same answers.
 
+use std::fmt::Write as _;
+
 use relief_proto::v1 as pb;
 use serde_json::{Value, json};
 
@@ -55,7 +57,11 @@ pub fn state_json(s: &pb::SceneState) -> Value {
         json!({"kind": g.kind, "crs": g.crs, "tile_size": g.tile_size, "extent": extent_json(g.extent.as_ref()),
                "level0_columns": g.level0_columns, "level0_rows": g.level0_rows})
     });
-    let effects: Vec<Value> = s.effects.iter().map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran})).collect();
+    let effects: Vec<Value> = s
+        .effects
+        .iter()
+        .map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran}))
+        .collect();
     let c = s.counters.unwrap_or_default();
     json!({
         "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
@@ -66,43 +72,84 @@ pub fn state_json(s: &pb::SceneState) -> Value {
 }
 
 pub fn state_text(s: &pb::SceneState) -> String {
-    let mut out = format!("scene '{}' at generation {}\n  manifest: {}\n", s.name, s.generation, s.manifest);
+    let mut out = format!(
+        "scene '{}' at generation {}\n  manifest: {}\n",
+        s.name, s.generation, s.manifest
+    );
     if let Some(g) = &s.grid {
-        out += &format!("  grid: {} {} (tiles of {} samples, {}x{} at level 0)\n", g.kind, g.crs, g.tile_size, g.level0_columns, g.level0_rows);
+        let _ = writeln!(
+            out,
+            "  grid: {} {} (tiles of {} samples, {}x{} at level 0)",
+            g.kind, g.crs, g.tile_size, g.level0_columns, g.level0_rows
+        );
     }
     out += "  sources:\n";
     for src in &s.sources {
-        out += &format!(
-            "    {:<12} {:<10} {:<7} {:<6} v{} {}{} tiles={}\n",
+        let _ = writeln!(
+            out,
+            "    {:<12} {:<10} {:<7} {:<6} v{} {}{} tiles={}",
             src.id,
             src.kind,
             payload_name(src.output),
             status_name(src.status),
             src.version,
             if src.active { "active" } else { "idle" },
-            if src.crs.is_empty() { String::new() } else { format!(" crs={}", src.crs) },
+            if src.crs.is_empty() {
+                String::new()
+            } else {
+                format!(" crs={}", src.crs)
+            },
             src.tiles_generated
         );
         if !src.vertical_datum.is_empty() {
-            out += &format!("                 heights: {}, datum {}\n", src.vertical_units, src.vertical_datum);
+            let _ = writeln!(
+                out,
+                "                 heights: {}, datum {}",
+                src.vertical_units, src.vertical_datum
+            );
         }
         if !src.error.is_empty() {
-            out += &format!("                 error: {}\n", src.error);
+            let _ = writeln!(out, "                 error: {}", src.error);
         }
     }
     let mut layers: Vec<_> = s.layers.iter().collect();
     layers.sort();
-    out += &format!("  layers: {}\n", layers.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
-    out += &format!("  effects: {}\n", s.effects.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(" "));
+    let _ = writeln!(
+        out,
+        "  layers: {}",
+        layers
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    let _ = writeln!(
+        out,
+        "  effects: {}",
+        s.effects
+            .iter()
+            .map(|e| e.name.as_str())
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
     let mut quality: Vec<_> = s.quality.iter().collect();
     quality.sort();
-    out += &format!("  quality: {}\n", quality.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
+    let _ = writeln!(
+        out,
+        "  quality: {}",
+        quality
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
     if let Some(c) = s.counters {
-        out += &format!(
+        let _ = write!(
+            out,
             "  cache: {} tiles, {:.1} of {:.0} MiB; {} hits, {} misses; {} tiles generated",
             c.cache_entries,
-            c.cache_bytes as f64 / 1048576.0,
-            c.cache_budget_bytes as f64 / 1048576.0,
+            c.cache_bytes as f64 / 1_048_576.0,
+            c.cache_budget_bytes as f64 / 1_048_576.0,
             c.cache_hits,
             c.cache_misses,
             c.tiles_generated
@@ -113,7 +160,9 @@ pub fn state_text(s: &pb::SceneState) -> String {
 
 pub fn event_json(e: &pb::SceneEvent) -> Value {
     match &e.event {
-        Some(pb::scene_event::Event::Snapshot(s)) => json!({"generation": e.generation, "snapshot": state_json(s)}),
+        Some(pb::scene_event::Event::Snapshot(s)) => {
+            json!({"generation": e.generation, "snapshot": state_json(s)})
+        }
         Some(pb::scene_event::Event::GenerationChanged(g)) => json!({
             "generation": e.generation, "changed_sources": g.changed_sources, "reason": g.reason,
             "dirty": g.dirty.iter().map(|d| json!({"source": d.source_id, "extents": d.extents.iter().map(|x| extent_json(Some(x))).collect::<Vec<_>>()})).collect::<Vec<_>>(),
@@ -128,7 +177,9 @@ pub fn event_json(e: &pb::SceneEvent) -> Value {
 
 pub fn event_text(e: &pb::SceneEvent) -> String {
     match &e.event {
-        Some(pb::scene_event::Event::Snapshot(s)) => format!("[{}] {}", e.generation, state_text(s)),
+        Some(pb::scene_event::Event::Snapshot(s)) => {
+            format!("[{}] {}", e.generation, state_text(s))
+        }
         Some(pb::scene_event::Event::GenerationChanged(g)) => format!(
             "[{}] {}: changed {} ({} dirty regions, {} tiles invalidated, {} rebuilt) in {:.1} ms",
             e.generation,
@@ -144,7 +195,11 @@ pub fn event_text(e: &pb::SceneEvent) -> String {
             e.generation,
             err.source_id,
             err.error,
-            if err.kept_last_good { " (last good version kept)" } else { "" }
+            if err.kept_last_good {
+                " (last good version kept)"
+            } else {
+                ""
+            }
         ),
         None => format!("[{}]", e.generation),
     }

@@ -11,7 +11,12 @@ use crate::service::status::invalid_field;
 use crate::tiles::TileStore;
 
 pub fn extent(e: Extent) -> pb::Extent {
-    pb::Extent { min_x: e.min_x, min_y: e.min_y, max_x: e.max_x, max_y: e.max_y }
+    pb::Extent {
+        min_x: e.min_x,
+        min_y: e.min_y,
+        max_x: e.max_x,
+        max_y: e.max_y,
+    }
 }
 
 pub fn payload_kind(kind: PayloadKind) -> pb::PayloadKind {
@@ -29,12 +34,25 @@ pub fn tile_key(key: Option<&pb::TileKey>) -> Result<TileKey, Status> {
     let level = u8::try_from(key.level)
         .ok()
         .filter(|l| *l <= relief_source::MAX_LEVEL)
-        .ok_or_else(|| invalid_field("key.level", format!("{} is above the finest level {}", key.level, relief_source::MAX_LEVEL)))?;
+        .ok_or_else(|| {
+            invalid_field(
+                "key.level",
+                format!(
+                    "{} is above the finest level {}",
+                    key.level,
+                    relief_source::MAX_LEVEL
+                ),
+            )
+        })?;
     Ok(TileKey::new(level, key.x, key.y))
 }
 
 pub fn key(k: TileKey) -> pb::TileKey {
-    pb::TileKey { level: u32::from(k.level), x: k.x, y: k.y }
+    pb::TileKey {
+        level: u32::from(k.level),
+        x: k.x,
+        y: k.y,
+    }
 }
 
 /// The scene's quality with a request's overrides applied.
@@ -42,11 +60,16 @@ pub fn quality(base: Quality, overrides: Option<&pb::QualityOverrides>) -> Resul
     let mut q = base;
     let Some(o) = overrides else { return Ok(q) };
     if let Some(r) = &o.resampling {
-        q.resampling = r.parse().map_err(|e: String| invalid_field("quality.resampling", e))?;
+        q.resampling = r
+            .parse()
+            .map_err(|e: String| invalid_field("quality.resampling", e))?;
     }
     if let Some(e) = o.reprojection_error_px {
         if !(e.is_finite() && (0.0..=16.0).contains(&e)) {
-            return Err(invalid_field("quality.reprojection_error_px", format!("{e} is not between 0 and 16")));
+            return Err(invalid_field(
+                "quality.reprojection_error_px",
+                format!("{e} is not between 0 and 16"),
+            ));
         }
         q.reprojection_error_px = e;
     }
@@ -56,7 +79,12 @@ pub fn quality(base: Quality, overrides: Option<&pb::QualityOverrides>) -> Resul
 fn grid_info(grid: &TileGrid) -> pb::GridInfo {
     let (cols, rows) = grid.tiles_at(0);
     pb::GridInfo {
-        kind: if grid.is_geodetic() { "geodetic" } else { "projected" }.into(),
+        kind: if grid.is_geodetic() {
+            "geodetic"
+        } else {
+            "projected"
+        }
+        .into(),
         crs: grid.crs().into(),
         tile_size: grid.tile_size(),
         extent: Some(extent(grid.extent())),
@@ -79,14 +107,22 @@ pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
             pb::SourceState {
                 id: slot.spec.id.clone(),
                 kind: slot.spec.kind.clone(),
-                output: slot.source.as_ref().map_or(pb::PayloadKind::Unspecified, |s| payload_kind(s.output())) as i32,
+                output: slot
+                    .source
+                    .as_ref()
+                    .map_or(pb::PayloadKind::Unspecified, |s| payload_kind(s.output()))
+                    as i32,
                 inputs: slot.spec.inputs.clone(),
                 status: status as i32,
                 error: slot.error.clone().unwrap_or_default(),
-                files: if info.files.is_empty() { &slot.spec.paths } else { &info.files }
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect(),
+                files: if info.files.is_empty() {
+                    &slot.spec.paths
+                } else {
+                    &info.files
+                }
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect(),
                 version: slot.version,
                 active: slot.active,
                 extent: info.extent.map(extent),
@@ -103,10 +139,17 @@ pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
         .effects
         .iter()
         .map(|name| {
-            let layers = EFFECTS.iter().find(|(e, _)| e == name).map(|(_, l)| *l).unwrap_or_default();
+            let layers = EFFECTS
+                .iter()
+                .find(|(e, _)| e == name)
+                .map(|(_, l)| *l)
+                .unwrap_or_default();
             pb::EffectState {
                 name: name.clone(),
-                sources: layers.iter().filter_map(|l| m.layers.get(*l).cloned()).collect(),
+                sources: layers
+                    .iter()
+                    .filter_map(|l| m.layers.get(*l).cloned())
+                    .collect(),
                 ran: false,
                 last_cost_ms: 0.0,
             }
@@ -122,7 +165,10 @@ pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
         layers: m.layers.clone().into_iter().collect(),
         quality: [
             ("resampling".to_string(), m.quality.resampling.to_string()),
-            ("reprojection_error_px".to_string(), m.quality.reprojection_error_px.to_string()),
+            (
+                "reprojection_error_px".to_string(),
+                m.quality.reprojection_error_px.to_string(),
+            ),
             ("tile_size".to_string(), snap.grid.tile_size().to_string()),
         ]
         .into_iter()
@@ -142,22 +188,39 @@ pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
 
 pub fn scene_event(e: SceneEvent) -> pb::SceneEvent {
     let event = match e.kind {
-        EventKind::Generation { changed_sources, dirty, tiles_invalidated, tiles_rebuilt, elapsed_ms, reason } => {
-            pb::scene_event::Event::GenerationChanged(pb::GenerationEvent {
-                changed_sources,
-                dirty: dirty
-                    .into_iter()
-                    .map(|d| pb::DirtyRegion { source_id: d.source_id, extents: d.extents.into_iter().map(extent).collect() })
-                    .collect(),
-                tiles_rebuilt,
-                tiles_invalidated,
-                elapsed_ms,
-                reason,
-            })
-        }
-        EventKind::SourceError { source_id, error, kept_last_good } => {
-            pb::scene_event::Event::SourceError(pb::SourceErrorEvent { source_id, error, kept_last_good })
-        }
+        EventKind::Generation {
+            changed_sources,
+            dirty,
+            tiles_invalidated,
+            tiles_rebuilt,
+            elapsed_ms,
+            reason,
+        } => pb::scene_event::Event::GenerationChanged(pb::GenerationEvent {
+            changed_sources,
+            dirty: dirty
+                .into_iter()
+                .map(|d| pb::DirtyRegion {
+                    source_id: d.source_id,
+                    extents: d.extents.into_iter().map(extent).collect(),
+                })
+                .collect(),
+            tiles_rebuilt,
+            tiles_invalidated,
+            elapsed_ms,
+            reason,
+        }),
+        EventKind::SourceError {
+            source_id,
+            error,
+            kept_last_good,
+        } => pb::scene_event::Event::SourceError(pb::SourceErrorEvent {
+            source_id,
+            error,
+            kept_last_good,
+        }),
     };
-    pb::SceneEvent { generation: e.generation, event: Some(event) }
+    pb::SceneEvent {
+        generation: e.generation,
+        event: Some(event),
+    }
 }

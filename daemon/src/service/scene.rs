@@ -4,8 +4,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use relief_proto::v1::{
-    GetStateRequest, ReloadRequest, SceneEvent, SceneState, SetSourceParameterRequest, WaitForGenerationRequest,
-    WatchRequest, scene_event, scene_service_server::SceneService,
+    GetStateRequest, ReloadRequest, SceneEvent, SceneState, SetSourceParameterRequest,
+    WaitForGenerationRequest, WatchRequest, scene_event, scene_service_server::SceneService,
 };
 use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::mpsc;
@@ -36,13 +36,19 @@ impl SceneApi {
 
 #[tonic::async_trait]
 impl SceneService for SceneApi {
-    async fn get_state(&self, _request: Request<GetStateRequest>) -> Result<Response<SceneState>, Status> {
+    async fn get_state(
+        &self,
+        _request: Request<GetStateRequest>,
+    ) -> Result<Response<SceneState>, Status> {
         Ok(Response::new(self.state()))
     }
 
     type WatchStream = ReceiverStream<Result<SceneEvent, Status>>;
 
-    async fn watch(&self, request: Request<WatchRequest>) -> Result<Response<Self::WatchStream>, Status> {
+    async fn watch(
+        &self,
+        request: Request<WatchRequest>,
+    ) -> Result<Response<Self::WatchStream>, Status> {
         let from = request.into_inner().from_generation;
         // Subscribe before taking the snapshot, so no event falls between.
         let mut events = self.scene.events();
@@ -52,7 +58,10 @@ impl SceneService for SceneApi {
         tokio::spawn(async move {
             let snapshot = |scene: &Scene| {
                 let state = convert::scene_state(&scene.snapshot(), &scene.store);
-                SceneEvent { generation: state.generation, event: Some(scene_event::Event::Snapshot(state)) }
+                SceneEvent {
+                    generation: state.generation,
+                    event: Some(scene_event::Event::Snapshot(state)),
+                }
             };
             if tx.send(Ok(snapshot(&scene))).await.is_err() {
                 return;
@@ -77,13 +86,17 @@ impl SceneService for SceneApi {
         Ok(Response::new(ReceiverStream::new(rx)))
     }
 
-    async fn wait_for_generation(&self, request: Request<WaitForGenerationRequest>) -> Result<Response<SceneState>, Status> {
+    async fn wait_for_generation(
+        &self,
+        request: Request<WaitForGenerationRequest>,
+    ) -> Result<Response<SceneState>, Status> {
         let r = request.into_inner();
         let timeout = Duration::from_millis(u64::from(r.timeout_ms)).min(MAX_WAIT);
         let mut generations = self.scene.generations();
-        let reached = tokio::time::timeout(timeout, generations.wait_for(|g| *g >= r.min_generation))
-            .await
-            .map(|r| r.map(|_| ()));
+        let reached =
+            tokio::time::timeout(timeout, generations.wait_for(|g| *g >= r.min_generation))
+                .await
+                .map(|r| r.map(|_| ()));
         match reached {
             Ok(Ok(())) => Ok(Response::new(self.state())),
             Ok(Err(_)) => Err(Status::unavailable("the scene is shutting down")),
@@ -96,7 +109,10 @@ impl SceneService for SceneApi {
         }
     }
 
-    async fn set_source_parameter(&self, request: Request<SetSourceParameterRequest>) -> Result<Response<SceneState>, Status> {
+    async fn set_source_parameter(
+        &self,
+        request: Request<SetSourceParameterRequest>,
+    ) -> Result<Response<SceneState>, Status> {
         let r = request.into_inner();
         Err(Status::unimplemented(format!(
             "SetSourceParameter: source '{}' has no runtime parameters in this reliefd",
@@ -104,7 +120,10 @@ impl SceneService for SceneApi {
         )))
     }
 
-    async fn reload(&self, request: Request<ReloadRequest>) -> Result<Response<SceneState>, Status> {
+    async fn reload(
+        &self,
+        request: Request<ReloadRequest>,
+    ) -> Result<Response<SceneState>, Status> {
         let ids = request.into_inner().source_ids;
         let snap = self.scene.snapshot();
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {

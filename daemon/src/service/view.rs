@@ -16,21 +16,33 @@ fn not_yet(call: &str) -> Status {
 
 #[tonic::async_trait]
 impl ViewService for ViewApi {
-    async fn set_camera(&self, _request: Request<SetCameraRequest>) -> Result<Response<Camera>, Status> {
+    async fn set_camera(
+        &self,
+        _request: Request<SetCameraRequest>,
+    ) -> Result<Response<Camera>, Status> {
         Err(not_yet("SetCamera"))
     }
 
-    async fn get_camera(&self, _request: Request<GetCameraRequest>) -> Result<Response<Camera>, Status> {
+    async fn get_camera(
+        &self,
+        _request: Request<GetCameraRequest>,
+    ) -> Result<Response<Camera>, Status> {
         Err(not_yet("GetCamera"))
     }
 
-    async fn render(&self, _request: Request<RenderRequest>) -> Result<Response<RenderResponse>, Status> {
+    async fn render(
+        &self,
+        _request: Request<RenderRequest>,
+    ) -> Result<Response<RenderResponse>, Status> {
         Err(not_yet("Render"))
     }
 
     type StreamFramesStream = ReceiverStream<Result<RenderResponse, Status>>;
 
-    async fn stream_frames(&self, _request: Request<StreamFramesRequest>) -> Result<Response<Self::StreamFramesStream>, Status> {
+    async fn stream_frames(
+        &self,
+        _request: Request<StreamFramesRequest>,
+    ) -> Result<Response<Self::StreamFramesStream>, Status> {
         Err(not_yet("StreamFrames"))
     }
 }

@@ -51,6 +51,7 @@ impl DirtySet {
         }
     }
 
+    #[must_use]
     pub fn union(&self, other: &Self) -> Self {
         if self.everything || other.everything {
             return Self::everything();
@@ -64,6 +65,7 @@ impl DirtySet {
     }
 
     /// Grows the dirt by `samples` samples of whatever level a tile is at.
+    #[must_use]
     pub fn dilate_samples(&self, samples: u32) -> Self {
         Self {
             margin_samples: self.margin_samples + samples,
@@ -73,6 +75,7 @@ impl DirtySet {
 
     /// Grows each extent by (dx, dy): an op whose output sample reads its
     /// input's neighbours (a normal map, a hillshade) dilates the dirt.
+    #[must_use]
     pub fn dilate(&self, dx: f64, dy: f64) -> Self {
         if self.everything {
             return self.clone();
@@ -111,9 +114,18 @@ mod tests {
         assert_eq!(d.extents(&grid)[0], Extent::new(0.5, 0.5, 2.5, 2.5));
         // A margin in samples reaches one sample further at each level.
         let edge = grid.tile_extent(TileKey::new(8, 300, 40));
-        let beside = DirtySet::from_extents([Extent::new(edge.max_x + 0.001, edge.min_y, edge.max_x + 0.002, edge.max_y)]);
+        let beside = DirtySet::from_extents([Extent::new(
+            edge.max_x + 0.001,
+            edge.min_y,
+            edge.max_x + 0.002,
+            edge.max_y,
+        )]);
         assert!(!beside.touches_tile(&grid, TileKey::new(8, 300, 40)));
-        assert!(beside.dilate_samples(1).touches_tile(&grid, TileKey::new(8, 300, 40)));
+        assert!(
+            beside
+                .dilate_samples(1)
+                .touches_tile(&grid, TileKey::new(8, 300, 40))
+        );
         // Empty extents are dropped.
         assert!(DirtySet::from_extents([Extent::new(1.0, 1.0, 1.0, 2.0)]).is_none());
     }

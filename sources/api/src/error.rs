@@ -29,7 +29,8 @@ pub enum SourceError {
 }
 
 fn path_suffix(path: Option<&PathBuf>) -> String {
-    path.map(|p| format!(": {}", p.display())).unwrap_or_default()
+    path.map(|p| format!(": {}", p.display()))
+        .unwrap_or_default()
 }
 
 impl SourceError {

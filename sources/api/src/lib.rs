@@ -7,9 +7,9 @@
 //! It must never depend on GDAL, gRPC, the renderer or any source crate:
 //! source crates depend on it, not the other way round.
 
-pub mod geodesy;
 mod dirty;
 mod error;
+pub mod geodesy;
 mod grid;
 mod payload;
 mod quality;
@@ -27,6 +27,6 @@ pub use payload::{
 };
 pub use quality::{Quality, Resampling};
 pub use source::{
-    GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source,
-    SourceInfo, SourceSpec,
+    GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source, SourceInfo,
+    SourceSpec,
 };

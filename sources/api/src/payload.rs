@@ -155,7 +155,11 @@ impl Payload {
             Self::Height(t) => {
                 for v in &t.heights {
                     // All NaNs hash alike.
-                    let bits = if v.is_nan() { f32::NAN.to_bits() } else { v.to_bits() };
+                    let bits = if v.is_nan() {
+                        f32::NAN.to_bits()
+                    } else {
+                        v.to_bits()
+                    };
                     h.update(&bits.to_le_bytes());
                 }
             }
@@ -168,19 +172,24 @@ impl Payload {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn content_hash_ignores_nan_payload_bits_and_sees_values() {
-        let a = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.0] });
+        let a = Payload::Height(HeightTile {
+            size: 2,
+            heights: vec![1.0, f32::NAN, 3.0, 4.0],
+        });
         let b = Payload::Height(HeightTile {
             size: 2,
             heights: vec![1.0, f32::from_bits(0x7fc0_0001), 3.0, 4.0],
         });
-        let c = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.5] });
+        let c = Payload::Height(HeightTile {
+            size: 2,
+            heights: vec![1.0, f32::NAN, 3.0, 4.5],
+        });
         assert_eq!(a.content_hash(), b.content_hash());
         assert_ne!(a.content_hash(), c.content_hash());
     }

@@ -87,7 +87,9 @@ impl FromStr for Resampling {
         Self::ALL
             .into_iter()
             .find(|r| r.name() == s)
-            .ok_or_else(|| format!("unknown resampling '{s}' (expected nearest, bilinear, cubic or lanczos)"))
+            .ok_or_else(|| {
+                format!("unknown resampling '{s}' (expected nearest, bilinear, cubic or lanczos)")
+            })
     }
 }
 
@@ -132,9 +134,7 @@ mod tests {
         for r in [Resampling::Bilinear, Resampling::Cubic] {
             for f in [0.1, 0.25, 0.5, 0.9] {
                 let radius = r.radius() as i64;
-                let sum: f64 = (-radius + 1..=radius)
-                    .map(|k| r.weight(k as f64 - f))
-                    .sum();
+                let sum: f64 = (-radius + 1..=radius).map(|k| r.weight(k as f64 - f)).sum();
                 assert!((sum - 1.0).abs() < 1e-12, "{r} at {f}: {sum}");
             }
         }

@@ -41,7 +41,10 @@ impl SourceSpec {
         match self.options.get(field) {
             None => Ok(None),
             Some(OptionValue::Text(s)) => Ok(Some(s)),
-            Some(other) => Err(SourceError::option(field, format!("expected a string, found {other:?}"))),
+            Some(other) => Err(SourceError::option(
+                field,
+                format!("expected a string, found {other:?}"),
+            )),
         }
     }
 
@@ -49,7 +52,10 @@ impl SourceSpec {
         match self.options.get(field) {
             None => Ok(None),
             Some(OptionValue::Number(n)) if n.is_finite() => Ok(Some(*n)),
-            Some(other) => Err(SourceError::option(field, format!("expected a finite number, found {other:?}"))),
+            Some(other) => Err(SourceError::option(
+                field,
+                format!("expected a finite number, found {other:?}"),
+            )),
         }
     }
 
@@ -58,7 +64,11 @@ impl SourceSpec {
         match self.options.keys().find(|k| !known.contains(&k.as_str())) {
             Some(unknown) => Err(SourceError::option(
                 unknown.clone(),
-                format!("unknown option for kind '{}' (known: {})", self.kind, known.join(", ")),
+                format!(
+                    "unknown option for kind '{}' (known: {})",
+                    self.kind,
+                    known.join(", ")
+                ),
             )),
             None => Ok(()),
         }

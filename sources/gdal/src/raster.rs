@@ -130,15 +130,17 @@ impl Raster {
         let inverse = geo
             .invert()
             .map_err(|_| format_err("raster geotransform cannot be inverted", path))?;
-        let srs = match &options.crs_override {
-            Some(def) => crs::spatial_ref(def, Some(path))?,
-            None => {
-                let wkt = ds.projection();
-                if wkt.trim().is_empty() {
-                    return Err(format_err("raster has no CRS (set 'crs' on the source in the manifest)", path));
-                }
-                crs::spatial_ref(&wkt, Some(path))?
+        let srs = if let Some(def) = &options.crs_override {
+            crs::spatial_ref(def, Some(path))?
+        } else {
+            let wkt = ds.projection();
+            if wkt.trim().is_empty() {
+                return Err(format_err(
+                    "raster has no CRS (set 'crs' on the source in the manifest)",
+                    path,
+                ));
             }
+            crs::spatial_ref(&wkt, Some(path))?
         };
         let crs_wkt = srs.to_wkt().map_err(|e| SourceError::Crs {
             crs: "raster CRS".into(),
@@ -152,7 +154,10 @@ impl Raster {
         details.insert("driver".into(), ds.driver().short_name());
         details.insert("size".into(), format!("{width}x{height}"));
         details.insert("bands".into(), ds.raster_count().to_string());
-        details.insert("pixel_size".into(), format!("{} x {}", geo[1], geo[5].abs()));
+        details.insert(
+            "pixel_size".into(),
+            format!("{} x {}", geo[1], geo[5].abs()),
+        );
 
         let (planes, units) = match kind {
             RasterKind::Height => {
@@ -161,7 +166,15 @@ impl Raster {
             }
             RasterKind::Color => (read_color(&ds, path, &mut details)?, VerticalUnits::Metres),
         };
-        let levels = build_pyramid(Level { width, height, scale: 1.0, planes }, kind);
+        let levels = build_pyramid(
+            Level {
+                width,
+                height,
+                scale: 1.0,
+                planes,
+            },
+            kind,
+        );
         Ok(Self {
             path: path.to_path_buf(),
             fingerprint,
@@ -200,17 +213,23 @@ impl Raster {
 fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
     use gdal::{DatasetOptions, GdalOpenFlags};
     let options = DatasetOptions {
-        open_flags: GdalOpenFlags::GDAL_OF_RASTER | GdalOpenFlags::GDAL_OF_READONLY | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
+        open_flags: GdalOpenFlags::GDAL_OF_RASTER
+            | GdalOpenFlags::GDAL_OF_READONLY
+            | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
         ..DatasetOptions::default()
     };
     Dataset::open_ex(path, options).map_err(|e| {
         let message = match e {
             gdal::errors::GdalError::NullPointer { msg, .. } if !msg.trim().is_empty() => msg,
-            gdal::errors::GdalError::NullPointer { .. } => "no GDAL driver recognises it (corrupt, truncated or not a raster)".into(),
+            gdal::errors::GdalError::NullPointer { .. } => {
+                "no GDAL driver recognises it (corrupt, truncated or not a raster)".into()
+            }
             other => other.to_string(),
         };
         // GDAL repeats the path inside its message; we put it last once.
-        let message = message.replace(&format!("`{}' ", path.display()), "").replace(&path.display().to_string(), "the file");
+        let message = message
+            .replace(&format!("`{}' ", path.display()), "")
+            .replace(&path.display().to_string(), "the file");
         format_err(format!("cannot open raster: {}", message.trim()), path)
     })
 }
@@ -225,7 +244,10 @@ fn guess_kind(ds: &Dataset) -> RasterKind {
         .filter_map(Result::ok)
         .filter(|b| b.band_type() == GdalDataType::UInt8)
         .count();
-    let paletted = ds.rasterband(1).ok().is_some_and(|b| b.color_table().is_some());
+    let paletted = ds
+        .rasterband(1)
+        .ok()
+        .is_some_and(|b| b.color_table().is_some());
     if (byte_bands >= 3 && byte_bands == ds.raster_count()) || paletted {
         RasterKind::Color
     } else {
@@ -245,7 +267,9 @@ fn read_band(band: &RasterBand<'_>, path: &Path) -> Result<Vec<f64>, SourceError
 /// Where the dataset's mask (per-dataset mask or alpha) says a pixel is
 /// invalid. None when the mask is only the nodata value or all valid.
 fn read_mask(band: &RasterBand<'_>, path: &Path) -> Result<Option<Vec<f64>>, SourceError> {
-    let Ok(flags) = band.mask_flags() else { return Ok(None) };
+    let Ok(flags) = band.mask_flags() else {
+        return Ok(None);
+    };
     if flags.is_all_valid() || flags.is_nodata() {
         return Ok(None);
     }
@@ -262,7 +286,14 @@ fn read_heights(
     details: &mut BTreeMap<String, String>,
 ) -> Result<(Vec<f32>, VerticalUnits), SourceError> {
     let band = ds.rasterband(options.band).map_err(|e| {
-        format_err(format!("raster has no band {} ({} bands): {e}", options.band, ds.raster_count()), path)
+        format_err(
+            format!(
+                "raster has no band {} ({} bands): {e}",
+                options.band,
+                ds.raster_count()
+            ),
+            path,
+        )
     })?;
     let unit_type = band.unit();
     let units = match options.units_override {
@@ -278,8 +309,18 @@ fn read_heights(
     let scale = band.scale().unwrap_or(1.0) * units.to_metres();
     let offset = band.offset().unwrap_or(0.0) * units.to_metres();
     details.insert("band_type".into(), band.band_type().name());
-    details.insert("nodata".into(), nodata.map_or_else(|| "none".into(), |v| v.to_string()));
-    details.insert("unit_type".into(), if unit_type.is_empty() { "(unset: metres assumed)".into() } else { unit_type });
+    details.insert(
+        "nodata".into(),
+        nodata.map_or_else(|| "none".into(), |v| v.to_string()),
+    );
+    details.insert(
+        "unit_type".into(),
+        if unit_type.is_empty() {
+            "(unset: metres assumed)".into()
+        } else {
+            unit_type
+        },
+    );
 
     let values = read_band(&band, path)?;
     let mask = read_mask(&band, path)?;
@@ -316,13 +357,18 @@ fn read_color(
         details.insert("palette".into(), format!("{} entries", table.entry_count()));
         let nodata = first.no_data_value();
         let index = read_band(&first, path)?;
-        let mut planes = vec![Vec::with_capacity(n); 4];
+        let mut planes: Vec<Vec<f64>> = (0..4).map(|_| Vec::with_capacity(n)).collect();
         for (i, &v) in index.iter().enumerate() {
             let entry = table.entry_as_rgb(v as usize);
             if nodata.is_some_and(|nd| v == nd) || entry.is_none() {
                 valid[i] = false;
             }
-            let c = entry.unwrap_or(gdal::raster::RgbaEntry { r: 0, g: 0, b: 0, a: 0 });
+            let c = entry.unwrap_or(gdal::raster::RgbaEntry {
+                r: 0,
+                g: 0,
+                b: 0,
+                a: 0,
+            });
             for (plane, value) in planes.iter_mut().zip([c.r, c.g, c.b, c.a]) {
                 plane.push(f64::from(value));
             }
@@ -334,7 +380,10 @@ fn read_color(
             let band = ds.rasterband(b).map_err(|e| format_err(e, path))?;
             if band.band_type() != GdalDataType::UInt8 {
                 return Err(format_err(
-                    format!("colour band {b} is {} (expected Byte; read it as output = \"height\")", band.band_type().name()),
+                    format!(
+                        "colour band {b} is {} (expected Byte; read it as output = \"height\")",
+                        band.band_type().name()
+                    ),
                     path,
                 ));
             }
@@ -346,13 +395,22 @@ fn read_color(
             if let Some(nd) = band.no_data_value() {
                 // A pixel is nodata when every colour band holds the nodata value.
                 if rgba.is_empty() {
-                    valid.iter_mut().zip(&values).for_each(|(ok, v)| *ok = *v != nd);
+                    valid
+                        .iter_mut()
+                        .zip(&values)
+                        .for_each(|(ok, v)| *ok = *v != nd);
                 } else {
-                    valid.iter_mut().zip(&values).for_each(|(ok, v)| *ok = *ok || *v != nd);
+                    valid
+                        .iter_mut()
+                        .zip(&values)
+                        .for_each(|(ok, v)| *ok = *ok || *v != nd);
                 }
             }
             if let Some(mask) = read_mask(&band, path)? {
-                valid.iter_mut().zip(&mask).for_each(|(ok, m)| *ok = *ok && *m != 0.0);
+                valid
+                    .iter_mut()
+                    .zip(&mask)
+                    .for_each(|(ok, m)| *ok = *ok && *m != 0.0);
             }
             if rgba.len() < 3 {
                 rgba.push(values);
@@ -374,7 +432,12 @@ fn read_color(
         .collect();
     let mut planes: Vec<Vec<f32>> = rgba[..3]
         .iter()
-        .map(|p| p.iter().zip(&alpha).map(|(c, a)| (*c / 255.0) as f32 * a).collect())
+        .map(|p| {
+            p.iter()
+                .zip(&alpha)
+                .map(|(c, a)| (*c / 255.0) as f32 * a)
+                .collect()
+        })
         .collect();
     planes.push(alpha);
     Ok(planes)
@@ -392,9 +455,18 @@ fn build_pyramid(base: Level, kind: RasterKind) -> Vec<Level> {
         let planes = match kind {
             RasterKind::Height => vec![halve(&prev.planes[0], prev.width, prev.height, true)],
             // Premultiplied colour averages plainly: transparent pixels weigh nothing.
-            RasterKind::Color => prev.planes.iter().map(|p| halve(p, prev.width, prev.height, false)).collect(),
+            RasterKind::Color => prev
+                .planes
+                .iter()
+                .map(|p| halve(p, prev.width, prev.height, false))
+                .collect(),
         };
-        levels.push(Level { width: w, height: h, scale: prev.scale * 2.0, planes });
+        levels.push(Level {
+            width: w,
+            height: h,
+            scale: prev.scale * 2.0,
+            planes,
+        });
     }
     levels
 }
@@ -419,7 +491,11 @@ fn halve(plane: &[f32], width: usize, height: usize, skip_nan: bool) -> Vec<f32>
                 }
             }
             let divisor = if skip_nan { count } else { cells };
-            out.push(if count == 0 { f32::NAN } else { (sum / f64::from(divisor)) as f32 });
+            out.push(if count == 0 {
+                f32::NAN
+            } else {
+                (sum / f64::from(divisor)) as f32
+            });
         }
     }
     out
@@ -437,14 +513,23 @@ mod tests {
         assert_eq!(out.len(), 4);
         assert_eq!(out[0], 3.0); // (1 + 3 + 5) / 3: the void does not pull it down
         assert!(out[1].is_nan()); // n, n over n: nothing valid
-        assert!(out[2] == 2.0 && out[3].is_nan());
+        assert!(out[2].is_nan() && out[3] == 2.0);
     }
 
     #[test]
     fn unit_types_map_to_metres() {
-        assert_eq!(VerticalUnits::from_unit_type("metre"), Some(VerticalUnits::Metres));
-        assert_eq!(VerticalUnits::from_unit_type(""), Some(VerticalUnits::Metres));
-        assert_eq!(VerticalUnits::from_unit_type("ft"), Some(VerticalUnits::Feet));
+        assert_eq!(
+            VerticalUnits::from_unit_type("metre"),
+            Some(VerticalUnits::Metres)
+        );
+        assert_eq!(
+            VerticalUnits::from_unit_type(""),
+            Some(VerticalUnits::Metres)
+        );
+        assert_eq!(
+            VerticalUnits::from_unit_type("ft"),
+            Some(VerticalUnits::Feet)
+        );
         assert_eq!(VerticalUnits::from_unit_type("fathoms"), None);
     }
 }

@@ -22,7 +22,11 @@ fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
         return None;
     }
     let last = size as i64 - 1;
-    let mut t = Taps { index: [0; MAX_TAPS], weight: [0.0; MAX_TAPS], len: 0 };
+    let mut t = Taps {
+        index: [0; MAX_TAPS],
+        weight: [0.0; MAX_TAPS],
+        len: 0,
+    };
     if kernel == Resampling::Nearest {
         t.index[0] = (u.floor() as i64).clamp(0, last) as usize;
         t.weight[0] = 1.0;
@@ -99,8 +103,16 @@ mod tests {
     use proptest::prelude::*;
 
     fn level(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Level {
-        let plane = (0..height).flat_map(|j| (0..width).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect();
-        Level { width, height, scale: 1.0, planes: vec![plane] }
+        let plane = (0..height)
+            .flat_map(|j| (0..width).map(move |i| (i, j)))
+            .map(|(i, j)| f(i, j))
+            .collect();
+        Level {
+            width,
+            height,
+            scale: 1.0,
+            planes: vec![plane],
+        }
     }
 
     #[test]

@@ -6,8 +6,8 @@ use std::sync::{Arc, Once};
 use gdal::errors::CplErrType;
 use relief_source::{
     ColorTile, DirtySet, Extent, GenerateContext, GeodeticPoint, HeightTile, Lattice, Payload,
-    PayloadKind, Quality, Refresh, SampleKind, Source, SourceError, SourceInfo,
-    SourceSpec, TileGrid, TileKey,
+    PayloadKind, Quality, Refresh, SampleKind, Source, SourceError, SourceInfo, SourceSpec,
+    TileGrid, TileKey,
 };
 
 use crate::crs;
@@ -58,31 +58,54 @@ impl GdalSource {
     pub fn open(spec: &SourceSpec, grid: &TileGrid) -> Result<Self, SourceError> {
         spec.only_options(OPTIONS)?;
         if spec.paths.is_empty() {
-            return Err(SourceError::option("path", "a gdal source needs 'path' (or 'paths')"));
+            return Err(SourceError::option(
+                "path",
+                "a gdal source needs 'path' (or 'paths')",
+            ));
         }
         let kind = match spec.text("output")? {
             None => None,
             Some("height") => Some(RasterKind::Height),
             Some("color" | "colour") => Some(RasterKind::Color),
-            Some(other) => return Err(SourceError::option("output", format!("'{other}' is neither \"height\" nor \"color\""))),
+            Some(other) => {
+                return Err(SourceError::option(
+                    "output",
+                    format!("'{other}' is neither \"height\" nor \"color\""),
+                ));
+            }
         };
         let units_override = match spec.text("vertical_units")? {
             None => None,
             Some("m") => Some(VerticalUnits::Metres),
             Some("ft") => Some(VerticalUnits::Feet),
             Some("us-ft") => Some(VerticalUnits::UsSurveyFeet),
-            Some(other) => return Err(SourceError::option("vertical_units", format!("'{other}' is not m, ft or us-ft"))),
+            Some(other) => {
+                return Err(SourceError::option(
+                    "vertical_units",
+                    format!("'{other}' is not m, ft or us-ft"),
+                ));
+            }
         };
         let band = match spec.number("band")? {
             None => 1,
             Some(b) if b >= 1.0 && b.fract() == 0.0 => b as usize,
-            Some(b) => return Err(SourceError::option("band", format!("{b} is not a band number (1, 2, ...)"))),
+            Some(b) => {
+                return Err(SourceError::option(
+                    "band",
+                    format!("{b} is not a band number (1, 2, ...)"),
+                ));
+            }
         };
         let crs_override = spec.text("crs")?.map(str::to_owned);
         if let Some(def) = &crs_override {
             crs::spatial_ref(def, None)?;
         }
-        let read = ReadOptions { kind, crs_override, units_override, band };
+        let read = ReadOptions {
+            kind,
+            crs_override,
+            units_override,
+            band,
+        };
         let rasters = spec
             .paths
             .iter()
@@ -91,13 +114,22 @@ impl GdalSource {
         let kind = rasters[0].kind;
         if let Some(odd) = rasters.iter().find(|r| r.kind != kind) {
             return Err(SourceError::format(
-                format!("mosaic mixes colour and height rasters ({:?} vs {kind:?})", odd.kind),
+                format!(
+                    "mosaic mixes colour and height rasters ({:?} vs {kind:?})",
+                    odd.kind
+                ),
                 &odd.path,
             ));
         }
         let vertical_datum = match spec.text("vertical_datum")? {
             Some(d) => d.to_owned(),
-            None if rasters[0].details.get("driver").is_some_and(|d| d == "SRTMHGT") => "EGM96 geoid (SRTM)".into(),
+            None if rasters[0]
+                .details
+                .get("driver")
+                .is_some_and(|d| d == "SRTMHGT") =>
+            {
+                "EGM96 geoid (SRTM)".into()
+            }
             None => "unknown (not stated by the file)".into(),
         };
         let grid_srs = crs::spatial_ref(grid.crs(), None)?;
@@ -117,7 +149,12 @@ impl GdalSource {
     }
 
     /// Pixel-edge coordinates of every lattice sample in `placed`'s raster.
-    fn pixel_coords(&self, placed: &Placed, lattice: &Lattice, max_error_px: f64) -> Result<(Vec<f64>, Vec<f64>), SourceError> {
+    fn pixel_coords(
+        &self,
+        placed: &Placed,
+        lattice: &Lattice,
+        max_error_px: f64,
+    ) -> Result<(Vec<f64>, Vec<f64>), SourceError> {
         let r = &placed.raster;
         let (cols, rows) = (lattice.cols, lattice.rows);
         let mut us = Vec::with_capacity(cols * rows);
@@ -137,7 +174,11 @@ impl GdalSource {
             let mut xs: Vec<f64> = points.iter().map(|&(i, _)| lattice.x(i)).collect();
             let mut ys: Vec<f64> = points.iter().map(|&(_, j)| lattice.y(j)).collect();
             crs::transform(&self.grid_crs, &r.crs_wkt, &mut xs, &mut ys)?;
-            Ok(xs.iter().zip(&ys).map(|(x, y)| r.pixel_of(*x, *y)).collect())
+            Ok(xs
+                .iter()
+                .zip(&ys)
+                .map(|(x, y)| r.pixel_of(*x, *y))
+                .collect())
         };
         // Transform a coarse lattice exactly and interpolate between, halving
         // the step until the interpolation error at cell centres is small
@@ -152,11 +193,18 @@ impl GdalSource {
                 v
             };
             let (ci, cj) = (idx(cols), idx(rows));
-            let coarse_points: Vec<(usize, usize)> = cj.iter().flat_map(|&j| ci.iter().map(move |&i| (i, j))).collect();
+            let coarse_points: Vec<(usize, usize)> = cj
+                .iter()
+                .flat_map(|&j| ci.iter().map(move |&i| (i, j)))
+                .collect();
             let coarse = to_pixels(&coarse_points)?;
             let centres: Vec<(usize, usize)> = cj
                 .windows(2)
-                .flat_map(|wj| ci.windows(2).map(move |wi| (usize::midpoint(wi[0], wi[1]), usize::midpoint(wj[0], wj[1]))))
+                .flat_map(|wj| {
+                    ci.windows(2).map(move |wi| {
+                        (usize::midpoint(wi[0], wi[1]), usize::midpoint(wj[0], wj[1]))
+                    })
+                })
                 .collect();
             let exact = to_pixels(&centres)?;
             let interp = |i: usize, j: usize| -> (f64, f64) {
@@ -167,7 +215,8 @@ impl GdalSource {
                 let p = |x: usize, y: usize| coarse[y * ci.len() + x];
                 let (p00, p10, p01, p11) = (p(a, b), p(a + 1, b), p(a, b + 1), p(a + 1, b + 1));
                 let lerp = |s: f64, t: f64, k: fn((f64, f64)) -> f64| {
-                    (1.0 - t) * ((1.0 - s) * k(p00) + s * k(p10)) + t * ((1.0 - s) * k(p01) + s * k(p11))
+                    (1.0 - t) * ((1.0 - s) * k(p00) + s * k(p10))
+                        + t * ((1.0 - s) * k(p01) + s * k(p11))
                 };
                 (lerp(fx, fy, |p| p.0), lerp(fx, fy, |p| p.1))
             };
@@ -178,7 +227,10 @@ impl GdalSource {
                     let (u, v) = interp(i, j);
                     (u - e.0).hypot(v - e.1)
                 })
-                .fold(0.0f64, |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) });
+                .fold(
+                    0.0f64,
+                    |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) },
+                );
             if worst <= max_error_px {
                 for j in 0..rows {
                     for i in 0..cols {
@@ -191,7 +243,9 @@ impl GdalSource {
             }
             step /= 2;
         }
-        let all: Vec<(usize, usize)> = (0..rows).flat_map(|j| (0..cols).map(move |i| (i, j))).collect();
+        let all: Vec<(usize, usize)> = (0..rows)
+            .flat_map(|j| (0..cols).map(move |i| (i, j)))
+            .collect();
         for (u, v) in to_pixels(&all)? {
             us.push(u);
             vs.push(v);
@@ -204,7 +258,10 @@ impl GdalSource {
     fn mip_for(placed: &Placed, us: &[f64], vs: &[f64], cols: usize, rows: usize) -> usize {
         let c = (rows / 2) * cols + cols / 2;
         let (dx, dy) = if cols > 1 && rows > 1 {
-            ((us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]), (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]))
+            (
+                (us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]),
+                (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]),
+            )
         } else {
             (1.0, 1.0)
         };
@@ -215,7 +272,12 @@ impl GdalSource {
         (ratio.log2().floor() as usize).min(placed.raster.levels.len() - 1)
     }
 
-    fn generate_into(&self, key: TileKey, grid: &TileGrid, quality: &Quality) -> Result<Payload, SourceError> {
+    fn generate_into(
+        &self,
+        key: TileKey,
+        grid: &TileGrid,
+        quality: &Quality,
+    ) -> Result<Payload, SourceError> {
         let sample_kind = match self.kind {
             RasterKind::Height => SampleKind::Corner,
             RasterKind::Color => SampleKind::TexelWithBorder,
@@ -223,14 +285,22 @@ impl GdalSource {
         let lattice = grid.lattice(key, sample_kind);
         let n = lattice.cols * lattice.rows;
         let reach = grid.tile_extent(key).dilate(lattice.step_x, lattice.step_y);
-        let mut heights = vec![f32::NAN; if self.kind == RasterKind::Height { n } else { 0 }];
+        let mut heights = vec![
+            f32::NAN;
+            if self.kind == RasterKind::Height {
+                n
+            } else {
+                0
+            }
+        ];
         let mut colors = vec![[0.0f32; 4]; if self.kind == RasterKind::Color { n } else { 0 }];
         for placed in &self.rasters {
             if !placed.extent_in_grid.is_some_and(|e| e.touches(&reach)) {
                 continue;
             }
             let (us, vs) = self.pixel_coords(placed, &lattice, quality.reprojection_error_px)?;
-            let level = &placed.raster.levels[Self::mip_for(placed, &us, &vs, lattice.cols, lattice.rows)];
+            let level =
+                &placed.raster.levels[Self::mip_for(placed, &us, &vs, lattice.cols, lattice.rows)];
             match self.kind {
                 RasterKind::Height => {
                     for ((h, u), v) in heights.iter_mut().zip(&us).zip(&vs) {
@@ -254,21 +324,37 @@ impl GdalSource {
             }
         }
         Ok(match self.kind {
-            RasterKind::Height => Payload::Height(HeightTile { size: lattice.cols, heights }),
+            RasterKind::Height => Payload::Height(HeightTile {
+                size: lattice.cols,
+                heights,
+            }),
             RasterKind::Color => {
                 let mut rgba = Vec::with_capacity(n * 4);
                 for c in colors {
                     let a = c[3];
-                    let un = |v: f32| if a > 0.0 { (v / a * 255.0).round().clamp(0.0, 255.0) as u8 } else { 0 };
+                    let un = |v: f32| {
+                        if a > 0.0 {
+                            (v / a * 255.0).round().clamp(0.0, 255.0) as u8
+                        } else {
+                            0
+                        }
+                    };
                     rgba.extend([un(c[0]), un(c[1]), un(c[2]), (a * 255.0).round() as u8]);
                 }
-                Payload::Color(ColorTile { size: lattice.cols, rgba })
+                Payload::Color(ColorTile {
+                    size: lattice.cols,
+                    rgba,
+                })
             }
         })
     }
 }
 
-fn place(raster: Raster, grid: &TileGrid, grid_srs: &gdal::spatial_ref::SpatialRef) -> Result<Placed, SourceError> {
+fn place(
+    raster: Raster,
+    grid: &TileGrid,
+    grid_srs: &gdal::spatial_ref::SpatialRef,
+) -> Result<Placed, SourceError> {
     let srs = crs::spatial_ref(&raster.crs_wkt, Some(&raster.path))?;
     let same_crs = srs == *grid_srs;
     let bounds = raster.bounds();
@@ -280,11 +366,18 @@ fn place(raster: Raster, grid: &TileGrid, grid_srs: &gdal::spatial_ref::SpatialR
     .map(|[a, b, c, d]| Extent::new(a, b, c, d));
     if extent_in_grid.is_none() {
         return Err(SourceError::format(
-            format!("raster extent cannot be placed in the scene grid ({})", grid.crs()),
+            format!(
+                "raster extent cannot be placed in the scene grid ({})",
+                grid.crs()
+            ),
             &raster.path,
         ));
     }
-    Ok(Placed { raster: Arc::new(raster), same_crs, extent_in_grid })
+    Ok(Placed {
+        raster: Arc::new(raster),
+        same_crs,
+        extent_in_grid,
+    })
 }
 
 impl Source for GdalSource {
@@ -318,7 +411,11 @@ impl Source for GdalSource {
             files: self.rasters.iter().map(|p| p.raster.path.clone()).collect(),
             extent,
             crs: first.crs_name.clone(),
-            vertical_datum: if self.kind == RasterKind::Height { self.vertical_datum.clone() } else { String::new() },
+            vertical_datum: if self.kind == RasterKind::Height {
+                self.vertical_datum.clone()
+            } else {
+                String::new()
+            },
             vertical_units: if self.kind == RasterKind::Height {
                 format!("m (file: {})", first.units.name())
             } else {
@@ -350,7 +447,9 @@ impl Source for GdalSource {
             let new = place(Raster::open(path, &self.read)?, grid, &grid_srs)?;
             // Until block hashes land, a changed raster dirties its old and
             // new extents whole.
-            let extents = [placed.extent_in_grid, new.extent_in_grid].into_iter().flatten();
+            let extents = [placed.extent_in_grid, new.extent_in_grid]
+                .into_iter()
+                .flatten();
             dirty = dirty.union(&DirtySet::from_extents(extents));
             changed = true;
             rasters.push(new);
@@ -372,9 +471,15 @@ impl Source for GdalSource {
         })
     }
 
-    fn sample_heights(&self, points: &[GeodeticPoint], quality: &Quality) -> Result<Vec<Option<f64>>, SourceError> {
+    fn sample_heights(
+        &self,
+        points: &[GeodeticPoint],
+        quality: &Quality,
+    ) -> Result<Vec<Option<f64>>, SourceError> {
         if self.kind != RasterKind::Height {
-            return Err(SourceError::Unsupported("sampling elevations of a colour raster"));
+            return Err(SourceError::Unsupported(
+                "sampling elevations of a colour raster",
+            ));
         }
         let mut out: Vec<Option<f64>> = vec![None; points.len()];
         for placed in &self.rasters {
@@ -393,4 +498,3 @@ impl Source for GdalSource {
         Ok(out)
     }
 }
-

@@ -18,7 +18,12 @@ pub struct HeightWindow<'a, 'c> {
 
 impl<'a, 'c> HeightWindow<'a, 'c> {
     pub fn new(ctx: &'a GenerateContext<'c>, input: usize, level: u8) -> Self {
-        Self { ctx, input, level, tiles: HashMap::new() }
+        Self {
+            ctx,
+            input,
+            level,
+            tiles: HashMap::new(),
+        }
     }
 
     /// The height at global sample (X, Y); NaN for nodata. On the geodetic
@@ -51,13 +56,12 @@ impl<'a, 'c> HeightWindow<'a, 'c> {
         let tx = (x / n).min(i64::from(cols) - 1);
         let ty = (y / n).min(i64::from(rows) - 1);
         let key = TileKey::new(self.level, tx as u32, ty as u32);
-        let tile = match self.tiles.get(&key) {
-            Some(t) => Arc::clone(t),
-            None => {
-                let t = self.ctx.inputs.tile(self.input, key)?;
-                self.tiles.insert(key, Arc::clone(&t));
-                t
-            }
+        let tile = if let Some(t) = self.tiles.get(&key) {
+            Arc::clone(t)
+        } else {
+            let t = self.ctx.inputs.tile(self.input, key)?;
+            self.tiles.insert(key, Arc::clone(&t));
+            t
         };
         let Payload::Height(h) = tile.as_ref() else {
             return Err(SourceError::Input {

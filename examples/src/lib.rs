@@ -1,0 +1,214 @@
+//! relief-examples: example scenes made from analytic terrains with known
+//! heights, written through GDAL. The demo, the end-to-end tests and the
+//! benchmarks all use them, so every one of them can check its answers
+//! against the formula the data came from.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use gdal::DriverManager;
+use gdal::raster::Buffer;
+use gdal::spatial_ref::SpatialRef;
+
+/// A north-up raster: origin is the north-west pixel edge.
+pub struct RasterSpec<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub origin_x: f64,
+    pub origin_y: f64,
+    pub pixel: f64,
+    pub crs: &'a str,
+    pub nodata: Option<f64>,
+}
+
+impl RasterSpec<'_> {
+    /// World coordinates of the centre of pixel (i, j).
+    pub fn centre(&self, i: usize, j: usize) -> (f64, f64) {
+        (
+            self.origin_x + (i as f64 + 0.5) * self.pixel,
+            self.origin_y - (j as f64 + 0.5) * self.pixel,
+        )
+    }
+}
+
+/// Writes a Float32 GeoTIFF whose pixel (i, j) holds `height(x, y)` at the
+/// pixel's centre.
+pub fn write_dem(
+    path: &Path,
+    spec: &RasterSpec<'_>,
+    height: impl Fn(f64, f64) -> f64,
+) -> anyhow::Result<PathBuf> {
+    let mut data = Vec::with_capacity(spec.width * spec.height);
+    for j in 0..spec.height {
+        for i in 0..spec.width {
+            let (x, y) = spec.centre(i, j);
+            data.push(height(x, y) as f32);
+        }
+    }
+    let driver = DriverManager::get_driver_by_name("GTiff")?;
+    let mut ds = driver
+        .create_with_band_type::<f32, _>(path, spec.width, spec.height, 1)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    ds.set_geo_transform(&[
+        spec.origin_x,
+        spec.pixel,
+        0.0,
+        spec.origin_y,
+        0.0,
+        -spec.pixel,
+    ])?;
+    ds.set_spatial_ref(&SpatialRef::from_definition(spec.crs)?)?;
+    let mut band = ds.rasterband(1)?;
+    band.set_no_data_value(spec.nodata)?;
+    band.write(
+        (0, 0),
+        (spec.width, spec.height),
+        &mut Buffer::new((spec.width, spec.height), data),
+    )?;
+    Ok(path.to_path_buf())
+}
+
+/// A Gaussian hill: 500 m plain, 1500 m peak at (10.25 E, 45.25 N), sigma
+/// 0.08 degrees.
+pub fn hill(lon: f64, lat: f64) -> f64 {
+    let (dx, dy) = (lon - 10.25, lat - 45.25);
+    500.0 + 1500.0 * (-(dx * dx + dy * dy) / (2.0 * 0.08 * 0.08)).exp()
+}
+
+/// The hill on a 0.00125-degree grid over 10..10.5 E, 45..45.5 N (EPSG:4326).
+pub fn hill_spec() -> RasterSpec<'static> {
+    RasterSpec {
+        width: 400,
+        height: 400,
+        origin_x: 10.0,
+        origin_y: 45.5,
+        pixel: 0.00125,
+        crs: "EPSG:4326",
+        nodata: None,
+    }
+}
+
+/// A smooth analytic surface in UTM 12N metres, around Storm Lake, Montana.
+pub fn utm_surface(x: f64, y: f64) -> f64 {
+    2500.0 + 0.05 * (x - 300_000.0) - 0.02 * (y - 5_100_000.0)
+        + 80.0 * ((x / 700.0).sin() * (y / 900.0).cos())
+}
+
+/// 300 x 200 pixels of 30 m in EPSG:32612.
+pub fn utm_spec() -> RasterSpec<'static> {
+    RasterSpec {
+        width: 300,
+        height: 200,
+        origin_x: 300_000.0,
+        origin_y: 5_106_000.0,
+        pixel: 30.0,
+        crs: "EPSG:32612",
+        nodata: None,
+    }
+}
+
+/// Writes a manifest beside the data and returns its path.
+pub fn write_manifest(dir: &Path, text: &str) -> anyhow::Result<PathBuf> {
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text)?;
+    Ok(path)
+}
+
+/// A tiny deterministic generator for test points (no dependency needed).
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next_f64()
+    }
+}
+
+/// The demo's mountain range: a ridge running north-east with three peaks
+/// (up to about 3100 m) over a 400 m valley floor, in degrees on WGS84.
+pub fn demo_terrain(lon: f64, lat: f64) -> f64 {
+    let peak = |cx: f64, cy: f64, h: f64, s: f64| {
+        h * (-((lon - cx).powi(2) + (lat - cy).powi(2)) / (2.0 * s * s)).exp()
+    };
+    let along = (lon - 6.5) * 0.6 + (lat - 45.3) * 0.8;
+    let across = -(lon - 6.5) * 0.8 + (lat - 45.3) * 0.6;
+    let ridge = 1400.0
+        * (-(across * across) / (2.0 * 0.06 * 0.06)).exp()
+        * (1.0 + 0.3 * (along * 40.0).sin());
+    400.0
+        + ridge
+        + peak(6.35, 45.18, 1300.0, 0.05)
+        + peak(6.62, 45.38, 1100.0, 0.04)
+        + peak(6.8, 45.47, 900.0, 0.06)
+        + 60.0 * ((lon * 90.0).sin() * (lat * 70.0).cos())
+}
+
+/// A hypsometric tint for the demo's "orthophoto": green valleys, brown
+/// slopes, grey rock, white summits.
+pub fn demo_color(height_m: f64) -> [u8; 3] {
+    const STOPS: [(f64, [f64; 3]); 5] = [
+        (300.0, [70.0, 120.0, 60.0]),
+        (1000.0, [120.0, 150.0, 80.0]),
+        (1800.0, [140.0, 110.0, 80.0]),
+        (2500.0, [150.0, 150.0, 150.0]),
+        (3000.0, [250.0, 250.0, 250.0]),
+    ];
+    let h = height_m.clamp(STOPS[0].0, STOPS[4].0);
+    let k = STOPS.windows(2).position(|w| h <= w[1].0).unwrap_or(3);
+    let ((h0, c0), (h1, c1)) = (STOPS[k], STOPS[k + 1]);
+    let t = (h - h0) / (h1 - h0);
+    [0, 1, 2].map(|i| (c0[i] + t * (c1[i] - c0[i])).round() as u8)
+}
+
+/// Writes a three-band Byte GeoTIFF, pixel (i, j) coloured by `color(x, y)`
+/// at its centre.
+pub fn write_rgb(
+    path: &Path,
+    spec: &RasterSpec<'_>,
+    color: impl Fn(f64, f64) -> [u8; 3],
+) -> anyhow::Result<PathBuf> {
+    let n = spec.width * spec.height;
+    let mut planes = [
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    ];
+    for j in 0..spec.height {
+        for i in 0..spec.width {
+            let (x, y) = spec.centre(i, j);
+            let c = color(x, y);
+            for (plane, v) in planes.iter_mut().zip(c) {
+                plane.push(v);
+            }
+        }
+    }
+    let driver = DriverManager::get_driver_by_name("GTiff")?;
+    let mut ds = driver
+        .create_with_band_type::<u8, _>(path, spec.width, spec.height, 3)
+        .with_context(|| format!("cannot create {}", path.display()))?;
+    ds.set_geo_transform(&[
+        spec.origin_x,
+        spec.pixel,
+        0.0,
+        spec.origin_y,
+        0.0,
+        -spec.pixel,
+    ])?;
+    ds.set_spatial_ref(&SpatialRef::from_definition(spec.crs)?)?;
+    for (b, plane) in planes.into_iter().enumerate() {
+        let mut band = ds.rasterband(b + 1)?;
+        band.write(
+            (0, 0),
+            (spec.width, spec.height),
+            &mut Buffer::new((spec.width, spec.height), plane),
+        )?;
+    }
+    Ok(path.to_path_buf())
+}

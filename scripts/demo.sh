@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# The demo: writes a synthetic mountain scene, serves it with reliefd on
+# 127.0.0.1:50051, asks it a few questions with the relief CLI, and keeps
+# serving until Ctrl-C (DEMO_EXIT=1 stops right after the tour).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bin=target/release
+out=demo-out
+listen=${RELIEF_LISTEN:-127.0.0.1:50051}
+export RELIEF_SERVER="http://$listen"
+mkdir -p "$out"
+
+manifest=$("$bin/relief-demo-scene" "$out/scene")
+echo "demo scene written: $manifest"
+
+"$bin/reliefd" serve "$manifest" --listen "$listen" > "$out/reliefd.out" 2> "$out/reliefd.log" &
+daemon=$!
+trap 'kill "$daemon" 2>/dev/null || true; wait "$daemon" 2>/dev/null || true' EXIT
+for _ in $(seq 1 100); do
+  grep -q '^listening on' "$out/reliefd.out" 2>/dev/null && break
+  if ! kill -0 "$daemon" 2>/dev/null; then
+    echo "reliefd did not start:" >&2; cat "$out/reliefd.log" >&2; exit 1
+  fi
+  sleep 0.1
+done
+grep '^listening on' "$out/reliefd.out" || { echo "reliefd did not say where it listens" >&2; exit 1; }
+
+step() { echo; echo "\$ $*"; "$@"; }
+step "$bin/relief" state
+step "$bin/relief" elevation 6.35,45.18 6.62,45.38 6.2,45.45 9,45
+step "$bin/relief" tile dem 9 530 127 -o "$out/dem-9-530-127.tif"
+step "$bin/relief" tile ortho 9 530 127 -o "$out/ortho-9-530-127.png"
+step "$bin/relief" tile shade 9 530 127 -o "$out/shade-9-530-127.png"
+step "$bin/relief" state
+
+cat <<MSG
+
+reliefd is serving the demo scene on $listen (log: $out/reliefd.log).
+Try, in another terminal:
+  $bin/relief state --json
+  $bin/relief watch                      # then edit or replace $out/scene/dem.tif
+  $bin/relief elevation 6.5,45.3
+  $bin/relief tile shade 10 1061 254 -o shade.png
+  gdalinfo $out/dem-9-530-127.tif
+Press Ctrl-C to stop.
+MSG
+if [ "${DEMO_EXIT:-0}" = 1 ]; then exit 0; fi
+wait "$daemon"
