@@ -22,6 +22,11 @@ pub struct RasterSpec<'a> {
 }
 
 impl RasterSpec<'_> {
+    /// Centres of every pixel, row by row from the north-west.
+    pub fn pixels(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        (0..self.height).flat_map(move |j| (0..self.width).map(move |i| self.centre(i, j)))
+    }
+
     /// World coordinates of the centre of pixel (i, j).
     pub fn centre(&self, i: usize, j: usize) -> (f64, f64) {
         (
@@ -38,16 +43,19 @@ pub fn write_dem(
     spec: &RasterSpec<'_>,
     height: impl Fn(f64, f64) -> f64,
 ) -> anyhow::Result<PathBuf> {
-    let mut data = Vec::with_capacity(spec.width * spec.height);
-    for j in 0..spec.height {
-        for i in 0..spec.width {
-            let (x, y) = spec.centre(i, j);
-            data.push(height(x, y) as f32);
-        }
-    }
+    let data = spec.pixels().map(|(x, y)| height(x, y) as f32).collect();
+    write_geotiff(path, spec, vec![data])
+}
+
+/// Writes one band per plane as a north-up GeoTIFF described by `spec`.
+fn write_geotiff<T: gdal::raster::GdalType + Copy>(
+    path: &Path,
+    spec: &RasterSpec<'_>,
+    planes: Vec<Vec<T>>,
+) -> anyhow::Result<PathBuf> {
     let driver = DriverManager::get_driver_by_name("GTiff")?;
     let mut ds = driver
-        .create_with_band_type::<f32, _>(path, spec.width, spec.height, 1)
+        .create_with_band_type::<T, _>(path, spec.width, spec.height, planes.len())
         .with_context(|| format!("cannot create {}", path.display()))?;
     ds.set_geo_transform(&[
         spec.origin_x,
@@ -58,13 +66,12 @@ pub fn write_dem(
         -spec.pixel,
     ])?;
     ds.set_spatial_ref(&SpatialRef::from_definition(spec.crs)?)?;
-    let mut band = ds.rasterband(1)?;
-    band.set_no_data_value(spec.nodata)?;
-    band.write(
-        (0, 0),
-        (spec.width, spec.height),
-        &mut Buffer::new((spec.width, spec.height), data),
-    )?;
+    let size = (spec.width, spec.height);
+    for (b, plane) in planes.into_iter().enumerate() {
+        let mut band = ds.rasterband(b + 1)?;
+        band.set_no_data_value(spec.nodata)?;
+        band.write((0, 0), size, &mut Buffer::new(size, plane))?;
+    }
     Ok(path.to_path_buf())
 }
 
@@ -174,41 +181,9 @@ pub fn write_rgb(
     spec: &RasterSpec<'_>,
     color: impl Fn(f64, f64) -> [u8; 3],
 ) -> anyhow::Result<PathBuf> {
-    let n = spec.width * spec.height;
-    let mut planes = [
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    ];
-    for j in 0..spec.height {
-        for i in 0..spec.width {
-            let (x, y) = spec.centre(i, j);
-            let c = color(x, y);
-            for (plane, v) in planes.iter_mut().zip(c) {
-                plane.push(v);
-            }
-        }
-    }
-    let driver = DriverManager::get_driver_by_name("GTiff")?;
-    let mut ds = driver
-        .create_with_band_type::<u8, _>(path, spec.width, spec.height, 3)
-        .with_context(|| format!("cannot create {}", path.display()))?;
-    ds.set_geo_transform(&[
-        spec.origin_x,
-        spec.pixel,
-        0.0,
-        spec.origin_y,
-        0.0,
-        -spec.pixel,
-    ])?;
-    ds.set_spatial_ref(&SpatialRef::from_definition(spec.crs)?)?;
-    for (b, plane) in planes.into_iter().enumerate() {
-        let mut band = ds.rasterband(b + 1)?;
-        band.write(
-            (0, 0),
-            (spec.width, spec.height),
-            &mut Buffer::new((spec.width, spec.height), plane),
-        )?;
-    }
-    Ok(path.to_path_buf())
+    let colors: Vec<[u8; 3]> = spec.pixels().map(|(x, y)| color(x, y)).collect();
+    let planes = (0..3)
+        .map(|b| colors.iter().map(|c| c[b]).collect())
+        .collect();
+    write_geotiff(path, spec, planes)
 }

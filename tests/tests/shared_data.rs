@@ -115,26 +115,13 @@ async fn storm_lake_utm_elevations_match_gdal_within_a_centimetre() {
     let gt = ds.geo_transform().unwrap();
     let (w, h) = ds.raster_size();
     let mut rng = Lcg(12);
-    let mut xs: Vec<f64> = (0..20)
+    let xs: Vec<f64> = (0..20)
         .map(|_| gt[0] + rng.range(1.0, w as f64 - 1.0) * gt[1])
         .collect();
-    let mut ys: Vec<f64> = (0..20)
+    let ys: Vec<f64> = (0..20)
         .map(|_| gt[3] + rng.range(1.0, h as f64 - 1.0) * gt[5])
         .collect();
-    let srs = |def: &str| {
-        let mut s = gdal::spatial_ref::SpatialRef::from_definition(def).unwrap();
-        s.set_axis_mapping_strategy(gdal::spatial_ref::AxisMappingStrategy::TraditionalGisOrder);
-        s
-    };
-    gdal::spatial_ref::CoordTransform::new(&srs("EPSG:26912"), &srs("EPSG:4326"))
-        .unwrap()
-        .transform_coords(&mut xs, &mut ys, &mut [])
-        .unwrap();
-    let points: Vec<pb::GeodeticPoint> = xs
-        .iter()
-        .zip(&ys)
-        .map(|(&lon_deg, &lat_deg)| pb::GeodeticPoint { lon_deg, lat_deg })
-        .collect();
+    let points = reference::lon_lat_points("EPSG:26912", &xs, &ys).unwrap();
     let got = elevations(&daemon, &points).await;
     assert!(
         got.iter().flatten().all(|h| (2400.0..3100.0).contains(h)),

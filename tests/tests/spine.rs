@@ -244,24 +244,11 @@ async fn projected_scene_serves_utm_heights() {
     // Elevations at lon/lat go through PROJ to UTM and agree with gdalwarp.
     // Random points inside the DEM, taken to lon/lat by PROJ (through GDAL).
     let mut rng = Lcg(3);
-    let mut xs: Vec<f64> = (0..20).map(|_| rng.range(300_100.0, 308_900.0)).collect();
-    let mut ys: Vec<f64> = (0..20)
+    let xs: Vec<f64> = (0..20).map(|_| rng.range(300_100.0, 308_900.0)).collect();
+    let ys: Vec<f64> = (0..20)
         .map(|_| rng.range(5_100_100.0, 5_105_900.0))
         .collect();
-    let srs = |def: &str| {
-        let mut s = gdal::spatial_ref::SpatialRef::from_definition(def).unwrap();
-        s.set_axis_mapping_strategy(gdal::spatial_ref::AxisMappingStrategy::TraditionalGisOrder);
-        s
-    };
-    gdal::spatial_ref::CoordTransform::new(&srs("EPSG:32612"), &srs("EPSG:4326"))
-        .unwrap()
-        .transform_coords(&mut xs, &mut ys, &mut [])
-        .unwrap();
-    let points: Vec<pb::GeodeticPoint> = xs
-        .iter()
-        .zip(&ys)
-        .map(|(&lon_deg, &lat_deg)| pb::GeodeticPoint { lon_deg, lat_deg })
-        .collect();
+    let points = reference::lon_lat_points("EPSG:32612", &xs, &ys).unwrap();
     let answer = tiles
         .sample_elevation(pb::SampleElevationRequest {
             points: points.clone(),
