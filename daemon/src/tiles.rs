@@ -312,3 +312,111 @@ impl InputTiles for Inputs<'_> {
             })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use relief_source::{HeightTile, PayloadKind, Source, SourceSpec, TileGrid};
+
+    use super::*;
+    use crate::graph::Slot;
+    use crate::manifest::Manifest;
+
+    /// A source whose tiles are flat at their level, so results are known.
+    #[derive(Debug)]
+    struct Flat;
+
+    impl Source for Flat {
+        fn id(&self) -> &'static str {
+            "flat"
+        }
+        fn kind(&self) -> &'static str {
+            "test"
+        }
+        fn output(&self) -> PayloadKind {
+            PayloadKind::Height
+        }
+        fn generate(
+            &self,
+            key: TileKey,
+            ctx: &GenerateContext<'_>,
+        ) -> Result<Payload, SourceError> {
+            let n = ctx.grid.tile_size() as usize + 1;
+            Ok(Payload::Height(HeightTile {
+                size: n,
+                heights: vec![f32::from(key.level); n * n],
+            }))
+        }
+    }
+
+    fn snapshot() -> SceneSnapshot {
+        let manifest =
+            Manifest::parse("[scene]\nname = \"t\"\n", Path::new("/t/scene.toml")).unwrap();
+        let slot = Slot {
+            spec: SourceSpec {
+                id: "flat".into(),
+                kind: "test".into(),
+                ..SourceSpec::default()
+            },
+            source: Some(Arc::new(Flat)),
+            error: None,
+            version: 1,
+            effective_version: 7,
+            inputs: vec![],
+            active: true,
+        };
+        SceneSnapshot {
+            generation: 1,
+            manifest: Arc::new(manifest),
+            grid: TileGrid::geodetic(64).unwrap(),
+            slots: vec![slot],
+        }
+    }
+
+    #[test]
+    fn the_cache_stays_within_its_memory_budget() {
+        // 65 x 65 f32 = 16.9 kB a tile; a 200 kB budget holds about a dozen.
+        let store = TileStore::new(200 * 1024, 2);
+        let snap = snapshot();
+        let keys: Vec<(usize, TileKey)> = (0..64).map(|x| (0, TileKey::new(6, x, 3))).collect();
+        let built = store.build(&snap, &keys, &Quality::default());
+        assert!(built.iter().all(Result::is_ok));
+        let c = store.counters();
+        assert!(c.bytes <= 200 * 1024, "{c:?}");
+        assert!(c.entries < 64 && c.entries >= 5, "{c:?}");
+        assert_eq!(c.tiles_generated, 64);
+    }
+
+    #[test]
+    fn concurrent_requests_for_one_tile_generate_it_once() {
+        let store = TileStore::new(64 << 20, 2);
+        let snap = snapshot();
+        let keys = vec![(0, TileKey::new(3, 1, 1)); 16];
+        let built = store.build(&snap, &keys, &Quality::default());
+        assert!(built.iter().all(|t| {
+            t.as_ref()
+                .is_ok_and(|t| t.content_hash == built[0].as_ref().unwrap().content_hash)
+        }));
+        assert_eq!(store.counters().tiles_generated, 1);
+    }
+
+    #[test]
+    fn keys_outside_the_grid_are_refused() {
+        let store = TileStore::new(1 << 20, 1);
+        let err = store
+            .tile(&snapshot(), 0, TileKey::new(2, 8, 0), &Quality::default())
+            .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                TileError::OutsideGrid {
+                    cols: 8,
+                    rows: 4,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+}
