@@ -6,6 +6,7 @@
     reason = "tests: a failed unwrap is a failed test"
 )]
 
+use std::fmt::Write as _;
 use std::process::Command;
 
 use relief_proto::v1 as pb;
@@ -56,12 +57,11 @@ async fn formats_and_units_give_the_same_heights() {
     let vrt = std::fs::read_to_string(d("feet.vrt")).unwrap();
     std::fs::write(
         d("feet.vrt"),
-        vrt.replacen("<VRTRasterBand ", "<VRTRasterBand ", 1)
-            .replacen(
-                "</ColorInterp>",
-                "</ColorInterp>\n    <UnitType>ft</UnitType>",
-                1,
-            ),
+        vrt.replacen(
+            "</ColorInterp>",
+            "</ColorInterp>\n    <UnitType>ft</UnitType>",
+            1,
+        ),
     )
     .unwrap();
 
@@ -72,7 +72,8 @@ async fn formats_and_units_give_the_same_heights() {
         ("vrt", "hill.vrt"),
         ("feet", "feet.vrt"),
     ] {
-        manifest += &format!(
+        let _ = write!(
+            manifest,
             "\n[[source]]\nid = \"{id}\"\nkind = \"gdal\"\npath = \"{file}\"\ncrs = \"EPSG:4326\"\n"
         );
     }
