@@ -265,14 +265,31 @@ pub fn open_source(
     (kind.open)(spec, grid).map_err(|e| source_error(spec, e))
 }
 
-/// Builds the first generation of a scene. Structural problems (unknown
+/// Builds a scene generation from a manifest. Structural problems (unknown
 /// kinds, missing inputs, cycles, type mismatches, bad layers) fail the
 /// build; sources that fail to open are kept as failed slots and their
 /// errors returned beside the snapshot.
+///
+/// With a `previous` generation (a manifest edit), every source whose
+/// declaration did not change keeps its loaded value and version, so its
+/// cached tiles stay valid; the grid stays as it was unless `[scene]`
+/// changed it.
 pub fn build(
     manifest: Manifest,
     registry: &Registry,
+    previous: Option<&SceneSnapshot>,
 ) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
+    let generation = previous.map_or(1, |p| p.generation + 1);
+    let same_grid = previous.is_some_and(|p| {
+        p.manifest.grid == manifest.grid && p.manifest.tile_size == manifest.tile_size
+    });
+    let kept = |spec: &SourceSpec| -> Option<&Slot> {
+        previous
+            .filter(|_| same_grid)?
+            .slots
+            .iter()
+            .find(|s| s.spec == *spec)
+    };
     let order = order(&manifest, registry)?;
     if let GridSpec::Projected { crs, .. } = &manifest.grid
         && let Err(e) = relief_source_gdal::describe_crs(crs)
@@ -309,18 +326,22 @@ pub fn build(
         .iter()
         .map(|&i| {
             let spec = &manifest.sources[i];
+            if let Some(slot) = kept(spec) {
+                return slot.source.clone();
+            }
             open_source(spec, &provisional, registry)
                 .map_err(|e| open_errors.push(e))
                 .ok()
         })
         .collect();
-    // An unknown CRS for the grid shows up as every source failing on it;
-    // say so once, about the grid.
-    let grid = grid_for(
-        &manifest,
-        opened.iter().flatten().filter_map(|s| s.info().extent),
-    )
-    .map_err(|e| vec![e])?;
+    let grid = match previous {
+        Some(p) if same_grid => p.grid.clone(),
+        _ => grid_for(
+            &manifest,
+            opened.iter().flatten().filter_map(|s| s.info().extent),
+        )
+        .map_err(|e| vec![e])?,
+    };
 
     let position: HashMap<&str, usize> = order
         .iter()
@@ -334,11 +355,17 @@ pub fn build(
         .map(|((&i, source), error)| {
             let spec = manifest.sources[i].clone();
             let inputs = spec.inputs.iter().map(|id| position[id.as_str()]).collect();
+            // A kept source keeps its version (and error); a new or changed
+            // one gets a version no earlier value of it ever had.
+            let (version, error) = match kept(&spec) {
+                Some(old) => (old.version, old.error.clone()),
+                None => (generation, error.clone()),
+            };
             Slot {
                 spec,
                 source,
-                error: error.clone(),
-                version: 1,
+                error,
+                version,
                 effective_version: 0,
                 inputs,
                 active: false,
@@ -426,7 +453,7 @@ pub fn build(
     }
 
     let mut snapshot = SceneSnapshot {
-        generation: 1,
+        generation,
         manifest: Arc::new(manifest),
         grid,
         slots,

@@ -129,10 +129,13 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
         .context("cannot read the bound address")?;
     let shutdown = CancellationToken::new();
     let tasks = TaskTracker::new();
-    tasks.spawn(relief_daemon::watcher::poll(
-        Arc::clone(&scene),
-        shutdown.clone(),
-    ));
+    let settings = scene.snapshot().manifest.watch;
+    let watcher = relief_daemon::watcher::run(Arc::clone(&scene), settings, shutdown.clone());
+    tasks.spawn(async move {
+        if let Err(e) = watcher.await {
+            tracing::error!("file watching stopped: {e:#}; use `relief reload` to pick up changes");
+        }
+    });
     let server = tasks.spawn(relief_daemon::service::serve(
         Arc::clone(&scene),
         listener,

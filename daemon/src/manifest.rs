@@ -122,7 +122,43 @@ struct RawCache {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawWatch {
+    settle_ms: Option<u64>,
+    debounce_ms: Option<u64>,
+    write_timeout_ms: Option<u64>,
+    fast_path: Option<bool>,
     poll_ms: Option<u64>,
+}
+
+/// How file changes are picked up: the `[watch]` section. The quiet period
+/// trades latency against the risk of reading a file mid-save.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WatchSettings {
+    /// After a save's closing event (close-after-write, rename into place),
+    /// wait this long for its sibling files before reading.
+    pub settle_ms: u64,
+    /// The quiet period: read only after no event for this long when the
+    /// save's pattern is not recognised (or a fast read failed). Errors are
+    /// reported only from reads after a quiet period.
+    pub debounce_ms: u64,
+    /// A file written to but never closed is read after this long quiet.
+    pub write_timeout_ms: u64,
+    /// Act on recognised closing patterns at once (after `settle_ms`).
+    pub fast_path: bool,
+    /// Also poll file fingerprints this often (0: off), for file systems
+    /// without change notification.
+    pub poll_ms: u64,
+}
+
+impl Default for WatchSettings {
+    fn default() -> Self {
+        Self {
+            settle_ms: 5,
+            debounce_ms: 500,
+            write_timeout_ms: 2000,
+            fast_path: true,
+            poll_ms: 0,
+        }
+    }
 }
 
 /// How the scene's grid is declared.
@@ -147,7 +183,7 @@ pub struct Manifest {
     pub effects: Vec<String>,
     pub quality: Quality,
     pub cache_budget_bytes: u64,
-    pub poll_ms: u64,
+    pub watch: WatchSettings,
 }
 
 impl Manifest {
@@ -309,9 +345,31 @@ impl Manifest {
         if memory_mb == 0 {
             return Err(field("cache.memory_mb", "must be at least 1".into()));
         }
-        let poll_ms = raw.watch.poll_ms.unwrap_or(500);
-        if poll_ms < 10 {
-            return Err(field("watch.poll_ms", format!("{poll_ms} is below 10 ms")));
+        let defaults = WatchSettings::default();
+        let watch = WatchSettings {
+            settle_ms: raw.watch.settle_ms.unwrap_or(defaults.settle_ms),
+            debounce_ms: raw.watch.debounce_ms.unwrap_or(defaults.debounce_ms),
+            write_timeout_ms: raw
+                .watch
+                .write_timeout_ms
+                .unwrap_or(defaults.write_timeout_ms),
+            fast_path: raw.watch.fast_path.unwrap_or(defaults.fast_path),
+            poll_ms: raw.watch.poll_ms.unwrap_or(defaults.poll_ms),
+        };
+        for (name, value, max) in [
+            ("watch.settle_ms", watch.settle_ms, 10_000),
+            ("watch.debounce_ms", watch.debounce_ms, 60_000),
+            ("watch.write_timeout_ms", watch.write_timeout_ms, 600_000),
+        ] {
+            if value > max {
+                return Err(field(name, format!("{value} is above {max}")));
+            }
+        }
+        if watch.poll_ms != 0 && watch.poll_ms < 10 {
+            return Err(field(
+                "watch.poll_ms",
+                format!("{} is below 10 ms (0 turns polling off)", watch.poll_ms),
+            ));
         }
         Ok(Self {
             path,
@@ -323,7 +381,7 @@ impl Manifest {
             effects,
             quality,
             cache_budget_bytes: memory_mb * 1024 * 1024,
-            poll_ms,
+            watch,
         })
     }
 

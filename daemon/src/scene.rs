@@ -1,16 +1,19 @@
 //! The live scene: the current snapshot, refreshes that turn file changes
-//! into new generations, and the events that tell viewers about them.
+//! (and manifest edits) into new generations, the rebuild of the cached
+//! tiles a change touched, and the events that tell viewers about it.
 
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
 
-use relief_source::{DirtySet, Extent, Refresh};
+use relief_source::{DirtySet, Extent, Quality, Refresh, TileKey};
 use tokio::sync::{broadcast, watch};
 
 use crate::graph::{self, LoadError, SceneSnapshot};
 use crate::manifest::Manifest;
 use crate::registry::Registry;
-use crate::tiles::TileStore;
+use crate::tiles::{QualityKey, TileStore};
 
 #[derive(Debug, Clone)]
 pub struct DirtyRegion {
@@ -18,13 +21,27 @@ pub struct DirtyRegion {
     pub extents: Vec<Extent>,
 }
 
+/// What a new generation cost.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct RebuildStats {
+    /// Cached tiles the change touched, generated again before the
+    /// generation was published.
+    pub rebuilt: u64,
+    /// Cached tiles whose old version was dropped.
+    pub invalidated: u64,
+    /// Cached tiles the change did not touch, kept as they were.
+    pub carried: u64,
+    /// Tiles of derived sources kept because every input tile they read
+    /// was rebuilt to the same bytes (early cutoff).
+    pub cut_off: u64,
+}
+
 #[derive(Debug, Clone)]
 pub enum EventKind {
     Generation {
         changed_sources: Vec<String>,
         dirty: Vec<DirtyRegion>,
-        tiles_invalidated: u64,
-        tiles_rebuilt: u64,
+        stats: RebuildStats,
         elapsed_ms: f64,
         reason: String,
     },
@@ -32,6 +49,9 @@ pub enum EventKind {
         source_id: String,
         error: String,
         kept_last_good: bool,
+    },
+    ManifestError {
+        error: String,
     },
 }
 
@@ -41,8 +61,19 @@ pub struct SceneEvent {
     pub kind: EventKind,
 }
 
+/// What a refresh did.
+#[derive(Debug, Clone, Default)]
+pub struct RefreshOutcome {
+    pub generation: u64,
+    /// Sources to read again later: a writer was at work, or (when errors
+    /// are not to be reported yet) the read failed.
+    pub retry: Vec<String>,
+}
+
 pub struct Scene {
     current: RwLock<Arc<SceneSnapshot>>,
+    manifest_path: PathBuf,
+    manifest_error: RwLock<Option<String>>,
     registry: Registry,
     pub store: Arc<TileStore>,
     generation: watch::Sender<u64>,
@@ -66,7 +97,7 @@ impl Scene {
         let manifest = Manifest::load(manifest_path).map_err(|e| vec![LoadError::from(e)])?;
         let budget = manifest.cache_budget_bytes;
         let registry = Registry::builtin();
-        let (snapshot, open_errors) = graph::build(manifest, &registry)?;
+        let (snapshot, open_errors) = graph::build(manifest, &registry, None)?;
         if !keep_going && !open_errors.is_empty() {
             return Err(open_errors);
         }
@@ -74,7 +105,9 @@ impl Scene {
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
         Ok((
             Self {
+                manifest_path: snapshot.manifest.path.clone(),
                 current: RwLock::new(Arc::new(snapshot)),
+                manifest_error: RwLock::new(None),
                 registry,
                 store: Arc::new(TileStore::new(budget, threads)),
                 generation,
@@ -89,6 +122,18 @@ impl Scene {
         Arc::clone(&self.current.read().expect("scene lock is never poisoned"))
     }
 
+    pub fn manifest_path(&self) -> &std::path::Path {
+        &self.manifest_path
+    }
+
+    /// Why the last manifest edit was not taken, if it was not.
+    pub fn manifest_error(&self) -> Option<String> {
+        self.manifest_error
+            .read()
+            .expect("scene lock is never poisoned")
+            .clone()
+    }
+
     pub fn generations(&self) -> watch::Receiver<u64> {
         self.generation.subscribe()
     }
@@ -97,10 +142,20 @@ impl Scene {
         self.events.subscribe()
     }
 
-    /// Re-reads the sources (all, or those in `only`) and publishes a new
-    /// generation if anything changed. A source that fails keeps its last
-    /// good version and shows the error. Blocking: run it off the runtime.
-    pub fn refresh(&self, only: Option<&[String]>, reason: &str) -> u64 {
+    fn send(&self, generation: u64, kind: EventKind) {
+        let _no_subscribers = self.events.send(SceneEvent { generation, kind });
+    }
+
+    /// Re-reads the file sources (all, or those in `only`). A source that
+    /// fails keeps its last good version; with `report_errors` the error is
+    /// shown on it, otherwise it is only handed back for a retry (the
+    /// watcher does that while a writer may still be at work). Blocking.
+    pub fn refresh(
+        &self,
+        only: Option<&[String]>,
+        reason: &str,
+        report_errors: bool,
+    ) -> RefreshOutcome {
         let _one_at_a_time = self
             .refresh_lock
             .lock()
@@ -108,26 +163,32 @@ impl Scene {
         let started = Instant::now();
         let old = self.snapshot();
         let mut new = (*old).clone();
-        let count = new.slots.len();
-        let mut dirt = vec![DirtySet::none(); count];
+        let generation = old.generation + 1;
+        let mut dirt: HashMap<String, DirtySet> = HashMap::new();
         let mut changed_sources = Vec::new();
         let mut status_changed = false;
+        let mut retry = Vec::new();
         let mut error_events = Vec::new();
 
-        for (slot, slot_dirt) in new.slots.iter_mut().zip(dirt.iter_mut()) {
+        for slot in &mut new.slots {
             if only.is_some_and(|ids| !ids.contains(&slot.spec.id)) || !slot.inputs.is_empty() {
                 continue;
             }
             let result = match &slot.source {
                 Some(source) => source
                     .refresh(&new.grid)
-                    .map_err(|e| graph::source_error(&slot.spec, e)),
-                None => graph::open_source(&slot.spec, &new.grid, &self.registry).map(|source| {
-                    Refresh::Changed {
+                    .map_err(|e| (e.is_transient(), graph::source_error(&slot.spec, e))),
+                None => graph::open_source(&slot.spec, &new.grid, &self.registry)
+                    .map(|source| Refresh::Changed {
                         source,
                         dirty: DirtySet::everything(),
-                    }
-                }),
+                    })
+                    .map_err(|e| {
+                        (
+                            matches!(&e, LoadError::Source { error, .. } if error.is_transient()),
+                            e,
+                        )
+                    }),
             };
             match result {
                 Ok(Refresh::Unchanged) => {
@@ -135,14 +196,27 @@ impl Scene {
                         status_changed = true;
                     }
                 }
+                // Same data under new file fingerprints (a no-op save): swap
+                // it in quietly, nothing to rebuild.
+                Ok(Refresh::Changed { source, dirty }) if dirty.is_none() => {
+                    slot.source = Some(source);
+                    if slot.error.take().is_some() {
+                        status_changed = true;
+                    }
+                }
                 Ok(Refresh::Changed { source, dirty }) => {
                     slot.source = Some(source);
-                    slot.version += 1;
+                    slot.version = generation;
                     slot.error = None;
-                    *slot_dirt = dirty;
+                    dirt.insert(slot.spec.id.clone(), dirty);
                     changed_sources.push(slot.spec.id.clone());
                 }
-                Err(e) => {
+                Err((transient, e)) => {
+                    if transient || !report_errors {
+                        tracing::debug!(source.id = %slot.spec.id, "not read yet: {e}");
+                        retry.push(slot.spec.id.clone());
+                        continue;
+                    }
                     let message = e.to_string();
                     if slot.error.as_deref() != Some(message.as_str()) {
                         tracing::warn!(source.id = %slot.spec.id, "{message}; keeping the last good version");
@@ -158,67 +232,258 @@ impl Scene {
             }
         }
         if changed_sources.is_empty() && !status_changed {
-            return old.generation;
+            // Quiet swaps (new fingerprints, same data) still take effect.
+            *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);
+            return RefreshOutcome {
+                generation: old.generation,
+                retry,
+            };
         }
+        let generation = self.publish(
+            &old,
+            new,
+            dirt,
+            changed_sources,
+            error_events,
+            reason,
+            started,
+        );
+        RefreshOutcome { generation, retry }
+    }
 
-        // Carry dirt downstream: each op maps its inputs' dirt to its own.
-        for i in 0..count {
+    /// Reads the manifest again and applies it source by source: unchanged
+    /// sources keep their tiles; added, removed and changed ones are
+    /// (re)built. A manifest that does not load keeps the scene as it was
+    /// and shows why. Blocking.
+    pub fn reload_manifest(&self) -> u64 {
+        let _one_at_a_time = self
+            .refresh_lock
+            .lock()
+            .expect("refresh lock is never poisoned");
+        let started = Instant::now();
+        let old = self.snapshot();
+        let built = Manifest::load(&self.manifest_path)
+            .map_err(|e| vec![LoadError::from(e)])
+            .and_then(|m| graph::build(m, &self.registry, Some(&old)));
+        let (new, open_errors) = match built {
+            Ok(b) => b,
+            Err(errors) => {
+                let error = errors
+                    .iter()
+                    .map(ToString::to_string)
+                    .collect::<Vec<_>>()
+                    .join("; ");
+                tracing::warn!("{error}; keeping the scene as it was");
+                *self
+                    .manifest_error
+                    .write()
+                    .expect("scene lock is never poisoned") = Some(error.clone());
+                self.send(old.generation, EventKind::ManifestError { error });
+                return old.generation;
+            }
+        };
+        *self
+            .manifest_error
+            .write()
+            .expect("scene lock is never poisoned") = None;
+        let mut dirt = HashMap::new();
+        let mut changed = Vec::new();
+        for slot in &new.slots {
+            let before = old.slots.iter().find(|s| s.spec.id == slot.spec.id);
+            if before.is_none_or(|b| b.spec != slot.spec) {
+                dirt.insert(slot.spec.id.clone(), DirtySet::everything());
+                changed.push(slot.spec.id.clone());
+            }
+        }
+        for gone in old
+            .slots
+            .iter()
+            .filter(|s| new.index_of(&s.spec.id).is_none())
+        {
+            self.store.forget(&gone.spec.id, gone.effective_version);
+            changed.push(gone.spec.id.clone());
+        }
+        let errors = open_errors
+            .iter()
+            .map(|e| match e {
+                LoadError::Source { source_id, .. } => EventKind::SourceError {
+                    source_id: source_id.clone(),
+                    error: e.to_string(),
+                    kept_last_good: false,
+                },
+                other => EventKind::ManifestError {
+                    error: other.to_string(),
+                },
+            })
+            .collect();
+        let reason = if old.manifest.grid == new.manifest.grid {
+            "manifest edited"
+        } else {
+            "manifest edited (new grid)"
+        };
+        self.publish(&old, new, dirt, changed, errors, reason, started)
+    }
+
+    /// Carries dirt downstream, rebuilds the cached tiles it touches (coarse
+    /// first, inputs before dependents, stopping where rebuilt tiles come
+    /// out the same), then makes `new` the current generation and tells
+    /// the watchers. Returns the new generation.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one call site per kind of change; a struct would only rename them"
+    )]
+    fn publish(
+        &self,
+        old: &SceneSnapshot,
+        mut new: SceneSnapshot,
+        mut dirt: HashMap<String, DirtySet>,
+        changed_sources: Vec<String>,
+        error_events: Vec<EventKind>,
+        reason: &str,
+        started: Instant,
+    ) -> u64 {
+        for i in 0..new.slots.len() {
             let slot = &new.slots[i];
             let Some(source) = &slot.source else { continue };
+            let mut d = dirt.remove(&slot.spec.id).unwrap_or_default();
             for (n, &input) in slot.inputs.iter().enumerate() {
-                if !dirt[input].is_none() {
-                    dirt[i] = dirt[i].union(&source.dirty_from_input(n, &dirt[input]));
+                if let Some(input_dirt) =
+                    dirt.get(&new.slots[input].spec.id).filter(|d| !d.is_none())
+                {
+                    d = d.union(&source.dirty_from_input(n, input_dirt));
                 }
             }
+            dirt.insert(slot.spec.id.clone(), d);
         }
-        new.recompute_versions();
         new.generation = old.generation + 1;
+        new.recompute_versions();
+        let stats = self.rebuild(old, &new, &dirt);
 
-        // Cached tiles the dirt does not touch are still right: carry them
-        // over to the new versions; the others are invalidated.
-        let mut tiles_invalidated = 0;
-        for (i, d) in dirt.iter().enumerate() {
-            let (old_slot, new_slot) = (&old.slots[i], &new.slots[i]);
-            if old_slot.effective_version == new_slot.effective_version {
-                continue;
-            }
-            let (carried, invalidated) = self.store.carry_over(
-                &new_slot.spec.id,
-                old_slot.effective_version,
-                new_slot.effective_version,
-                |k| !d.touches_tile(&new.grid, k),
-            );
-            tracing::debug!(source.id = %new_slot.spec.id, carried, invalidated, "tiles carried over");
-            tiles_invalidated += invalidated;
-        }
-        let dirty = dirt
+        let dirty = new
+            .slots
             .iter()
-            .zip(&new.slots)
-            .filter(|(d, _)| !d.is_none())
-            .map(|(d, s)| DirtyRegion {
-                source_id: s.spec.id.clone(),
-                extents: d.extents(&new.grid),
+            .filter_map(|s| {
+                dirt.get(&s.spec.id)
+                    .filter(|d| !d.is_none())
+                    .map(|d| DirtyRegion {
+                        source_id: s.spec.id.clone(),
+                        extents: d.extents(&new.grid),
+                    })
             })
             .collect();
         let generation = new.generation;
         *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);
         let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
-        tracing::info!(generation, changed = ?changed_sources, tiles_invalidated, elapsed_ms, "{reason}: new generation");
+        tracing::info!(generation, changed = ?changed_sources, rebuilt = stats.rebuilt, carried = stats.carried, cut_off = stats.cut_off, elapsed_ms, "{reason}: new generation");
         for kind in error_events {
-            let _no_subscribers = self.events.send(SceneEvent { generation, kind });
+            self.send(generation, kind);
         }
-        let _no_subscribers = self.events.send(SceneEvent {
+        self.send(
             generation,
-            kind: EventKind::Generation {
+            EventKind::Generation {
                 changed_sources,
                 dirty,
-                tiles_invalidated,
-                tiles_rebuilt: 0,
+                stats,
                 elapsed_ms,
                 reason: reason.to_owned(),
             },
-        });
+        );
         self.generation.send_replace(generation);
         generation
+    }
+
+    /// Moves the cache from `old` to `new`: tiles the dirt does not touch
+    /// are carried over; touched ones are generated again, and a derived
+    /// tile whose input tiles all came out the same is carried (early
+    /// cutoff).
+    fn rebuild(
+        &self,
+        old: &SceneSnapshot,
+        new: &SceneSnapshot,
+        dirt: &HashMap<String, DirtySet>,
+    ) -> RebuildStats {
+        let mut stats = RebuildStats::default();
+        // Per source, the touched tiles that were rebuilt: changed or not.
+        let mut outcome: Vec<HashMap<(QualityKey, TileKey), bool>> =
+            vec![HashMap::new(); new.slots.len()];
+        let none = DirtySet::none();
+        for (i, slot) in new.slots.iter().enumerate() {
+            let Some(before) = old.slots.iter().find(|s| s.spec.id == slot.spec.id) else {
+                continue;
+            };
+            if before.effective_version == slot.effective_version {
+                continue;
+            }
+            let d = dirt.get(&slot.spec.id).unwrap_or(&none);
+            let mut to_build: Vec<(QualityKey, TileKey, u64)> = Vec::new();
+            for (quality, key, tile) in self.store.cached(&slot.spec.id, before.effective_version) {
+                let touched = d.touches_tile(&new.grid, key);
+                let inputs_same = !slot.inputs.is_empty()
+                    && slot.inputs.iter().all(|&input| {
+                        self.input_unchanged(new, dirt, &outcome, input, quality, key)
+                    });
+                if touched && !inputs_same {
+                    to_build.push((quality, key, tile.content_hash));
+                } else {
+                    if touched {
+                        stats.cut_off += 1;
+                    } else {
+                        stats.carried += 1;
+                    }
+                    self.store
+                        .carry(&slot.spec.id, slot.effective_version, quality, key, tile);
+                }
+            }
+            self.store.forget(&slot.spec.id, before.effective_version);
+            stats.invalidated += to_build.len() as u64;
+            let mut by_quality: HashMap<QualityKey, Vec<(usize, TileKey)>> = HashMap::new();
+            for (q, key, _) in &to_build {
+                by_quality.entry(*q).or_default().push((i, *key));
+            }
+            let hashes: HashMap<(QualityKey, TileKey), u64> =
+                to_build.iter().map(|(q, k, h)| ((*q, *k), *h)).collect();
+            for (q, keys) in by_quality {
+                for ((_, key), built) in
+                    keys.iter()
+                        .zip(self.store.build(new, &keys, &Quality::from(q)))
+                {
+                    stats.rebuilt += 1;
+                    let changed =
+                        built.map_or(true, |t| Some(&t.content_hash) != hashes.get(&(q, *key)));
+                    outcome[i].insert((q, *key), changed);
+                }
+            }
+        }
+        stats
+    }
+
+    /// True when every tile of source `input` that a derived tile at `key`
+    /// reads (the tile and its neighbours) is known to be unchanged.
+    fn input_unchanged(
+        &self,
+        new: &SceneSnapshot,
+        dirt: &HashMap<String, DirtySet>,
+        outcome: &[HashMap<(QualityKey, TileKey), bool>],
+        input: usize,
+        quality: QualityKey,
+        key: TileKey,
+    ) -> bool {
+        let id = &new.slots[input].spec.id;
+        let Some(d) = dirt.get(id).filter(|d| !d.is_none()) else {
+            return true;
+        };
+        let lattice = new.grid.lattice(key, relief_source::SampleKind::Corner);
+        let reach = new
+            .grid
+            .tile_extent(key)
+            .dilate(lattice.step_x, lattice.step_y);
+        let read: HashSet<TileKey> = new
+            .grid
+            .keys_overlapping(key.level, &reach)
+            .into_iter()
+            .collect();
+        read.iter().all(|k| {
+            !d.touches_tile(&new.grid, *k) || outcome[input].get(&(quality, *k)) == Some(&false)
+        })
     }
 }

@@ -3,7 +3,6 @@
 //! dependents, one generation per tile even when many ask at once).
 
 use std::collections::HashMap;
-use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -39,11 +38,37 @@ pub enum TileError {
     Cancelled,
 }
 
+/// The quality knobs a tile was made with, as a cache key part that can be
+/// turned back into the knobs (to rebuild the tile the same way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct QualityKey {
+    resampling: relief_source::Resampling,
+    reprojection_error_bits: u64,
+}
+
+impl From<&Quality> for QualityKey {
+    fn from(q: &Quality) -> Self {
+        Self {
+            resampling: q.resampling,
+            reprojection_error_bits: q.reprojection_error_px.to_bits(),
+        }
+    }
+}
+
+impl From<QualityKey> for Quality {
+    fn from(k: QualityKey) -> Self {
+        Self {
+            resampling: k.resampling,
+            reprojection_error_px: f64::from_bits(k.reprojection_error_bits),
+        }
+    }
+}
+
 #[derive(Clone, PartialEq, Eq, Hash)]
 struct CacheKey {
     source: Arc<str>,
     version: u64,
-    quality: u64,
+    quality: QualityKey,
     key: TileKey,
 }
 
@@ -65,13 +90,6 @@ pub struct TileStore {
     generated: Mutex<HashMap<String, u64>>,
     hits: AtomicU64,
     misses: AtomicU64,
-}
-
-fn quality_key(q: &Quality) -> u64 {
-    let mut h = std::hash::DefaultHasher::new();
-    q.resampling.hash(&mut h);
-    q.reprojection_error_px.to_bits().hash(&mut h);
-    h.finish()
 }
 
 impl TileStore {
@@ -121,7 +139,7 @@ impl TileStore {
         let cache_key = CacheKey {
             source: Arc::from(id),
             version: slot.effective_version,
-            quality: quality_key(quality),
+            quality: QualityKey::from(quality),
             key,
         };
         if let Some(t) = self.cache.get(&cache_key) {
@@ -238,34 +256,49 @@ impl TileStore {
             .unwrap_or(0)
     }
 
-    /// Copies the cached tiles of `source` at `from` that `keep` accepts to
-    /// version `to`. Returns (carried, left behind).
-    pub fn carry_over(
+    /// Every cached tile of `source` at `version`, coarse levels first.
+    pub fn cached(&self, source: &str, version: u64) -> Vec<(QualityKey, TileKey, Arc<Tile>)> {
+        let mut tiles: Vec<(QualityKey, TileKey, Arc<Tile>)> = self
+            .cache
+            .iter()
+            .filter(|(k, _)| &*k.source == source && k.version == version)
+            .map(|(k, t)| (k.quality, k.key, t))
+            .collect();
+        tiles.sort_by_key(|(_, k, _)| (k.level, k.y, k.x));
+        tiles
+    }
+
+    /// Files a tile that is still right under a new version of its source.
+    pub fn carry(
         &self,
         source: &str,
-        from: u64,
-        to: u64,
-        keep: impl Fn(TileKey) -> bool,
-    ) -> (u64, u64) {
-        let (mut carried, mut dropped) = (0, 0);
-        for (k, tile) in &self.cache {
-            if &*k.source != source || k.version != from {
-                continue;
-            }
-            if keep(k.key) {
-                self.cache.insert(
-                    CacheKey {
-                        version: to,
-                        ..(*k).clone()
-                    },
-                    tile,
-                );
-                carried += 1;
-            } else {
-                dropped += 1;
-            }
+        version: u64,
+        quality: QualityKey,
+        key: TileKey,
+        tile: Arc<Tile>,
+    ) {
+        self.cache.insert(
+            CacheKey {
+                source: Arc::from(source),
+                version,
+                quality,
+                key,
+            },
+            tile,
+        );
+    }
+
+    /// Drops every cached tile of `source` at `version`.
+    pub fn forget(&self, source: &str, version: u64) {
+        let stale: Vec<Arc<CacheKey>> = self
+            .cache
+            .iter()
+            .filter(|(k, _)| &*k.source == source && k.version == version)
+            .map(|(k, _)| k)
+            .collect();
+        for k in stale {
+            self.cache.invalidate(&*k);
         }
-        (carried, dropped)
     }
 
     pub fn counters(&self) -> StoreCounters {

@@ -304,7 +304,7 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
     let good = std::fs::read(&file).unwrap();
     let m = fixtures::write_manifest(
         dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[layers]\nheight = \"dem\"\n\n[watch]\npoll_ms = 50\n"),
+        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[layers]\nheight = \"dem\""),
     )
     .unwrap();
     let mut daemon = Reliefd::start(&m, &[]).unwrap();

@@ -161,7 +161,7 @@ async fn watch_streams_a_snapshot_then_generations_and_errors() {
     .unwrap();
     let manifest = fixtures::write_manifest(
         dir.path(),
-        "[scene]\nname = \"watched\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[watch]\npoll_ms = 50\n",
+        "[scene]\nname = \"watched\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"",
     )
     .unwrap();
     let daemon = Reliefd::start(&manifest, &[]).unwrap();

@@ -166,11 +166,15 @@ pub fn event_json(e: &pb::SceneEvent) -> Value {
         Some(pb::scene_event::Event::GenerationChanged(g)) => json!({
             "generation": e.generation, "changed_sources": g.changed_sources, "reason": g.reason,
             "dirty": g.dirty.iter().map(|d| json!({"source": d.source_id, "extents": d.extents.iter().map(|x| extent_json(Some(x))).collect::<Vec<_>>()})).collect::<Vec<_>>(),
-            "tiles_rebuilt": g.tiles_rebuilt, "tiles_invalidated": g.tiles_invalidated, "elapsed_ms": g.elapsed_ms,
+            "tiles_rebuilt": g.tiles_rebuilt, "tiles_invalidated": g.tiles_invalidated,
+            "tiles_carried_over": g.tiles_carried_over, "tiles_cut_off": g.tiles_cut_off, "elapsed_ms": g.elapsed_ms,
         }),
         Some(pb::scene_event::Event::SourceError(err)) => json!({
             "generation": e.generation, "source_error": {"source": err.source_id, "error": err.error, "kept_last_good": err.kept_last_good},
         }),
+        Some(pb::scene_event::Event::ManifestError(m)) => {
+            json!({"generation": e.generation, "manifest_error": m.error})
+        }
         None => json!({"generation": e.generation}),
     }
 }
@@ -181,13 +185,14 @@ pub fn event_text(e: &pb::SceneEvent) -> String {
             format!("[{}] {}", e.generation, state_text(s))
         }
         Some(pb::scene_event::Event::GenerationChanged(g)) => format!(
-            "[{}] {}: changed {} ({} dirty regions, {} tiles invalidated, {} rebuilt) in {:.1} ms",
+            "[{}] {}: changed {} ({} dirty regions; tiles: {} rebuilt, {} kept, {} cut off) in {:.1} ms",
             e.generation,
             g.reason,
             g.changed_sources.join(", "),
             g.dirty.iter().map(|d| d.extents.len()).sum::<usize>(),
-            g.tiles_invalidated,
             g.tiles_rebuilt,
+            g.tiles_carried_over,
+            g.tiles_cut_off,
             g.elapsed_ms
         ),
         Some(pb::scene_event::Event::SourceError(err)) => format!(
@@ -201,6 +206,12 @@ pub fn event_text(e: &pb::SceneEvent) -> String {
                 ""
             }
         ),
+        Some(pb::scene_event::Event::ManifestError(m)) => {
+            format!(
+                "[{}] manifest edit not taken (the scene stays as it was): {}",
+                e.generation, m.error
+            )
+        }
         None => format!("[{}]", e.generation),
     }
 }

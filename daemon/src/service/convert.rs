@@ -93,7 +93,11 @@ fn grid_info(grid: &TileGrid) -> pb::GridInfo {
     }
 }
 
-pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
+pub fn scene_state(
+    snap: &SceneSnapshot,
+    store: &TileStore,
+    manifest_error: Option<String>,
+) -> pb::SceneState {
     let sources = snap
         .slots
         .iter()
@@ -183,6 +187,7 @@ pub fn scene_state(snap: &SceneSnapshot, store: &TileStore) -> pb::SceneState {
             frames_rendered: 0,
         }),
         manifest: m.path.display().to_string(),
+        manifest_error: manifest_error.unwrap_or_default(),
     }
 }
 
@@ -191,8 +196,7 @@ pub fn scene_event(e: SceneEvent) -> pb::SceneEvent {
         EventKind::Generation {
             changed_sources,
             dirty,
-            tiles_invalidated,
-            tiles_rebuilt,
+            stats,
             elapsed_ms,
             reason,
         } => pb::scene_event::Event::GenerationChanged(pb::GenerationEvent {
@@ -204,11 +208,16 @@ pub fn scene_event(e: SceneEvent) -> pb::SceneEvent {
                     extents: d.extents.into_iter().map(extent).collect(),
                 })
                 .collect(),
-            tiles_rebuilt,
-            tiles_invalidated,
+            tiles_rebuilt: stats.rebuilt,
+            tiles_invalidated: stats.invalidated,
+            tiles_carried_over: stats.carried,
+            tiles_cut_off: stats.cut_off,
             elapsed_ms,
             reason,
         }),
+        EventKind::ManifestError { error } => {
+            pb::scene_event::Event::ManifestError(pb::ManifestErrorEvent { error })
+        }
         EventKind::SourceError {
             source_id,
             error,

@@ -30,7 +30,11 @@ impl SceneApi {
     }
 
     fn state(&self) -> SceneState {
-        convert::scene_state(&self.scene.snapshot(), &self.scene.store)
+        convert::scene_state(
+            &self.scene.snapshot(),
+            &self.scene.store,
+            self.scene.manifest_error(),
+        )
     }
 }
 
@@ -57,7 +61,8 @@ impl SceneService for SceneApi {
         let shutdown = self.shutdown.clone();
         tokio::spawn(async move {
             let snapshot = |scene: &Scene| {
-                let state = convert::scene_state(&scene.snapshot(), &scene.store);
+                let state =
+                    convert::scene_state(&scene.snapshot(), &scene.store, scene.manifest_error());
                 SceneEvent {
                     generation: state.generation,
                     event: Some(scene_event::Event::Snapshot(state)),
@@ -132,7 +137,7 @@ impl SceneService for SceneApi {
         let scene = Arc::clone(&self.scene);
         tokio::task::spawn_blocking(move || {
             let only = (!ids.is_empty()).then_some(ids);
-            scene.refresh(only.as_deref(), "reload requested")
+            scene.refresh(only.as_deref(), "reload requested", true)
         })
         .await
         .map_err(|_| Status::internal("reload task failed"))?;

@@ -26,6 +26,10 @@ pub enum SourceError {
     Input { input: String, message: String },
     #[error("{0} is not supported by this source")]
     Unsupported(&'static str),
+    /// The file changed while it was read: a writer is at work. Not an
+    /// error of the data; read again once the writer is done.
+    #[error("file changed while it was being read: {}", path.display())]
+    Changing { path: PathBuf },
 }
 
 fn path_suffix(path: Option<&PathBuf>) -> String {
@@ -34,6 +38,11 @@ fn path_suffix(path: Option<&PathBuf>) -> String {
 }
 
 impl SourceError {
+    /// True when the failure says nothing about the data (a writer was busy).
+    pub fn is_transient(&self) -> bool {
+        matches!(self, Self::Changing { .. })
+    }
+
     pub fn format(message: impl Into<String>, path: impl Into<PathBuf>) -> Self {
         Self::Format {
             message: message.into(),

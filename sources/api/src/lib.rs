@@ -9,6 +9,7 @@
 
 mod dirty;
 mod error;
+pub mod files;
 pub mod geodesy;
 mod grid;
 mod payload;

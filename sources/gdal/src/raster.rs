@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::SystemTime;
 
 use gdal::raster::{ColorInterpretation, GdalDataType, RasterBand};
@@ -55,24 +56,33 @@ impl VerticalUnits {
     }
 }
 
-/// What a file looked like when it was read: a later refresh compares it.
+/// What a dataset's files looked like when they were read: a later
+/// refresh compares it, and a read that sees it change is discarded.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct Fingerprint {
-    len: u64,
-    modified: Option<SystemTime>,
-}
+pub(crate) struct Fingerprint(Vec<(PathBuf, u64, Option<SystemTime>, u64)>);
 
 impl Fingerprint {
     pub(crate) fn of(path: &Path) -> Result<Self, SourceError> {
-        let meta = std::fs::metadata(path).map_err(|source| SourceError::Io {
-            what: "raster",
-            path: path.to_path_buf(),
-            source,
-        })?;
-        Ok(Self {
-            len: meta.len(),
-            modified: meta.modified().ok(),
-        })
+        use std::os::unix::fs::MetadataExt;
+        let mut files = Vec::new();
+        for (n, file) in relief_source::files::dataset_files(path)
+            .into_iter()
+            .enumerate()
+        {
+            match std::fs::metadata(&file) {
+                Ok(meta) => files.push((file, meta.len(), meta.modified().ok(), meta.ino())),
+                // The primary must be there; a sidecar may vanish between listing and stat.
+                Err(source) if n == 0 => {
+                    return Err(SourceError::Io {
+                        what: "raster",
+                        path: file,
+                        source,
+                    });
+                }
+                Err(_) => {}
+            }
+        }
+        Ok(Self(files))
     }
 }
 
@@ -95,11 +105,13 @@ pub(crate) struct ReadOptions {
     pub band: usize,
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct Raster {
     pub path: PathBuf,
     pub fingerprint: Fingerprint,
     pub kind: RasterKind,
+    /// Width and height of the base level, in pixels.
+    size: (usize, usize),
     /// Pixel-edge geotransform (GDAL's) and its inverse.
     pub geo: [f64; 6],
     pub inverse: [f64; 6],
@@ -107,7 +119,9 @@ pub(crate) struct Raster {
     pub crs_wkt: String,
     pub crs_name: String,
     pub units: VerticalUnits,
-    pub levels: Vec<Level>,
+    /// The mip pyramid, base level first; shared between versions whose
+    /// pixels are the same.
+    pub levels: Arc<Vec<Level>>,
     pub details: BTreeMap<String, String>,
 }
 
@@ -115,10 +129,142 @@ fn format_err(what: impl std::fmt::Display, path: &Path) -> SourceError {
     SourceError::format(what.to_string(), path)
 }
 
+/// A rectangle of base-level pixels, half open: [x0, x1) x [y0, y1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct PixelRect {
+    pub x0: usize,
+    pub y0: usize,
+    pub x1: usize,
+    pub y1: usize,
+}
+
+/// What a reload found.
+#[derive(Debug)]
+pub(crate) enum Reloaded {
+    /// Same size, georeferencing and pixels: the same data under the
+    /// files' new fingerprint.
+    Same(Raster),
+    /// Same size and georeferencing; these pixels changed.
+    Pixels(Raster, Vec<PixelRect>),
+    /// Size, georeferencing, CRS or kind changed: everything did.
+    Everything(Raster),
+}
+
+/// Side of the square blocks compared on reload.
+const DIFF_BLOCK: usize = 64;
+
 impl Raster {
     pub(crate) fn open(path: &Path, options: &ReadOptions) -> Result<Self, SourceError> {
+        let (raster, planes) = Self::read(path, options)?;
+        let kind = raster.kind;
+        let base = Level {
+            width: raster.width(),
+            height: raster.height(),
+            scale: 1.0,
+            planes,
+        };
+        Ok(Self {
+            levels: Arc::new(build_pyramid(base, kind)),
+            ..raster
+        })
+    }
+
+    /// Reads the file again and compares it with this version block by
+    /// block. Where only pixels changed, the mip pyramid is updated there
+    /// alone, so a small edit of a large DEM costs a read and a compare.
+    pub(crate) fn reload(&self, options: &ReadOptions) -> Result<Reloaded, SourceError> {
+        let (raster, planes) = Self::read(&self.path, options)?;
+        let same_frame = raster.width() == self.width()
+            && raster.height() == self.height()
+            && raster.geo == self.geo
+            && raster.crs_wkt == self.crs_wkt
+            && raster.kind == self.kind
+            && raster.units == self.units;
+        if !same_frame {
+            let kind = raster.kind;
+            let base = Level {
+                width: raster.width(),
+                height: raster.height(),
+                scale: 1.0,
+                planes,
+            };
+            return Ok(Reloaded::Everything(Self {
+                levels: Arc::new(build_pyramid(base, kind)),
+                ..raster
+            }));
+        }
+        let rects = diff_blocks(&self.levels[0].planes, &planes, self.width(), self.height());
+        if rects.is_empty() {
+            return Ok(Reloaded::Same(Self {
+                levels: Arc::clone(&self.levels),
+                ..raster
+            }));
+        }
+        let mut levels: Vec<Level> = Vec::with_capacity(self.levels.len());
+        levels.push(Level {
+            width: self.width(),
+            height: self.height(),
+            scale: 1.0,
+            planes,
+        });
+        for old in &self.levels[1..] {
+            let prev = levels.last().expect("the base level is there");
+            let mut planes = old.planes.clone();
+            for rect in &rects {
+                update_halved(
+                    prev,
+                    &mut planes,
+                    old.width,
+                    old.height,
+                    rect,
+                    old.scale as usize,
+                    self.kind,
+                );
+            }
+            levels.push(Level {
+                width: old.width,
+                height: old.height,
+                scale: old.scale,
+                planes,
+            });
+        }
+        Ok(Reloaded::Pixels(
+            Self {
+                levels: Arc::new(levels),
+                ..raster
+            },
+            rects,
+        ))
+    }
+
+    pub(crate) fn width(&self) -> usize {
+        self.size.0
+    }
+
+    pub(crate) fn height(&self) -> usize {
+        self.size.1
+    }
+
+    /// Reads the raster's frame and base planes (no pyramid yet). The
+    /// dataset's files are stat'ed before and after: a writer at work
+    /// makes the read fail as `Changing`, never half-read.
+    fn read(path: &Path, options: &ReadOptions) -> Result<(Self, Vec<Vec<f32>>), SourceError> {
         crate::source::install_gdal_error_handler();
         let fingerprint = Fingerprint::of(path)?;
+        let (raster, planes) = Self::read_unguarded(path, options, fingerprint.clone())?;
+        if Fingerprint::of(path)? != fingerprint {
+            return Err(SourceError::Changing {
+                path: path.to_path_buf(),
+            });
+        }
+        Ok((raster, planes))
+    }
+
+    fn read_unguarded(
+        path: &Path,
+        options: &ReadOptions,
+        fingerprint: Fingerprint,
+    ) -> Result<(Self, Vec<Vec<f32>>), SourceError> {
         let ds = open_dataset(path)?;
         let (width, height) = ds.raster_size();
         if width == 0 || height == 0 || ds.raster_count() == 0 {
@@ -166,33 +312,41 @@ impl Raster {
             }
             RasterKind::Color => (read_color(&ds, path, &mut details)?, VerticalUnits::Metres),
         };
-        let levels = build_pyramid(
-            Level {
-                width,
-                height,
-                scale: 1.0,
-                planes,
-            },
-            kind,
-        );
-        Ok(Self {
+        let raster = Self {
             path: path.to_path_buf(),
             fingerprint,
             kind,
+            size: (width, height),
             geo,
             inverse,
             crs_wkt,
             crs_name,
             units,
-            levels,
+            levels: Arc::new(Vec::new()),
             details,
-        })
+        };
+        Ok((raster, planes))
     }
 
     /// The raster's outer pixel edges in its own CRS: [min x, min y, max x, max y].
     pub(crate) fn bounds(&self) -> [f64; 4] {
-        let (w, h) = (self.levels[0].width as f64, self.levels[0].height as f64);
-        let corners = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)].map(|(p, l)| apply(&self.geo, p, l));
+        self.rect_bounds(&PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: self.size.0,
+            y1: self.size.1,
+        })
+    }
+
+    /// The outer edges of a pixel rectangle in the raster's CRS.
+    pub(crate) fn rect_bounds(&self, rect: &PixelRect) -> [f64; 4] {
+        let (x0, y0, w, h) = (
+            rect.x0 as f64,
+            rect.y0 as f64,
+            rect.x1 as f64,
+            rect.y1 as f64,
+        );
+        let corners = [(x0, y0), (w, y0), (x0, h), (w, h)].map(|(p, l)| apply(&self.geo, p, l));
         let xs = corners.map(|c| c.0);
         let ys = corners.map(|c| c.1);
         [
@@ -257,16 +411,16 @@ fn guess_kind(ds: &Dataset) -> RasterKind {
 
 /// Reads a whole band as f64; any block that fails to decode fails the read,
 /// so a truncated or corrupt file never yields a partial raster.
-fn read_band(band: &RasterBand<'_>, path: &Path) -> Result<Vec<f64>, SourceError> {
+fn read_band(band: &RasterBand<'_>, path: &Path) -> Result<Vec<f32>, SourceError> {
     let size = band.size();
-    band.read_as::<f64>((0, 0), size, size, None)
+    band.read_as::<f32>((0, 0), size, size, None)
         .map(|b| b.into_shape_and_vec().1)
         .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))
 }
 
 /// Where the dataset's mask (per-dataset mask or alpha) says a pixel is
 /// invalid. None when the mask is only the nodata value or all valid.
-fn read_mask(band: &RasterBand<'_>, path: &Path) -> Result<Option<Vec<f64>>, SourceError> {
+fn read_mask(band: &RasterBand<'_>, path: &Path) -> Result<Option<Vec<f32>>, SourceError> {
     let Ok(flags) = band.mask_flags() else {
         return Ok(None);
     };
@@ -330,11 +484,13 @@ fn read_heights(
         .enumerate()
         .map(|(i, &v)| {
             let masked = mask.as_ref().is_some_and(|m| m[i] == 0.0);
-            if masked || v.is_nan() || nodata.is_some_and(|nd| v == nd) {
+            if masked || v.is_nan() || nodata.is_some_and(|nd| v == nd as f32) {
                 voids += 1;
                 f32::NAN
+            } else if scale == 1.0 && offset == 0.0 {
+                v
             } else {
-                (v * scale + offset) as f32
+                (f64::from(v) * scale + offset) as f32
             }
         })
         .collect();
@@ -350,17 +506,17 @@ fn read_color(
     let count = ds.raster_count();
     let first = ds.rasterband(1).map_err(|e| format_err(e, path))?;
     let n = first.size().0 * first.size().1;
-    let mut rgba: Vec<Vec<f64>> = Vec::with_capacity(4);
+    let mut rgba: Vec<Vec<f32>> = Vec::with_capacity(4);
     let mut valid = vec![true; n];
 
     if let Some(table) = first.color_table() {
         details.insert("palette".into(), format!("{} entries", table.entry_count()));
         let nodata = first.no_data_value();
         let index = read_band(&first, path)?;
-        let mut planes: Vec<Vec<f64>> = (0..4).map(|_| Vec::with_capacity(n)).collect();
+        let mut planes: Vec<Vec<f32>> = (0..4).map(|_| Vec::with_capacity(n)).collect();
         for (i, &v) in index.iter().enumerate() {
             let entry = table.entry_as_rgb(v as usize);
-            if nodata.is_some_and(|nd| v == nd) || entry.is_none() {
+            if nodata.is_some_and(|nd| v == nd as f32) || entry.is_none() {
                 valid[i] = false;
             }
             let c = entry.unwrap_or(gdal::raster::RgbaEntry {
@@ -370,7 +526,7 @@ fn read_color(
                 a: 0,
             });
             for (plane, value) in planes.iter_mut().zip([c.r, c.g, c.b, c.a]) {
-                plane.push(f64::from(value));
+                plane.push(f32::from(value));
             }
         }
         rgba = planes;
@@ -398,12 +554,12 @@ fn read_color(
                     valid
                         .iter_mut()
                         .zip(&values)
-                        .for_each(|(ok, v)| *ok = *v != nd);
+                        .for_each(|(ok, v)| *ok = *v != nd as f32);
                 } else {
                     valid
                         .iter_mut()
                         .zip(&values)
-                        .for_each(|(ok, v)| *ok = *ok || *v != nd);
+                        .for_each(|(ok, v)| *ok = *ok || *v != nd as f32);
                 }
             }
             if let Some(mask) = read_mask(&band, path)? {
@@ -428,7 +584,7 @@ fn read_color(
     let alpha: Vec<f32> = rgba[3]
         .iter()
         .zip(&valid)
-        .map(|(a, ok)| if *ok { (*a / 255.0) as f32 } else { 0.0 })
+        .map(|(a, ok)| if *ok { *a / 255.0 } else { 0.0 })
         .collect();
     let mut planes: Vec<Vec<f32>> = rgba[..3]
         .iter()
@@ -471,34 +627,128 @@ fn build_pyramid(base: Level, kind: RasterKind) -> Vec<Level> {
     levels
 }
 
-fn halve(plane: &[f32], width: usize, height: usize, skip_nan: bool) -> Vec<f32> {
-    let (w, h) = (width.div_ceil(2), height.div_ceil(2));
-    let mut out = Vec::with_capacity(w * h);
-    for j in 0..h {
-        for i in 0..w {
-            let mut sum = 0.0f64;
-            let mut count = 0u32;
-            let mut cells = 0u32;
-            for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                let (x, y) = (2 * i + dx, 2 * j + dy);
-                if x < width && y < height {
-                    cells += 1;
-                    let v = plane[y * width + x];
-                    if !(skip_nan && v.is_nan()) {
-                        sum += f64::from(v);
-                        count += 1;
-                    }
-                }
+/// One pixel of the next level: the mean of the (up to) four pixels under
+/// it, valid ones only for heights.
+fn halved_pixel(
+    plane: &[f32],
+    width: usize,
+    height: usize,
+    i: usize,
+    j: usize,
+    skip_nan: bool,
+) -> f32 {
+    let mut sum = 0.0f64;
+    let (mut count, mut cells) = (0u32, 0u32);
+    for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let (x, y) = (2 * i + dx, 2 * j + dy);
+        if x < width && y < height {
+            cells += 1;
+            let v = plane[y * width + x];
+            if !(skip_nan && v.is_nan()) {
+                sum += f64::from(v);
+                count += 1;
             }
-            let divisor = if skip_nan { count } else { cells };
-            out.push(if count == 0 {
-                f32::NAN
-            } else {
-                (sum / f64::from(divisor)) as f32
-            });
         }
     }
-    out
+    let divisor = if skip_nan { count } else { cells };
+    if count == 0 {
+        f32::NAN
+    } else {
+        (sum / f64::from(divisor)) as f32
+    }
+}
+
+fn halve(plane: &[f32], width: usize, height: usize, skip_nan: bool) -> Vec<f32> {
+    let (w, h) = (width.div_ceil(2), height.div_ceil(2));
+    (0..h)
+        .flat_map(|j| (0..w).map(move |i| (i, j)))
+        .map(|(i, j)| halved_pixel(plane, width, height, i, j, skip_nan))
+        .collect()
+}
+
+/// Recomputes the pixels of one pyramid level (`width` x `height`, each
+/// `scale` base pixels wide) that lie over `rect` of the base level, from
+/// the level below it (`prev`, already updated).
+fn update_halved(
+    prev: &Level,
+    planes: &mut [Vec<f32>],
+    width: usize,
+    height: usize,
+    rect: &PixelRect,
+    scale: usize,
+    kind: RasterKind,
+) {
+    let (i0, j0) = (rect.x0 / scale, rect.y0 / scale);
+    let (i1, j1) = (
+        rect.x1.div_ceil(scale).min(width),
+        rect.y1.div_ceil(scale).min(height),
+    );
+    for (plane, below) in planes.iter_mut().zip(&prev.planes) {
+        for j in j0..j1 {
+            for i in i0..i1 {
+                plane[j * width + i] = halved_pixel(
+                    below,
+                    prev.width,
+                    prev.height,
+                    i,
+                    j,
+                    kind == RasterKind::Height,
+                );
+            }
+        }
+    }
+}
+
+/// The blocks whose pixels differ (bit for bit; all NaNs alike), merged
+/// into rectangles: runs along each row of blocks, then runs of equal runs
+/// down the rows.
+fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) -> Vec<PixelRect> {
+    let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    let (bw, bh) = (width.div_ceil(DIFF_BLOCK), height.div_ceil(DIFF_BLOCK));
+    let block_changed = |bx: usize, by: usize| {
+        let (x0, y0) = (bx * DIFF_BLOCK, by * DIFF_BLOCK);
+        let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
+        old.iter().zip(new).any(|(o, n)| {
+            (y0..y1).any(|y| (x0..x1).any(|x| !same(o[y * width + x], n[y * width + x])))
+        })
+    };
+    let mut rects: Vec<PixelRect> = Vec::new();
+    let mut open: Vec<PixelRect> = Vec::new();
+    for by in 0..bh {
+        let mut runs = Vec::new();
+        let mut bx = 0;
+        while bx < bw {
+            if block_changed(bx, by) {
+                let start = bx;
+                while bx < bw && block_changed(bx, by) {
+                    bx += 1;
+                }
+                runs.push((start * DIFF_BLOCK, (bx * DIFF_BLOCK).min(width)));
+            } else {
+                bx += 1;
+            }
+        }
+        let (y0, y1) = (by * DIFF_BLOCK, ((by + 1) * DIFF_BLOCK).min(height));
+        let mut still_open = Vec::new();
+        for rect in open.drain(..) {
+            if let Some(pos) = runs
+                .iter()
+                .position(|&(x0, x1)| x0 == rect.x0 && x1 == rect.x1)
+            {
+                runs.remove(pos);
+                still_open.push(PixelRect { y1, ..rect });
+            } else {
+                rects.push(rect);
+            }
+        }
+        still_open.extend(
+            runs.into_iter()
+                .map(|(x0, x1)| PixelRect { x0, y0, x1, y1 }),
+        );
+        open = still_open;
+    }
+    rects.extend(open);
+    rects
 }
 
 #[cfg(test)]
@@ -514,6 +764,117 @@ mod tests {
         assert_eq!(out[0], 3.0); // (1 + 3 + 5) / 3: the void does not pull it down
         assert!(out[1].is_nan()); // n, n over n: nothing valid
         assert!(out[2].is_nan() && out[3] == 2.0);
+    }
+
+    #[test]
+    fn block_diffs_find_exactly_the_changed_blocks() {
+        let (w, h) = (300, 200);
+        let old = vec![vec![1.0f32; w * h]];
+        let mut new = old.clone();
+        assert!(diff_blocks(&old, &new, w, h).is_empty());
+        // Two pixels in one block, and a 2 x 2 run of blocks elsewhere.
+        new[0][150 * w + 10] = 2.0;
+        new[0][151 * w + 40] = f32::NAN;
+        for (x, y) in [(130, 5), (200, 5), (130, 70), (200, 70)] {
+            new[0][y * w + x] = 3.0;
+        }
+        let rects = diff_blocks(&old, &new, w, h);
+        assert!(
+            rects.contains(&PixelRect {
+                x0: 0,
+                y0: 128,
+                x1: 64,
+                y1: 192
+            }),
+            "{rects:?}"
+        );
+        assert!(
+            rects.contains(&PixelRect {
+                x0: 128,
+                y0: 0,
+                x1: 256,
+                y1: 128
+            }),
+            "{rects:?}"
+        );
+        assert_eq!(rects.len(), 2, "{rects:?}");
+        // NaN over NaN is no change.
+        let holes = vec![vec![f32::NAN; 16]];
+        assert!(diff_blocks(&holes, &holes.clone(), 4, 4).is_empty());
+    }
+
+    #[test]
+    fn incremental_pyramids_equal_full_rebuilds() {
+        let (w, h) = (150, 90);
+        let base: Vec<f32> = (0..w * h).map(|i| (i % 97) as f32).collect();
+        let old = build_pyramid(
+            Level {
+                width: w,
+                height: h,
+                scale: 1.0,
+                planes: vec![base.clone()],
+            },
+            RasterKind::Height,
+        );
+        let mut edited = base;
+        for y in 20..41 {
+            for x in 65..99 {
+                edited[y * w + x] = if (x + y) % 7 == 0 {
+                    f32::NAN
+                } else {
+                    500.0 + x as f32
+                };
+            }
+        }
+        let rects = diff_blocks(&old[0].planes, &[edited.clone()], w, h);
+        let full = build_pyramid(
+            Level {
+                width: w,
+                height: h,
+                scale: 1.0,
+                planes: vec![edited.clone()],
+            },
+            RasterKind::Height,
+        );
+        let mut levels = vec![Level {
+            width: w,
+            height: h,
+            scale: 1.0,
+            planes: vec![edited],
+        }];
+        for o in &old[1..] {
+            let mut planes = o.planes.clone();
+            for r in &rects {
+                update_halved(
+                    levels.last().unwrap(),
+                    &mut planes,
+                    o.width,
+                    o.height,
+                    r,
+                    o.scale as usize,
+                    RasterKind::Height,
+                );
+            }
+            levels.push(Level {
+                width: o.width,
+                height: o.height,
+                scale: o.scale,
+                planes,
+            });
+        }
+        for (a, b) in levels.iter().zip(&full) {
+            let bits = |p: &[f32]| {
+                p.iter()
+                    .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(
+                bits(&a.planes[0]),
+                bits(&b.planes[0]),
+                "level of scale {}",
+                a.scale
+            );
+        }
     }
 
     #[test]

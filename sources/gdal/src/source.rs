@@ -11,11 +11,15 @@ use relief_source::{
 };
 
 use crate::crs;
-use crate::raster::{Fingerprint, Raster, RasterKind, ReadOptions, VerticalUnits};
+use crate::raster::{Fingerprint, Raster, RasterKind, ReadOptions, Reloaded, VerticalUnits};
 use crate::resample::{color_at, height_at};
 
 /// The manifest kind of this source.
 pub const KIND: &str = "gdal";
+
+/// How far, in output samples, a changed source pixel can reach: the widest
+/// kernel (lanczos, 3) plus one for the footprint of a mip pixel.
+const DIRTY_MARGIN_SAMPLES: u32 = 4;
 
 const OPTIONS: &[&str] = &["output", "crs", "vertical_datum", "vertical_units", "band"];
 
@@ -32,7 +36,7 @@ pub(crate) fn install_gdal_error_handler() {
 }
 
 /// One raster of the mosaic, placed in the scene grid.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct Placed {
     raster: Arc<Raster>,
     /// True when the raster's CRS is the grid's: pixels are then an affine
@@ -429,32 +433,61 @@ impl Source for GdalSource {
         self.generate_into(key, ctx.grid, ctx.quality)
     }
 
+    /// Re-reads the rasters whose files changed. Where only pixels changed
+    /// the dirt is exactly the changed blocks (plus the widest kernel's
+    /// reach); where the frame changed, the old and new extents whole.
     fn refresh(&self, grid: &TileGrid) -> Result<Refresh, SourceError> {
-        let mut changed = false;
+        let mut replaced = false;
         let mut dirty = DirtySet::none();
         let mut rasters = Vec::with_capacity(self.rasters.len());
         for placed in &self.rasters {
-            let path = &placed.raster.path;
-            if Fingerprint::of(path)? == placed.raster.fingerprint {
+            let raster = &placed.raster;
+            if Fingerprint::of(&raster.path)? == raster.fingerprint {
                 rasters.push(Placed {
-                    raster: Arc::clone(&placed.raster),
-                    same_crs: placed.same_crs,
-                    extent_in_grid: placed.extent_in_grid,
+                    raster: Arc::clone(raster),
+                    ..*placed
                 });
                 continue;
             }
-            let grid_srs = crs::spatial_ref(grid.crs(), None)?;
-            let new = place(Raster::open(path, &self.read)?, grid, &grid_srs)?;
-            // Until block hashes land, a changed raster dirties its old and
-            // new extents whole.
-            let extents = [placed.extent_in_grid, new.extent_in_grid]
-                .into_iter()
-                .flatten();
-            dirty = dirty.union(&DirtySet::from_extents(extents));
-            changed = true;
-            rasters.push(new);
+            replaced = true;
+            match raster.reload(&self.read)? {
+                Reloaded::Same(same) => rasters.push(Placed {
+                    raster: Arc::new(same),
+                    ..*placed
+                }),
+                Reloaded::Pixels(new, rects) => {
+                    let extents = rects.iter().filter_map(|rect| {
+                        let b = new.rect_bounds(rect);
+                        let b = if placed.same_crs {
+                            Some(b)
+                        } else {
+                            crs::transform_bounds(&new.crs_wkt, grid.crs(), b)
+                        };
+                        b.map(|[a, b, c, d]| Extent::new(a, b, c, d))
+                    });
+                    dirty = dirty.union(
+                        &DirtySet::from_extents(extents.collect::<Vec<_>>())
+                            .dilate_samples(DIRTY_MARGIN_SAMPLES),
+                    );
+                    rasters.push(Placed {
+                        raster: Arc::new(new),
+                        ..*placed
+                    });
+                }
+                Reloaded::Everything(new) => {
+                    let grid_srs = crs::spatial_ref(grid.crs(), None)?;
+                    let new = place(new, grid, &grid_srs)?;
+                    let extents = [placed.extent_in_grid, new.extent_in_grid]
+                        .into_iter()
+                        .flatten();
+                    dirty = dirty.union(
+                        &DirtySet::from_extents(extents).dilate_samples(DIRTY_MARGIN_SAMPLES),
+                    );
+                    rasters.push(new);
+                }
+            }
         }
-        if !changed {
+        if !replaced {
             return Ok(Refresh::Unchanged);
         }
         Ok(Refresh::Changed {
