@@ -418,9 +418,12 @@ impl Scene {
             let mut to_build: Vec<(QualityKey, TileKey, u64)> = Vec::new();
             for (quality, key, tile) in self.store.cached(&slot.spec.id, before.effective_version) {
                 let touched = d.touches_tile(&new.grid, key);
+                // Early cutoff applies to a derived source that itself did not
+                // change: only its inputs did.
                 let inputs_same = !slot.inputs.is_empty()
+                    && slot.version == before.version
                     && slot.inputs.iter().all(|&input| {
-                        self.input_unchanged(new, dirt, &outcome, input, quality, key)
+                        Self::input_unchanged(new, dirt, &outcome, input, quality, key)
                     });
                 if touched && !inputs_same {
                     to_build.push((quality, key, tile.content_hash));
@@ -460,7 +463,6 @@ impl Scene {
     /// True when every tile of source `input` that a derived tile at `key`
     /// reads (the tile and its neighbours) is known to be unchanged.
     fn input_unchanged(
-        &self,
         new: &SceneSnapshot,
         dirt: &HashMap<String, DirtySet>,
         outcome: &[HashMap<(QualityKey, TileKey), bool>],

@@ -254,9 +254,9 @@ fn note(
     let now = Instant::now();
     // Reads (ours included) change nothing.
     let (writing, closing) = match event.kind {
-        EventKind::Access(AccessKind::Close(AccessMode::Write)) => (false, true),
+        EventKind::Access(AccessKind::Close(AccessMode::Write))
+        | EventKind::Modify(ModifyKind::Name(RenameMode::To | RenameMode::Both)) => (false, true),
         EventKind::Access(_) => return,
-        EventKind::Modify(ModifyKind::Name(RenameMode::To | RenameMode::Both)) => (false, true),
         EventKind::Modify(ModifyKind::Data(_) | ModifyKind::Any) | EventKind::Create(_) => {
             (true, false)
         }

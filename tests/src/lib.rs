@@ -3,6 +3,7 @@
 //! reference values.
 
 pub mod daemon;
+pub mod edit;
 pub mod reference;
 
 /// Analytic fixtures live with the example scenes.

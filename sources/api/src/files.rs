@@ -40,6 +40,10 @@ pub fn is_repack_marker(path: &Path) -> bool {
 }
 
 /// Lock files, editor back-ups and SQLite journals: never data.
+#[expect(
+    clippy::case_sensitive_file_extension_comparisons,
+    reason = "the name is lower-cased first"
+)]
 pub fn is_lock_or_temp(path: &Path) -> bool {
     let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
         return true;

@@ -588,12 +588,7 @@ fn read_color(
         .collect();
     let mut planes: Vec<Vec<f32>> = rgba[..3]
         .iter()
-        .map(|p| {
-            p.iter()
-                .zip(&alpha)
-                .map(|(c, a)| (*c / 255.0) as f32 * a)
-                .collect()
-        })
+        .map(|p| p.iter().zip(&alpha).map(|(c, a)| *c / 255.0 * a).collect())
         .collect();
     planes.push(alpha);
     Ok(planes)
