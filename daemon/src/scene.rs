@@ -4,6 +4,7 @@
 
 use std::collections::{HashMap, HashSet};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
 use std::time::Instant;
 
@@ -79,6 +80,7 @@ pub struct Scene {
     generation: watch::Sender<u64>,
     events: broadcast::Sender<SceneEvent>,
     refresh_lock: Mutex<()>,
+    reads_retried: AtomicU64,
 }
 
 /// How many events a slow Watch subscriber may fall behind before it is
@@ -113,6 +115,7 @@ impl Scene {
                 generation,
                 events,
                 refresh_lock: Mutex::new(()),
+                reads_retried: AtomicU64::new(0),
             },
             open_errors,
         ))
@@ -132,6 +135,11 @@ impl Scene {
             .read()
             .expect("scene lock is never poisoned")
             .clone()
+    }
+
+    /// Reads discarded so far because a writer was still at work.
+    pub fn reads_retried(&self) -> u64 {
+        self.reads_retried.load(Ordering::Relaxed)
     }
 
     pub fn generations(&self) -> watch::Receiver<u64> {
@@ -215,6 +223,7 @@ impl Scene {
                     if transient || !report_errors {
                         tracing::debug!(source.id = %slot.spec.id, "not read yet: {e}");
                         retry.push(slot.spec.id.clone());
+                        self.reads_retried.fetch_add(1, Ordering::Relaxed);
                         continue;
                     }
                     let message = e.to_string();
@@ -231,6 +240,10 @@ impl Scene {
                 }
             }
         }
+        tracing::debug!(
+            read_ms = started.elapsed().as_secs_f64() * 1e3,
+            "sources read"
+        );
         if changed_sources.is_empty() && !status_changed {
             // Quiet swaps (new fingerprints, same data) still take effect.
             *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);
@@ -357,7 +370,13 @@ impl Scene {
         }
         new.generation = old.generation + 1;
         new.recompute_versions();
+        let rebuild_started = Instant::now();
         let stats = self.rebuild(old, &new, &dirt);
+        tracing::debug!(
+            rebuild_ms = rebuild_started.elapsed().as_secs_f64() * 1e3,
+            rebuilt = stats.rebuilt,
+            "cached tiles rebuilt"
+        );
 
         let dirty = new
             .slots

@@ -67,7 +67,8 @@ pub fn state_json(s: &pb::SceneState) -> Value {
         "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
         "sources": sources, "layers": s.layers, "effects": effects, "quality": s.quality,
         "counters": {"tiles_generated": c.tiles_generated, "cache_hits": c.cache_hits, "cache_misses": c.cache_misses,
-                     "cache_entries": c.cache_entries, "cache_bytes": c.cache_bytes, "cache_budget_bytes": c.cache_budget_bytes},
+                     "cache_entries": c.cache_entries, "cache_bytes": c.cache_bytes, "cache_budget_bytes": c.cache_budget_bytes,
+                     "reads_retried": c.reads_retried},
     })
 }
 

@@ -4,11 +4,9 @@ use relief_proto::v1 as pb;
 use relief_source::{Extent, PayloadKind, Quality, TileGrid, TileKey};
 use tonic::Status;
 
-use crate::graph::SceneSnapshot;
 use crate::manifest::EFFECTS;
-use crate::scene::{EventKind, SceneEvent};
+use crate::scene::{EventKind, Scene, SceneEvent};
 use crate::service::status::invalid_field;
-use crate::tiles::TileStore;
 
 pub fn extent(e: Extent) -> pb::Extent {
     pb::Extent {
@@ -93,11 +91,12 @@ fn grid_info(grid: &TileGrid) -> pb::GridInfo {
     }
 }
 
-pub fn scene_state(
-    snap: &SceneSnapshot,
-    store: &TileStore,
-    manifest_error: Option<String>,
-) -> pb::SceneState {
+/// The whole state of `scene` at its current generation.
+pub fn scene_state(scene: &Scene) -> pb::SceneState {
+    let snap = &*scene.snapshot();
+    let store = &scene.store;
+    let manifest_error = scene.manifest_error();
+    let reads_retried = scene.reads_retried();
     let sources = snap
         .slots
         .iter()
@@ -185,6 +184,7 @@ pub fn scene_state(
             cache_bytes: c.bytes,
             cache_budget_bytes: c.budget_bytes,
             frames_rendered: 0,
+            reads_retried,
         }),
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),

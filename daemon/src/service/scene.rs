@@ -30,11 +30,7 @@ impl SceneApi {
     }
 
     fn state(&self) -> SceneState {
-        convert::scene_state(
-            &self.scene.snapshot(),
-            &self.scene.store,
-            self.scene.manifest_error(),
-        )
+        convert::scene_state(&self.scene)
     }
 }
 
@@ -61,8 +57,7 @@ impl SceneService for SceneApi {
         let shutdown = self.shutdown.clone();
         tokio::spawn(async move {
             let snapshot = |scene: &Scene| {
-                let state =
-                    convert::scene_state(&scene.snapshot(), &scene.store, scene.manifest_error());
+                let state = convert::scene_state(&scene);
                 SceneEvent {
                     generation: state.generation,
                     event: Some(scene_event::Event::Snapshot(state)),

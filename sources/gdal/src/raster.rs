@@ -8,6 +8,7 @@ use std::time::SystemTime;
 
 use gdal::raster::{ColorInterpretation, GdalDataType, RasterBand};
 use gdal::{Dataset, GeoTransformEx};
+use rayon::prelude::*;
 use relief_source::SourceError;
 
 use crate::crs;
@@ -173,7 +174,9 @@ impl Raster {
     /// block. Where only pixels changed, the mip pyramid is updated there
     /// alone, so a small edit of a large DEM costs a read and a compare.
     pub(crate) fn reload(&self, options: &ReadOptions) -> Result<Reloaded, SourceError> {
+        let t = std::time::Instant::now();
         let (raster, planes) = Self::read(&self.path, options)?;
+        tracing::debug!(read_ms = t.elapsed().as_secs_f64() * 1e3, "raster read");
         let same_frame = raster.width() == self.width()
             && raster.height() == self.height()
             && raster.geo == self.geo
@@ -193,7 +196,9 @@ impl Raster {
                 ..raster
             }));
         }
+        let t = std::time::Instant::now();
         let rects = diff_blocks(&self.levels[0].planes, &planes, self.width(), self.height());
+        tracing::debug!(diff_ms = t.elapsed().as_secs_f64() * 1e3, "raster compared");
         if rects.is_empty() {
             return Ok(Reloaded::Same(Self {
                 levels: Arc::clone(&self.levels),
@@ -265,7 +270,9 @@ impl Raster {
         options: &ReadOptions,
         fingerprint: Fingerprint,
     ) -> Result<(Self, Vec<Vec<f32>>), SourceError> {
+        let t = std::time::Instant::now();
         let ds = open_dataset(path)?;
+        tracing::debug!(open_ms = t.elapsed().as_secs_f64() * 1e3, "raster opened");
         let (width, height) = ds.raster_size();
         if width == 0 || height == 0 || ds.raster_count() == 0 {
             return Err(format_err("raster has no pixels or no bands", path));
@@ -418,6 +425,37 @@ fn read_band(band: &RasterBand<'_>, path: &Path) -> Result<Vec<f32>, SourceError
         .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))
 }
 
+/// Reads a whole band as f32, bands of rows in parallel, each task with its
+/// own dataset handle (a GDAL dataset must not be shared between threads).
+/// Any block that fails to decode fails the read.
+fn read_band_parallel(
+    path: &Path,
+    band_index: usize,
+    (width, height): (usize, usize),
+) -> Result<Vec<f32>, SourceError> {
+    let mut values = vec![0.0f32; width * height];
+    values
+        .par_chunks_mut(width * DIFF_BLOCK)
+        .enumerate()
+        .try_for_each_init(
+            || open_dataset(path),
+            |ds, (chunk, rows)| {
+                let ds = ds.as_ref().map_err(|e| format_err(e.to_string(), path))?;
+                let band = ds.rasterband(band_index).map_err(|e| format_err(e, path))?;
+                let n_rows = rows.len() / width;
+                band.read_into_slice::<f32>(
+                    (0, (chunk * DIFF_BLOCK) as isize),
+                    (width, n_rows),
+                    (width, n_rows),
+                    rows,
+                    None,
+                )
+                .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))
+            },
+        )?;
+    Ok(values)
+}
+
 /// Where the dataset's mask (per-dataset mask or alpha) says a pixel is
 /// invalid. None when the mask is only the nodata value or all valid.
 fn read_mask(band: &RasterBand<'_>, path: &Path) -> Result<Option<Vec<f32>>, SourceError> {
@@ -476,24 +514,30 @@ fn read_heights(
         },
     );
 
-    let values = read_band(&band, path)?;
+    let (width, height) = band.size();
+    let mut heights = read_band_parallel(path, options.band, (width, height))?;
     let mask = read_mask(&band, path)?;
-    let mut voids = 0usize;
-    let heights = values
-        .iter()
+    let nodata = nodata.map(|nd| nd as f32);
+    // Map nodata to NaN and apply scale, offset and units, a band of rows
+    // per task.
+    let voids: usize = heights
+        .par_chunks_mut(width * DIFF_BLOCK)
         .enumerate()
-        .map(|(i, &v)| {
-            let masked = mask.as_ref().is_some_and(|m| m[i] == 0.0);
-            if masked || v.is_nan() || nodata.is_some_and(|nd| v == nd as f32) {
-                voids += 1;
-                f32::NAN
-            } else if scale == 1.0 && offset == 0.0 {
-                v
-            } else {
-                (f64::from(v) * scale + offset) as f32
+        .map(|(chunk, values)| {
+            let first = chunk * width * DIFF_BLOCK;
+            let mut voids = 0;
+            for (i, v) in values.iter_mut().enumerate() {
+                let masked = mask.as_ref().is_some_and(|m| m[first + i] == 0.0);
+                if masked || v.is_nan() || nodata == Some(*v) {
+                    voids += 1;
+                    *v = f32::NAN;
+                } else if scale != 1.0 || offset != 0.0 {
+                    *v = (f64::from(*v) * scale + offset) as f32;
+                }
             }
+            voids
         })
-        .collect();
+        .sum();
     details.insert("nodata_pixels".into(), voids.to_string());
     Ok((heights, units))
 }
@@ -700,13 +744,23 @@ fn update_halved(
 fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) -> Vec<PixelRect> {
     let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
     let (bw, bh) = (width.div_ceil(DIFF_BLOCK), height.div_ceil(DIFF_BLOCK));
-    let block_changed = |bx: usize, by: usize| {
-        let (x0, y0) = (bx * DIFF_BLOCK, by * DIFF_BLOCK);
-        let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
-        old.iter().zip(new).any(|(o, n)| {
-            (y0..y1).any(|y| (x0..x1).any(|x| !same(o[y * width + x], n[y * width + x])))
+    let changed: Vec<bool> = (0..bw * bh)
+        .into_par_iter()
+        .map(|b| {
+            let (x0, y0) = ((b % bw) * DIFF_BLOCK, (b / bw) * DIFF_BLOCK);
+            let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
+            old.iter().zip(new).any(|(o, n)| {
+                (y0..y1).any(|y| {
+                    let row = y * width;
+                    o[row + x0..row + x1]
+                        .iter()
+                        .zip(&n[row + x0..row + x1])
+                        .any(|(a, b)| !same(*a, *b))
+                })
+            })
         })
-    };
+        .collect();
+    let block_changed = |bx: usize, by: usize| changed[by * bw + bx];
     let mut rects: Vec<PixelRect> = Vec::new();
     let mut open: Vec<PixelRect> = Vec::new();
     for by in 0..bh {

@@ -9,7 +9,8 @@ use crate::raster::Level;
 const MAX_TAPS: usize = 6;
 
 /// The taps of a 1-D kernel: clamped indices and weights.
-struct Taps {
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Taps {
     index: [usize; MAX_TAPS],
     weight: [f64; MAX_TAPS],
     len: usize,
@@ -17,7 +18,7 @@ struct Taps {
 
 /// Taps for edge coordinate `u` on an axis of `size` pixels, or None when
 /// `u` lies beyond the raster's outer edge.
-fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
+pub(crate) fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
     if !(u >= 0.0 && u <= size as f64) {
         return None;
     }
@@ -52,9 +53,15 @@ fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
 /// NaN when the point is off the raster or mostly over nodata.
 pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> f32 {
     let (u, v) = (u / level.scale, v / level.scale);
-    let (Some(tx), Some(ty)) = (taps(u, level.width, kernel), taps(v, level.height, kernel)) else {
-        return f32::NAN;
-    };
+    match (taps(u, level.width, kernel), taps(v, level.height, kernel)) {
+        (Some(tx), Some(ty)) => height_from_taps(level, &tx, &ty),
+        _ => f32::NAN,
+    }
+}
+
+/// A height from taps already found (a tile whose columns and rows map to
+/// source columns and rows finds them once per column and row).
+pub(crate) fn height_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> f32 {
     let plane = &level.planes[0];
     let (mut sum, mut valid_w, mut total_w) = (0.0f64, 0.0f64, 0.0f64);
     for y in 0..ty.len {
@@ -76,12 +83,8 @@ pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> f3
     }
 }
 
-/// Premultiplied RGBA at edge coordinates (u, v); transparent off the raster.
-pub(crate) fn color_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> [f32; 4] {
-    let (u, v) = (u / level.scale, v / level.scale);
-    let (Some(tx), Some(ty)) = (taps(u, level.width, kernel), taps(v, level.height, kernel)) else {
-        return [0.0; 4];
-    };
+/// Premultiplied RGBA from taps already found.
+pub(crate) fn color_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> [f32; 4] {
     let mut acc = [0.0f64; 4];
     let mut total_w = 0.0;
     for y in 0..ty.len {

@@ -12,7 +12,7 @@ use relief_source::{
 
 use crate::crs;
 use crate::raster::{Fingerprint, Raster, RasterKind, ReadOptions, Reloaded, VerticalUnits};
-use crate::resample::{color_at, height_at};
+use crate::resample::{Taps, color_from_taps, height_at, height_from_taps, taps};
 
 /// The manifest kind of this source.
 pub const KIND: &str = "gdal";
@@ -28,11 +28,35 @@ const OPTIONS: &[&str] = &["output", "crs", "vertical_datum", "vertical_units", 
 pub(crate) fn install_gdal_error_handler() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
+        // Whole-band reads of uncompressed GeoTIFFs skip the block cache:
+        // every refresh reads the whole raster once, cache or no cache.
+        let _unknown_option_is_harmless = gdal::config::set_config_option("GTIFF_DIRECT_IO", "YES");
         gdal::config::set_error_handler(|class, code, msg| match class {
             CplErrType::Fatal | CplErrType::Failure => tracing::debug!(code, "gdal: {msg}"),
             _ => tracing::trace!(code, "gdal: {msg}"),
         });
     });
+}
+
+/// Kernel taps for every sample of a tile in one raster.
+struct Sampler {
+    mip: usize,
+    /// Per column and per row when `separable`, else per sample (u and v).
+    columns: Vec<Option<Taps>>,
+    rows: Vec<Option<Taps>>,
+    separable: bool,
+}
+
+impl Sampler {
+    /// The taps of sample `n` (row-major, `cols` a row); None off the raster.
+    fn taps(&self, n: usize, cols: usize) -> Option<(Taps, Taps)> {
+        let (tx, ty) = if self.separable {
+            (self.columns[n % cols], self.rows[n / cols])
+        } else {
+            (self.columns[n], self.rows[n])
+        };
+        Some((tx?, ty?))
+    }
 }
 
 /// One raster of the mosaic, placed in the scene grid.
@@ -257,23 +281,64 @@ impl GdalSource {
         Ok((us, vs))
     }
 
-    /// The mip level whose pixels are at most as large as the output
-    /// samples near the tile's centre.
-    fn mip_for(placed: &Placed, us: &[f64], vs: &[f64], cols: usize, rows: usize) -> usize {
-        let c = (rows / 2) * cols + cols / 2;
-        let (dx, dy) = if cols > 1 && rows > 1 {
-            (
-                (us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]),
-                (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]),
-            )
-        } else {
-            (1.0, 1.0)
+    /// Where each lattice sample reads `placed`'s raster: the mip level
+    /// whose pixels are at most as large as the samples near the tile's
+    /// centre, and the kernel taps there. A north-up raster in the grid's
+    /// CRS maps columns to columns and rows to rows, so its taps are found
+    /// once per column and row; any other needs them per sample.
+    fn sampler(
+        &self,
+        placed: &Placed,
+        lattice: &Lattice,
+        quality: &Quality,
+    ) -> Result<Sampler, SourceError> {
+        let r = &placed.raster;
+        let (cols, rows) = (lattice.cols, lattice.rows);
+        let kernel = quality.resampling;
+        let mip_for = |dx: f64, dy: f64| {
+            let ratio = dx.abs().max(dy.abs());
+            if !ratio.is_finite() || ratio < 2.0 {
+                0
+            } else {
+                (ratio.log2().floor() as usize).min(r.levels.len() - 1)
+            }
         };
-        let ratio = dx.max(dy);
-        if !ratio.is_finite() || ratio < 2.0 {
-            return 0;
+        let taps_of = |coords: &[f64], size: usize, scale: f64| -> Vec<Option<Taps>> {
+            coords
+                .iter()
+                .map(|c| taps(c / scale, size, kernel))
+                .collect()
+        };
+        if placed.same_crs && r.geo[2] == 0.0 && r.geo[4] == 0.0 {
+            // North-up: the inverse has no cross terms, so u depends on x alone.
+            let us: Vec<f64> = (0..cols).map(|i| r.pixel_of(lattice.x(i), 0.0).0).collect();
+            let vs: Vec<f64> = (0..rows).map(|j| r.pixel_of(0.0, lattice.y(j)).1).collect();
+            let mip = mip_for(
+                us[cols / 2 + 1] - us[cols / 2],
+                vs[rows / 2 + 1] - vs[rows / 2],
+            );
+            let level = &r.levels[mip];
+            return Ok(Sampler {
+                mip,
+                columns: taps_of(&us, level.width, level.scale),
+                rows: taps_of(&vs, level.height, level.scale),
+                separable: true,
+            });
         }
-        (ratio.log2().floor() as usize).min(placed.raster.levels.len() - 1)
+        let (us, vs) = self.pixel_coords(placed, lattice, quality.reprojection_error_px)?;
+        let c = (rows / 2) * cols + cols / 2;
+        let (dx, dy) = (
+            (us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]),
+            (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]),
+        );
+        let mip = mip_for(dx, dy);
+        let level = &r.levels[mip];
+        Ok(Sampler {
+            mip,
+            columns: taps_of(&us, level.width, level.scale),
+            rows: taps_of(&vs, level.height, level.scale),
+            separable: false,
+        })
     }
 
     fn generate_into(
@@ -302,21 +367,24 @@ impl GdalSource {
             if !placed.extent_in_grid.is_some_and(|e| e.touches(&reach)) {
                 continue;
             }
-            let (us, vs) = self.pixel_coords(placed, &lattice, quality.reprojection_error_px)?;
-            let level =
-                &placed.raster.levels[Self::mip_for(placed, &us, &vs, lattice.cols, lattice.rows)];
+            let sampler = self.sampler(placed, &lattice, quality)?;
+            let level = &placed.raster.levels[sampler.mip];
             match self.kind {
                 RasterKind::Height => {
-                    for ((h, u), v) in heights.iter_mut().zip(&us).zip(&vs) {
+                    for (n, h) in heights.iter_mut().enumerate() {
                         if h.is_nan() {
-                            *h = height_at(level, *u, *v, quality.resampling);
+                            *h = sampler
+                                .taps(n, lattice.cols)
+                                .map_or(f32::NAN, |(tx, ty)| height_from_taps(level, &tx, &ty));
                         }
                     }
                 }
                 RasterKind::Color => {
-                    for ((c, u), v) in colors.iter_mut().zip(&us).zip(&vs) {
+                    for (n, c) in colors.iter_mut().enumerate() {
                         if c[3] < 1.0 {
-                            let new = color_at(level, *u, *v, quality.resampling);
+                            let new = sampler
+                                .taps(n, lattice.cols)
+                                .map_or([0.0; 4], |(tx, ty)| color_from_taps(level, &tx, &ty));
                             // Earlier rasters stay on top: "over" compositing.
                             let keep = 1.0 - c[3];
                             for k in 0..4 {
