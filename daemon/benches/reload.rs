@@ -91,6 +91,11 @@ async fn run(dir: &std::path::Path, label: &str, watch: &str, edits: usize, seed
         .await
         .unwrap()
         .into_inner();
+    if std::env::var_os("RELIEF_TEST_LOG").is_some() {
+        for line in daemon.log().iter().rev().take(12).rev() {
+            println!("{line}");
+        }
+    }
     daemon.stop(&[]).unwrap();
     Run {
         label: label.into(),

@@ -26,7 +26,10 @@ impl Reliefd {
             .arg(manifest)
             .args(["--listen", "127.0.0.1:0"])
             .args(extra)
-            .env("RUST_LOG", "info")
+            .env(
+                "RUST_LOG",
+                std::env::var("RELIEF_TEST_LOG").unwrap_or_else(|_| "info".into()),
+            )
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -70,7 +73,12 @@ impl Reliefd {
     }
 
     pub async fn channel(&self) -> anyhow::Result<Channel> {
-        Ok(Channel::from_shared(self.url())?.connect().await?)
+        // Wide HTTP/2 windows, as the CLI uses: a tile arrives in one flight.
+        Ok(Channel::from_shared(self.url())?
+            .initial_stream_window_size(8 * 1024 * 1024)
+            .initial_connection_window_size(16 * 1024 * 1024)
+            .connect()
+            .await?)
     }
 
     pub fn is_running(&mut self) -> bool {

@@ -96,6 +96,9 @@ fn main() -> ExitCode {
 async fn connect(server: &str) -> anyhow::Result<Channel> {
     Channel::from_shared(server.to_owned())
         .with_context(|| format!("invalid server address '{server}'"))?
+        // Wide HTTP/2 windows: a height tile (264 kB) arrives in one flight.
+        .initial_stream_window_size(8 * 1024 * 1024)
+        .initial_connection_window_size(16 * 1024 * 1024)
         .connect()
         .await
         .with_context(|| format!("cannot reach reliefd at {server}"))

@@ -57,7 +57,7 @@ impl SceneService for SceneApi {
         let shutdown = self.shutdown.clone();
         tokio::spawn(async move {
             let snapshot = |scene: &Scene| {
-                let state = convert::scene_state(&scene);
+                let state = convert::scene_state(scene);
                 SceneEvent {
                     generation: state.generation,
                     event: Some(scene_event::Event::Snapshot(state)),

@@ -153,15 +153,13 @@ impl Payload {
         h.update(self.kind().name().as_bytes());
         match self {
             Self::Height(t) => {
-                for v in &t.heights {
-                    // All NaNs hash alike.
-                    let bits = if v.is_nan() {
-                        f32::NAN.to_bits()
-                    } else {
-                        v.to_bits()
-                    };
-                    h.update(&bits.to_le_bytes());
-                }
+                // All NaNs hash alike; one update for the whole tile.
+                let canonical: Vec<u8> = t
+                    .heights
+                    .iter()
+                    .flat_map(|v| if v.is_nan() { f32::NAN } else { *v }.to_le_bytes())
+                    .collect();
+                h.update(&canonical);
             }
             Self::Color(t) => h.update(&t.rgba),
             Self::Mask(t) => h.update(&t.coverage),

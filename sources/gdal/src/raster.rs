@@ -270,9 +270,7 @@ impl Raster {
         options: &ReadOptions,
         fingerprint: Fingerprint,
     ) -> Result<(Self, Vec<Vec<f32>>), SourceError> {
-        let t = std::time::Instant::now();
         let ds = open_dataset(path)?;
-        tracing::debug!(open_ms = t.elapsed().as_secs_f64() * 1e3, "raster opened");
         let (width, height) = ds.raster_size();
         if width == 0 || height == 0 || ds.raster_count() == 0 {
             return Err(format_err("raster has no pixels or no bands", path));
@@ -751,11 +749,13 @@ fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) 
             let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
             old.iter().zip(new).any(|(o, n)| {
                 (y0..y1).any(|y| {
-                    let row = y * width;
-                    o[row + x0..row + x1]
-                        .iter()
-                        .zip(&n[row + x0..row + x1])
-                        .any(|(a, b)| !same(*a, *b))
+                    let (o, n) = (
+                        &o[y * width + x0..y * width + x1],
+                        &n[y * width + x0..y * width + x1],
+                    );
+                    // Plain float equality is the fast check; NaNs (nodata)
+                    // fail it and get the exact one.
+                    o != n && o.iter().zip(n).any(|(a, b)| !same(*a, *b))
                 })
             })
         })

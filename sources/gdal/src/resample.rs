@@ -63,6 +63,23 @@ pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> f3
 /// source columns and rows finds them once per column and row).
 pub(crate) fn height_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> f32 {
     let plane = &level.planes[0];
+    if tx.len == 2 && ty.len == 2 {
+        // Bilinear, the common case, without the general loops.
+        let (r0, r1) = (ty.index[0] * level.width, ty.index[1] * level.width);
+        let h = [
+            plane[r0 + tx.index[0]],
+            plane[r0 + tx.index[1]],
+            plane[r1 + tx.index[0]],
+            plane[r1 + tx.index[1]],
+        ];
+        if !h.iter().any(|v| v.is_nan()) {
+            let top = tx.weight[0] * f64::from(h[0]) + tx.weight[1] * f64::from(h[1]);
+            let bottom = tx.weight[0] * f64::from(h[2]) + tx.weight[1] * f64::from(h[3]);
+            return ((ty.weight[0] * top + ty.weight[1] * bottom)
+                / ((tx.weight[0] + tx.weight[1]) * (ty.weight[0] + ty.weight[1])))
+                as f32;
+        }
+    }
     let (mut sum, mut valid_w, mut total_w) = (0.0f64, 0.0f64, 0.0f64);
     for y in 0..ty.len {
         let row = ty.index[y] * level.width;

@@ -48,14 +48,20 @@ struct Sampler {
 }
 
 impl Sampler {
-    /// The taps of sample `n` (row-major, `cols` a row); None off the raster.
-    fn taps(&self, n: usize, cols: usize) -> Option<(Taps, Taps)> {
-        let (tx, ty) = if self.separable {
-            (self.columns[n % cols], self.rows[n / cols])
-        } else {
-            (self.columns[n], self.rows[n])
-        };
-        Some((tx?, ty?))
+    /// Calls `f` with every sample's index (row-major, `cols` a row) and
+    /// its taps, None off the raster.
+    fn each(&self, cols: usize, rows: usize, mut f: impl FnMut(usize, Option<(&Taps, &Taps)>)) {
+        for j in 0..rows {
+            for i in 0..cols {
+                let n = j * cols + i;
+                let (tx, ty) = if self.separable {
+                    (&self.columns[i], &self.rows[j])
+                } else {
+                    (&self.columns[n], &self.rows[n])
+                };
+                f(n, tx.as_ref().zip(ty.as_ref()));
+            }
+        }
     }
 }
 
@@ -370,29 +376,23 @@ impl GdalSource {
             let sampler = self.sampler(placed, &lattice, quality)?;
             let level = &placed.raster.levels[sampler.mip];
             match self.kind {
-                RasterKind::Height => {
-                    for (n, h) in heights.iter_mut().enumerate() {
-                        if h.is_nan() {
-                            *h = sampler
-                                .taps(n, lattice.cols)
-                                .map_or(f32::NAN, |(tx, ty)| height_from_taps(level, &tx, &ty));
+                RasterKind::Height => sampler.each(lattice.cols, lattice.rows, |n, taps| {
+                    if heights[n].is_nan() {
+                        heights[n] =
+                            taps.map_or(f32::NAN, |(tx, ty)| height_from_taps(level, tx, ty));
+                    }
+                }),
+                RasterKind::Color => sampler.each(lattice.cols, lattice.rows, |n, taps| {
+                    let c = &mut colors[n];
+                    if c[3] < 1.0 {
+                        let new = taps.map_or([0.0; 4], |(tx, ty)| color_from_taps(level, tx, ty));
+                        // Earlier rasters stay on top: "over" compositing.
+                        let keep = 1.0 - c[3];
+                        for k in 0..4 {
+                            c[k] += keep * new[k];
                         }
                     }
-                }
-                RasterKind::Color => {
-                    for (n, c) in colors.iter_mut().enumerate() {
-                        if c[3] < 1.0 {
-                            let new = sampler
-                                .taps(n, lattice.cols)
-                                .map_or([0.0; 4], |(tx, ty)| color_from_taps(level, &tx, &ty));
-                            // Earlier rasters stay on top: "over" compositing.
-                            let keep = 1.0 - c[3];
-                            for k in 0..4 {
-                                c[k] += keep * new[k];
-                            }
-                        }
-                    }
-                }
+                }),
             }
         }
         Ok(match self.kind {
