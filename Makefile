@@ -15,3 +15,4 @@ test: setup
 
 bench: setup
 	cargo bench -p relief-daemon --bench pyramid
+	cargo bench -p relief-daemon --bench reload
