@@ -28,17 +28,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn machine() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
     format!(
-        "{cpu}, {} cores visible, tile pool of {THREADS} threads",
-        std::thread::available_parallelism().map_or(0, std::num::NonZero::get)
+        "{}, tile pool of {THREADS} threads",
+        relief_tests::machine()
     )
 }
 

@@ -161,20 +161,12 @@ fn main() {
         })
         .collect();
 
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
-        })
-        .unwrap_or_default();
     println!(
         "\n## Edit to WaitForGeneration: 64 x 64 window rewritten through GDAL in a {SIDE} x {SIDE} Float32 DEM"
     );
     println!(
-        "machine: {cpu}, {} cores; reliefd release build; every tile of levels 0..={MAX_LEVEL} over the DEM cached",
-        std::thread::available_parallelism().map_or(0, std::num::NonZero::get)
+        "machine: {}; reliefd release build; every tile of levels 0..={MAX_LEVEL} over the DEM cached",
+        relief_tests::machine()
     );
     println!(
         "| [watch] setting | edits | p50 ms | p95 ms | max ms | tiles rebuilt per edit (mean) | cached tiles (full rebuild) | full rebuild ms | reads retried |"

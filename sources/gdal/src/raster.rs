@@ -157,17 +157,21 @@ const DIFF_BLOCK: usize = 64;
 impl Raster {
     pub(crate) fn open(path: &Path, options: &ReadOptions) -> Result<Self, SourceError> {
         let (raster, planes) = Self::read(path, options)?;
-        let kind = raster.kind;
+        Ok(raster.with_base(planes))
+    }
+
+    /// This raster with `planes` as its base level and a full pyramid.
+    fn with_base(self, planes: Vec<Vec<f32>>) -> Self {
         let base = Level {
-            width: raster.width(),
-            height: raster.height(),
+            width: self.width(),
+            height: self.height(),
             scale: 1.0,
             planes,
         };
-        Ok(Self {
-            levels: Arc::new(build_pyramid(base, kind)),
-            ..raster
-        })
+        Self {
+            levels: Arc::new(build_pyramid(base, self.kind)),
+            ..self
+        }
     }
 
     /// Reads the file again and compares it with this version block by
@@ -184,17 +188,7 @@ impl Raster {
             && raster.kind == self.kind
             && raster.units == self.units;
         if !same_frame {
-            let kind = raster.kind;
-            let base = Level {
-                width: raster.width(),
-                height: raster.height(),
-                scale: 1.0,
-                planes,
-            };
-            return Ok(Reloaded::Everything(Self {
-                levels: Arc::new(build_pyramid(base, kind)),
-                ..raster
-            }));
+            return Ok(Reloaded::Everything(raster.with_base(planes)));
         }
         let t = std::time::Instant::now();
         let rects = diff_blocks(&self.levels[0].planes, &planes, self.width(), self.height());
