@@ -441,3 +441,81 @@ async fn manifest_edits_rebuild_only_what_they_affect() {
     assert!(!state.sources.iter().any(|s| s.id == "shade2"));
     daemon.stop(&["keeping the scene as it was"]).unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn lock_files_and_temporaries_never_trigger_a_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scene(dir.path(), ""), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let events = Events::follow(channel.clone()).await.unwrap();
+    // LibreOffice/QGIS-style lock, an editor back-up and a temporary copy.
+    for name in [".~lock.hill.tif#", "hill.tif~", "hill.tif.tmp"] {
+        std::fs::write(dir.path().join(name), b"not data").unwrap();
+    }
+    std::fs::remove_file(dir.path().join(".~lock.hill.tif#")).unwrap();
+    tokio::time::sleep(Duration::from_millis(900)).await;
+    assert!(
+        events.generations().is_empty(),
+        "{:?}",
+        events.generations()
+    );
+    assert!(events.errors().is_empty(), "{:?}", events.errors());
+    let state = SceneServiceClient::new(channel)
+        .get_state(pb::GetStateRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    assert_eq!(state.generation, 1);
+    daemon.stop(&[]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_sidecar_written_after_its_raster_is_picked_up() {
+    let dir = tempfile::tempdir().unwrap();
+    // A DEM with a flat 123 m terrace in its north-west corner.
+    let path = fixtures::write_dem(
+        &dir.path().join("hill.tif"),
+        &fixtures::hill_spec(),
+        |lon, lat| {
+            if lon < 10.1 && lat > 45.4 {
+                123.0
+            } else {
+                fixtures::hill(lon, lat)
+            }
+        },
+    )
+    .unwrap();
+    let manifest = fixtures::write_manifest(dir.path(), "[scene]\nname = \"pam\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[layers]\nheight = \"dem\"\n").unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    assert_eq!(
+        edit::height_at(channel.clone(), 10.05, 45.45)
+            .await
+            .unwrap(),
+        Some(123.0)
+    );
+    // QGIS or gdal_edit.py records a nodata value in the .aux.xml sidecar.
+    let aux = path.with_extension("tif.aux.xml");
+    std::fs::write(&aux, "<PAMDataset>\n  <PAMRasterBand band=\"1\">\n    <NoDataValue>123</NoDataValue>\n  </PAMRasterBand>\n</PAMDataset>\n").unwrap();
+    let state = edit::wait_for(channel.clone(), 2).await.unwrap();
+    let dem = state.sources.iter().find(|s| s.id == "dem").unwrap();
+    assert!(
+        dem.files.iter().any(|f| f.ends_with("hill.tif")),
+        "{:?}",
+        dem.files
+    );
+    assert_eq!(
+        edit::height_at(channel.clone(), 10.05, 45.45)
+            .await
+            .unwrap(),
+        None,
+        "the terrace is nodata now"
+    );
+    assert!(
+        edit::height_at(channel, 10.25, 45.25)
+            .await
+            .unwrap()
+            .is_some()
+    );
+    daemon.stop(&[]).unwrap();
+}
