@@ -120,6 +120,10 @@ pub(crate) struct Raster {
     pub crs_wkt: String,
     pub crs_name: String,
     pub units: VerticalUnits,
+    /// Columns wrap round (a global geographic raster).
+    pub wraps_x: bool,
+    /// The raster's CRS is geographic (degrees).
+    pub geographic: bool,
     /// The mip pyramid, base level first; shared between versions whose
     /// pixels are the same.
     pub levels: Arc<Vec<Level>>,
@@ -293,6 +297,12 @@ impl Raster {
             path: Some(path.to_path_buf()),
         })?;
         let crs_name = crs::describe(&srs);
+        // A north-up geographic raster 360 degrees wide has no east or west
+        // edge: its columns wrap round at the antimeridian.
+        let wraps_x = srs.is_geographic()
+            && geo[2] == 0.0
+            && geo[4] == 0.0
+            && ((width as f64 * geo[1]).abs() - 360.0).abs() < 1e-6;
 
         let kind = options.kind.unwrap_or_else(|| guess_kind(&ds));
         let mut details = BTreeMap::new();
@@ -321,6 +331,8 @@ impl Raster {
             crs_wkt,
             crs_name,
             units,
+            wraps_x,
+            geographic: srs.is_geographic(),
             levels: Arc::new(Vec::new()),
             details,
         };
@@ -354,6 +366,32 @@ impl Raster {
             xs.into_iter().fold(f64::NEG_INFINITY, f64::max),
             ys.into_iter().fold(f64::NEG_INFINITY, f64::max),
         ]
+    }
+
+    /// The one height of a pole the raster reaches (its edge row there,
+    /// averaged over its valid pixels), so every tile and every longitude
+    /// agree on it. None when the raster does not reach that pole.
+    pub(crate) fn pole_height(&self, north: bool) -> Option<f32> {
+        if !self.geographic {
+            return None;
+        }
+        let [_, min_y, _, max_y] = self.bounds();
+        let reaches = if north {
+            max_y >= 90.0 - 1e-9
+        } else {
+            min_y <= -90.0 + 1e-9
+        };
+        if !reaches {
+            return None;
+        }
+        let base = &self.levels[0];
+        let row = if north { 0 } else { base.height - 1 };
+        let values = &base.planes[0][row * base.width..(row + 1) * base.width];
+        let (sum, n) = values
+            .iter()
+            .filter(|v| !v.is_nan())
+            .fold((0.0f64, 0u32), |(s, n), v| (s + f64::from(*v), n + 1));
+        (n > 0).then(|| (sum / f64::from(n)) as f32)
     }
 
     /// Pixel-edge coordinates (column, row) of a point in the raster's CRS.

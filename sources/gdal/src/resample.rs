@@ -19,17 +19,31 @@ pub(crate) struct Taps {
 /// Taps for edge coordinate `u` on an axis of `size` pixels, or None when
 /// `u` lies beyond the raster's outer edge.
 pub(crate) fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
-    if !(u >= 0.0 && u <= size as f64) {
+    axis_taps(u, size, kernel, false)
+}
+
+/// Taps along an axis that `wrap`s round (the longitudes of a raster that
+/// spans the whole planet: the antimeridian is no edge) or stops at the
+/// raster's outer edge.
+pub(crate) fn axis_taps(u: f64, size: usize, kernel: Resampling, wrap: bool) -> Option<Taps> {
+    if !u.is_finite() || (!wrap && (u < 0.0 || u > size as f64)) {
         return None;
     }
     let last = size as i64 - 1;
+    let place = |k: i64| {
+        if wrap {
+            k.rem_euclid(size as i64) as usize
+        } else {
+            k.clamp(0, last) as usize
+        }
+    };
     let mut t = Taps {
         index: [0; MAX_TAPS],
         weight: [0.0; MAX_TAPS],
         len: 0,
     };
     if kernel == Resampling::Nearest {
-        t.index[0] = (u.floor() as i64).clamp(0, last) as usize;
+        t.index[0] = place(u.floor() as i64);
         t.weight[0] = 1.0;
         t.len = 1;
         return Some(t);
@@ -41,7 +55,7 @@ pub(crate) fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
     for k in (base - radius + 1)..=(base + radius) {
         let w = kernel.weight(f - k as f64);
         if w != 0.0 {
-            t.index[t.len] = k.clamp(0, last) as usize;
+            t.index[t.len] = place(k);
             t.weight[t.len] = w;
             t.len += 1;
         }
@@ -51,9 +65,12 @@ pub(crate) fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
 
 /// A height at edge coordinates (u, v) of the base level, read from `level`.
 /// NaN when the point is off the raster or mostly over nodata.
-pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling) -> f32 {
+pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling, wrap_x: bool) -> f32 {
     let (u, v) = (u / level.scale, v / level.scale);
-    match (taps(u, level.width, kernel), taps(v, level.height, kernel)) {
+    match (
+        axis_taps(u, level.width, kernel, wrap_x),
+        taps(v, level.height, kernel),
+    ) {
         (Some(tx), Some(ty)) => height_from_taps(level, &tx, &ty),
         _ => f32::NAN,
     }
@@ -139,7 +156,7 @@ mod tests {
     fn bilinear_reproduces_a_plane_exactly() {
         // h = 3 i + 2 j at pixel centres; bilinear is exact for planes.
         let l = level(8, 6, |i, j| 3.0 * i as f32 + 2.0 * j as f32);
-        let h = height_at(&l, 2.75, 3.25, Resampling::Bilinear);
+        let h = height_at(&l, 2.75, 3.25, Resampling::Bilinear, false);
         assert!((h - (3.0 * 2.25 + 2.0 * 2.75)).abs() < 1e-5, "{h}");
     }
 
@@ -148,32 +165,50 @@ mod tests {
         // A void next to 100 m ground.
         let l = level(4, 4, |i, _| if i == 2 { f32::NAN } else { 100.0 });
         for u in [1.6, 2.0, 2.4, 2.6, 3.0] {
-            let h = height_at(&l, u, 2.0, Resampling::Bilinear);
+            let h = height_at(&l, u, 2.0, Resampling::Bilinear, false);
             assert!(h.is_nan() || (h - 100.0).abs() < 1e-4, "u={u}: {h}");
         }
         // Mostly over the void: nodata, not an extrapolated height.
-        assert!(height_at(&l, 2.5, 2.0, Resampling::Bilinear).is_nan());
+        assert!(height_at(&l, 2.5, 2.0, Resampling::Bilinear, false).is_nan());
         for kernel in Resampling::ALL {
-            let h = height_at(&l, 1.9, 2.0, kernel);
+            let h = height_at(&l, 1.9, 2.0, kernel, false);
             assert!(h.is_nan() || (h - 100.0).abs() < 1e-3, "{kernel}: {h}");
         }
     }
 
     #[test]
+    fn wrapped_axes_interpolate_across_the_antimeridian() {
+        // Columns hold 0, 10, 20, 30: between the last and the first the
+        // height runs 30 -> 0, as it does across the date line.
+        let l = level(4, 1, |i, _| 10.0 * i as f32);
+        let t = axis_taps(4.0, 4, Resampling::Bilinear, true).unwrap();
+        let ty = axis_taps(0.5, 1, Resampling::Bilinear, false).unwrap();
+        assert_eq!(height_from_taps(&l, &t, &ty), 15.0);
+        let t = axis_taps(0.0, 4, Resampling::Bilinear, true).unwrap();
+        assert_eq!(
+            height_from_taps(&l, &t, &ty),
+            15.0,
+            "the same point from the other side"
+        );
+        assert!(axis_taps(-0.5, 4, Resampling::Bilinear, false).is_none());
+        assert!(axis_taps(f64::NAN, 4, Resampling::Bilinear, true).is_none());
+    }
+
+    #[test]
     fn the_raster_reaches_its_outer_edge_and_no_farther() {
         let l = level(3, 3, |_, _| 7.0);
-        assert_eq!(height_at(&l, 0.0, 0.0, Resampling::Bilinear), 7.0);
-        assert_eq!(height_at(&l, 3.0, 3.0, Resampling::Cubic), 7.0);
-        assert!(height_at(&l, -0.01, 1.0, Resampling::Bilinear).is_nan());
-        assert!(height_at(&l, 1.0, 3.01, Resampling::Nearest).is_nan());
-        assert!(height_at(&l, f64::NAN, 1.0, Resampling::Nearest).is_nan());
+        assert_eq!(height_at(&l, 0.0, 0.0, Resampling::Bilinear, false), 7.0);
+        assert_eq!(height_at(&l, 3.0, 3.0, Resampling::Cubic, false), 7.0);
+        assert!(height_at(&l, -0.01, 1.0, Resampling::Bilinear, false).is_nan());
+        assert!(height_at(&l, 1.0, 3.01, Resampling::Nearest, false).is_nan());
+        assert!(height_at(&l, f64::NAN, 1.0, Resampling::Nearest, false).is_nan());
     }
 
     proptest! {
         #[test]
         fn interpolated_heights_stay_within_their_taps(u in 0.0f64..16.0, v in 0.0f64..16.0, seed in 0u32..1000) {
             let l = level(16, 16, |i, j| ((i * 31 + j * 17 + seed as usize) % 97) as f32);
-            let h = height_at(&l, u, v, Resampling::Bilinear);
+            let h = height_at(&l, u, v, Resampling::Bilinear, false);
             prop_assert!((0.0..=96.0).contains(&h), "{h}");
         }
     }

@@ -12,7 +12,7 @@ use relief_source::{
 
 use crate::crs;
 use crate::raster::{Fingerprint, Raster, RasterKind, ReadOptions, Reloaded, VerticalUnits};
-use crate::resample::{Taps, color_from_taps, height_at, height_from_taps, taps};
+use crate::resample::{Taps, axis_taps, color_from_taps, height_at, height_from_taps};
 
 /// The manifest kind of this source.
 pub const KIND: &str = "gdal";
@@ -309,10 +309,10 @@ impl GdalSource {
                 (ratio.log2().floor() as usize).min(r.levels.len() - 1)
             }
         };
-        let taps_of = |coords: &[f64], size: usize, scale: f64| -> Vec<Option<Taps>> {
+        let taps_of = |coords: &[f64], size: usize, scale: f64, wrap: bool| -> Vec<Option<Taps>> {
             coords
                 .iter()
-                .map(|c| taps(c / scale, size, kernel))
+                .map(|c| axis_taps(c / scale, size, kernel, wrap))
                 .collect()
         };
         if placed.same_crs && r.geo[2] == 0.0 && r.geo[4] == 0.0 {
@@ -326,8 +326,8 @@ impl GdalSource {
             let level = &r.levels[mip];
             return Ok(Sampler {
                 mip,
-                columns: taps_of(&us, level.width, level.scale),
-                rows: taps_of(&vs, level.height, level.scale),
+                columns: taps_of(&us, level.width, level.scale, r.wraps_x),
+                rows: taps_of(&vs, level.height, level.scale, false),
                 separable: true,
             });
         }
@@ -341,8 +341,8 @@ impl GdalSource {
         let level = &r.levels[mip];
         Ok(Sampler {
             mip,
-            columns: taps_of(&us, level.width, level.scale),
-            rows: taps_of(&vs, level.height, level.scale),
+            columns: taps_of(&us, level.width, level.scale, r.wraps_x),
+            rows: taps_of(&vs, level.height, level.scale, false),
             separable: false,
         })
     }
@@ -393,6 +393,21 @@ impl GdalSource {
                         }
                     }
                 }),
+            }
+        }
+        if self.kind == RasterKind::Height && grid.is_geodetic() {
+            // Rows on a pole are one point: every sample there takes the
+            // pole's one height, the same in every tile and at every level.
+            for (row, north) in [(0, true), (lattice.rows - 1, false)] {
+                let lat = lattice.y(row);
+                if lat.abs() == 90.0
+                    && let Some(h) = self
+                        .rasters
+                        .iter()
+                        .find_map(|p| p.raster.pole_height(north))
+                {
+                    heights[row * lattice.cols..(row + 1) * lattice.cols].fill(h);
+                }
             }
         }
         Ok(match self.kind {
@@ -588,10 +603,21 @@ impl Source for GdalSource {
             let mut xs: Vec<f64> = points.iter().map(|p| p.lon_deg).collect();
             let mut ys: Vec<f64> = points.iter().map(|p| p.lat_deg).collect();
             crs::transform("EPSG:4326", &r.crs_wkt, &mut xs, &mut ys)?;
-            for ((slot, x), y) in out.iter_mut().zip(&xs).zip(&ys) {
+            let poles = [r.pole_height(true), r.pole_height(false)];
+            for (((slot, x), y), p) in out.iter_mut().zip(&xs).zip(&ys).zip(points) {
                 if slot.is_none() {
+                    // A pole is one point, whatever the longitude.
+                    let pole = if p.lat_deg == 90.0 {
+                        poles[0]
+                    } else if p.lat_deg == -90.0 {
+                        poles[1]
+                    } else {
+                        None
+                    };
                     let (u, v) = r.pixel_of(*x, *y);
-                    let h = height_at(&r.levels[0], u, v, quality.resampling);
+                    let h = pole.unwrap_or_else(|| {
+                        height_at(&r.levels[0], u, v, quality.resampling, r.wraps_x)
+                    });
                     *slot = (!h.is_nan()).then_some(f64::from(h));
                 }
             }
