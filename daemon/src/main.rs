@@ -130,9 +130,11 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
     let shutdown = CancellationToken::new();
     let tasks = TaskTracker::new();
     let settings = scene.snapshot().manifest.watch;
-    let watcher = relief_daemon::watcher::run(Arc::clone(&scene), settings, shutdown.clone());
+    let watch = relief_daemon::watcher::FileWatch::start(Arc::clone(&scene), settings)
+        .context("cannot watch the scene's files")?;
+    let watch_shutdown = shutdown.clone();
     tasks.spawn(async move {
-        if let Err(e) = watcher.await {
+        if let Err(e) = watch.run(watch_shutdown).await {
             tracing::error!("file watching stopped: {e:#}; use `relief reload` to pick up changes");
         }
     });

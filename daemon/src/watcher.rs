@@ -118,29 +118,78 @@ fn is_repacking(dir: &Path, stem: &str) -> bool {
     })
 }
 
-/// Watches until `shutdown`. Fails only if no watcher can be made at all.
-pub async fn run(
+/// Folders under watch, and the events from them. Made before reliefd says
+/// it is listening, so no save after that line can be missed.
+pub struct FileWatch {
     scene: Arc<Scene>,
     settings: WatchSettings,
-    shutdown: CancellationToken,
-) -> anyhow::Result<()> {
-    let (tx, mut rx) = mpsc::channel::<notify::Event>(4096);
-    let overflow = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&overflow);
-    let mut watcher: RecommendedWatcher =
-        notify::recommended_watcher(move |event: notify::Result<notify::Event>| match event {
-            Ok(e) => {
-                if tx.try_send(e).is_err() {
-                    flag.store(true, Ordering::Relaxed);
-                }
-            }
-            Err(_) => flag.store(true, Ordering::Relaxed),
-        })?;
+    watcher: RecommendedWatcher,
+    events: mpsc::Receiver<notify::Event>,
+    overflow: Arc<AtomicBool>,
+    watched: BTreeSet<PathBuf>,
+    groups: HashMap<(PathBuf, String), BTreeSet<Target>>,
+}
 
-    let mut watched: BTreeSet<PathBuf> = BTreeSet::new();
-    let mut groups = interests(&scene);
-    update_watches(&mut watcher, &mut watched, &groups);
-    let mut pending: HashMap<Target, Pending> = HashMap::new();
+impl FileWatch {
+    /// Watches the folders of every file the scene reads. Fails only if no
+    /// watcher can be made at all.
+    pub fn start(scene: Arc<Scene>, settings: WatchSettings) -> anyhow::Result<Self> {
+        let (tx, events) = mpsc::channel::<notify::Event>(4096);
+        let overflow = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&overflow);
+        let watcher: RecommendedWatcher =
+            notify::recommended_watcher(move |event: notify::Result<notify::Event>| match event {
+                Ok(e) => {
+                    if tx.try_send(e).is_err() {
+                        flag.store(true, Ordering::Relaxed);
+                    }
+                }
+                Err(_) => flag.store(true, Ordering::Relaxed),
+            })?;
+        let groups = interests(&scene);
+        let mut watch = Self {
+            scene,
+            settings,
+            watcher,
+            events,
+            overflow,
+            watched: BTreeSet::new(),
+            groups,
+        };
+        update_watches(&mut watch.watcher, &mut watch.watched, &watch.groups);
+        Ok(watch)
+    }
+
+    /// Turns events into refreshes until `shutdown`.
+    pub async fn run(self, shutdown: CancellationToken) -> anyhow::Result<()> {
+        run(self, shutdown).await
+    }
+}
+
+async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()> {
+    let FileWatch {
+        scene,
+        settings,
+        mut watcher,
+        events: mut rx,
+        overflow,
+        mut watched,
+        mut groups,
+    } = watch;
+    // Anything saved between loading the scene and watching its folders is
+    // caught by one look at every source (a fingerprint check when nothing
+    // changed).
+    let mut pending: HashMap<Target, Pending> = scene
+        .snapshot()
+        .slots
+        .iter()
+        .map(|s| {
+            (
+                Target::Source(s.spec.id.clone()),
+                Pending::new(Instant::now()),
+            )
+        })
+        .collect();
     let mut poll = (settings.poll_ms > 0)
         .then(|| tokio::time::interval(Duration::from_millis(settings.poll_ms)));
     let mut tick = tokio::time::interval(Duration::from_millis(settings.settle_ms.clamp(1, 50)));
