@@ -384,10 +384,6 @@ impl Manifest {
             watch,
         })
     }
-
-    pub fn source(&self, id: &str) -> Option<&SourceSpec> {
-        self.sources.iter().find(|s| s.id == id)
-    }
 }
 
 #[cfg(test)]

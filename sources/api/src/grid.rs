@@ -392,19 +392,6 @@ impl TileGrid {
             _ => None,
         }
     }
-
-    /// The coarsest level whose sample spacing is at most `spacing` (CRS
-    /// units), capped at MAX_LEVEL: the level at which a raster of that
-    /// resolution is shown at full detail.
-    pub fn level_for_spacing(&self, spacing: f64) -> u8 {
-        (0..=MAX_LEVEL)
-            .find(|&l| {
-                self.lattice(TileKey::new(l, 0, 0), SampleKind::Corner)
-                    .step_x
-                    <= spacing
-            })
-            .unwrap_or(MAX_LEVEL)
-    }
 }
 
 /// Wraps a longitude into [-180, 180).

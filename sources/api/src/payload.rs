@@ -39,19 +39,9 @@ pub struct HeightTile {
 }
 
 impl HeightTile {
-    pub fn nodata(size: usize) -> Self {
-        Self {
-            size,
-            heights: vec![f32::NAN; size * size],
-        }
-    }
-
+    /// The height of sample (i, j), `i` growing east and `j` south.
     pub fn get(&self, i: usize, j: usize) -> f32 {
         self.heights[j * self.size + i]
-    }
-
-    pub fn is_all_nodata(&self) -> bool {
-        self.heights.iter().all(|h| h.is_nan())
     }
 }
 
@@ -60,15 +50,6 @@ impl HeightTile {
 pub struct ColorTile {
     pub size: usize,
     pub rgba: Vec<u8>,
-}
-
-impl ColorTile {
-    pub fn transparent(size: usize) -> Self {
-        Self {
-            size,
-            rgba: vec![0; size * size * 4],
-        }
-    }
 }
 
 /// One byte per texel (0 = outside, 255 = inside), border included.
