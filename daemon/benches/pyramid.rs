@@ -28,10 +28,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 fn machine() -> String {
-    format!(
-        "{}, tile pool of {THREADS} threads",
-        relief_tests::machine()
-    )
+    format!("{}, tile pool of {THREADS} threads", relief_tests::machine())
 }
 
 fn load(manifest: &Path) -> Scene {
@@ -44,15 +41,8 @@ fn load(manifest: &Path) -> Scene {
 /// Every tile of levels 0..=max that overlaps the source's data.
 fn pyramid_keys(scene: &Scene, source: usize, max_level: u8) -> Vec<(usize, TileKey)> {
     let snap = scene.snapshot();
-    let extent = snap.slots[source]
-        .source
-        .as_ref()
-        .and_then(|s| s.info().extent)
-        .expect("the DEM has an extent");
-    (0..=max_level)
-        .flat_map(|l| snap.grid.keys_overlapping(l, &extent))
-        .map(|k| (source, k))
-        .collect()
+    let extent = snap.slots[source].source.as_ref().and_then(|s| s.info().extent).expect("the DEM has an extent");
+    (0..=max_level).flat_map(|l| snap.grid.keys_overlapping(l, &extent)).map(|k| (source, k)).collect()
 }
 
 fn throughput(data: &Path, max_level: u8) {
@@ -86,24 +76,13 @@ fn throughput(data: &Path, max_level: u8) {
         let started = Instant::now();
         let scene = load(&manifest);
         let snap = scene.snapshot();
-        for ((_, key), tile) in
-            keys.iter()
-                .zip(scene.store.build(&snap, &keys, &snap.manifest.quality))
-        {
+        for ((_, key), tile) in keys.iter().zip(scene.store.build(&snap, &keys, &snap.manifest.quality)) {
             let tile = tile.expect("tile builds");
-            let Payload::Height(h) = tile.payload.as_ref() else {
-                unreachable!("a DEM gives heights")
-            };
+            let Payload::Height(h) = tile.payload.as_ref() else { unreachable!("a DEM gives heights") };
             let path = out.join(format!("{}/{}/{}.f32", key.level, key.x, key.y));
             std::fs::create_dir_all(path.parent().expect("has a parent")).expect("mkdir");
-            std::fs::write(
-                &path,
-                h.heights
-                    .iter()
-                    .flat_map(|v| v.to_le_bytes())
-                    .collect::<Vec<u8>>(),
-            )
-            .expect("write tile");
+            std::fs::write(&path, h.heights.iter().flat_map(|v| v.to_le_bytes()).collect::<Vec<u8>>())
+                .expect("write tile");
         }
         relief_write_s.push(started.elapsed().as_secs_f64());
     }
@@ -112,12 +91,8 @@ fn throughput(data: &Path, max_level: u8) {
     // (what gdal2tiles itself tells you to do), then the same levels.
     let vrt = dir.path().join("in.vrt");
     let byte_vrt = dir.path().join("byte.vrt");
-    let status = Command::new("gdalbuildvrt")
-        .arg("-q")
-        .arg(&vrt)
-        .args(&hgts)
-        .status()
-        .expect("gdalbuildvrt (gdal-bin)");
+    let status =
+        Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(&hgts).status().expect("gdalbuildvrt (gdal-bin)");
     assert!(status.success());
     let status = Command::new("gdal_translate")
         .args(["-q", "-of", "VRT", "-ot", "Byte", "-scale"])
@@ -132,27 +107,14 @@ fn throughput(data: &Path, max_level: u8) {
         let out = dir.path().join(format!("g2t-{run}"));
         let started = Instant::now();
         let result = Command::new("gdal2tiles.py")
-            .args([
-                "--profile=geodetic",
-                "--tmscompatible",
-                "-r",
-                "bilinear",
-                "-w",
-                "none",
-                "-q",
-                "--processes=2",
-            ])
+            .args(["--profile=geodetic", "--tmscompatible", "-r", "bilinear", "-w", "none", "-q", "--processes=2"])
             .arg(format!("-z0-{max_level}"))
             .arg(&byte_vrt)
             .arg(&out)
             .output()
             .expect("gdal2tiles.py (Debian python3-gdal / gdal-bin)");
         peer_s.push(started.elapsed().as_secs_f64());
-        assert!(
-            result.status.success(),
-            "gdal2tiles failed: {}",
-            String::from_utf8_lossy(&result.stderr)
-        );
+        assert!(result.status.success(), "gdal2tiles failed: {}", String::from_utf8_lossy(&result.stderr));
         peer_tiles = count_files(&out, "png");
     }
 
@@ -187,11 +149,7 @@ fn count_files(dir: &Path, ext: &str) -> usize {
         .flatten()
         .map(|e| {
             let p = e.path();
-            if p.is_dir() {
-                count_files(&p, ext)
-            } else {
-                usize::from(p.extension().is_some_and(|x| x == ext))
-            }
+            if p.is_dir() { count_files(&p, ext) } else { usize::from(p.extension().is_some_and(|x| x == ext)) }
         })
         .sum()
 }
@@ -199,12 +157,7 @@ fn count_files(dir: &Path, ext: &str) -> usize {
 /// Time per tile and error against the analytic hill, for each kernel.
 fn kernels() {
     let dir = tempfile::tempdir().expect("temp dir");
-    fixtures::write_dem(
-        &dir.path().join("hill.tif"),
-        &fixtures::hill_spec(),
-        fixtures::hill,
-    )
-    .expect("fixture");
+    fixtures::write_dem(&dir.path().join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).expect("fixture");
     let manifest = fixtures::write_manifest(
         dir.path(),
         "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n",
@@ -213,34 +166,23 @@ fn kernels() {
     println!(
         "\n## Accuracy knob `quality.resampling`: Gaussian hill (0.00125 deg pixels), error against the analytic surface"
     );
-    println!(
-        "| kernel | level | sample spacing / source pixel | ms per tile | RMS error m | max error m |"
-    );
+    println!("| kernel | level | sample spacing / source pixel | ms per tile | RMS error m | max error m |");
     println!("|---|---|---|---|---|---|");
     for level in [9u8, 11] {
         for kernel in Resampling::ALL {
             let scene = load(&manifest);
             let snap = scene.snapshot();
             let extent = relief_source::Extent::new(10.05, 45.05, 10.45, 45.45);
-            let keys: Vec<(usize, TileKey)> = snap
-                .grid
-                .keys_overlapping(level, &extent)
-                .into_iter()
-                .map(|k| (0, k))
-                .collect();
-            let quality = Quality {
-                resampling: kernel,
-                ..Quality::default()
-            };
+            let keys: Vec<(usize, TileKey)> =
+                snap.grid.keys_overlapping(level, &extent).into_iter().map(|k| (0, k)).collect();
+            let quality = Quality { resampling: kernel, ..Quality::default() };
             let started = Instant::now();
             let built = scene.store.build(&snap, &keys, &quality);
             let ms = started.elapsed().as_secs_f64() * 1e3 / keys.len() as f64;
             let (mut sum2, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
             for ((_, key), tile) in keys.iter().zip(built) {
                 let tile = tile.expect("tile builds");
-                let Payload::Height(h) = tile.payload.as_ref() else {
-                    unreachable!()
-                };
+                let Payload::Height(h) = tile.payload.as_ref() else { unreachable!() };
                 let lattice = snap.grid.lattice(*key, relief_source::SampleKind::Corner);
                 for j in 0..lattice.rows {
                     for i in 0..lattice.cols {
@@ -255,10 +197,7 @@ fn kernels() {
                     }
                 }
             }
-            let step = snap
-                .grid
-                .lattice(keys[0].1, relief_source::SampleKind::Corner)
-                .step_x;
+            let step = snap.grid.lattice(keys[0].1, relief_source::SampleKind::Corner).step_x;
             println!(
                 "| {kernel} | {level} | {:.2} | {ms:.2} | {:.4} | {max:.4} |",
                 step / 0.00125,
@@ -271,12 +210,7 @@ fn kernels() {
 /// Time per tile against the error the approximate reprojection adds.
 fn reprojection() {
     let dir = tempfile::tempdir().expect("temp dir");
-    fixtures::write_dem(
-        &dir.path().join("utm.tif"),
-        &fixtures::utm_spec(),
-        fixtures::utm_surface,
-    )
-    .expect("fixture");
+    fixtures::write_dem(&dir.path().join("utm.tif"), &fixtures::utm_spec(), fixtures::utm_surface).expect("fixture");
     let manifest = fixtures::write_manifest(
         dir.path(),
         "[scene]\nname = \"utm-on-the-planet\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"utm.tif\"\n",
@@ -291,21 +225,9 @@ fn reprojection() {
     for threshold in [0.0, 0.05, 0.125, 0.5, 2.0, 8.0] {
         let scene = load(&manifest);
         let snap = scene.snapshot();
-        let extent = snap.slots[0]
-            .source
-            .as_ref()
-            .and_then(|s| s.info().extent)
-            .expect("extent");
-        let keys: Vec<(usize, TileKey)> = snap
-            .grid
-            .keys_overlapping(13, &extent)
-            .into_iter()
-            .map(|k| (0, k))
-            .collect();
-        let quality = Quality {
-            reprojection_error_px: threshold,
-            ..Quality::default()
-        };
+        let extent = snap.slots[0].source.as_ref().and_then(|s| s.info().extent).expect("extent");
+        let keys: Vec<(usize, TileKey)> = snap.grid.keys_overlapping(13, &extent).into_iter().map(|k| (0, k)).collect();
+        let quality = Quality { reprojection_error_px: threshold, ..Quality::default() };
         let started = Instant::now();
         let built: Vec<Vec<f32>> = scene
             .store
@@ -330,29 +252,20 @@ fn reprojection() {
             .flatten()
             .filter(|v| !v.is_nan())
             .fold((f32::MAX, f32::MIN), |(lo, hi), v| (lo.min(*v), hi.max(*v)));
-        println!(
-            "| {threshold} | {ms:.2} | {max:.4} | {:.2e} |",
-            max / (relief.1 - relief.0)
-        );
+        println!("| {threshold} | {ms:.2} | {max:.4} | {:.2e} |", max / (relief.1 - relief.0));
     }
 }
 
 fn main() {
     // `cargo bench` passes --bench; `cargo test --benches` passes nothing useful either.
-    let max_level: u8 = std::env::var("RELIEF_BENCH_MAX_LEVEL")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(10);
+    let max_level: u8 = std::env::var("RELIEF_BENCH_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(10);
     let data: PathBuf = std::env::var_os("RELIEF_SHARED_DATA")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
     if data.join("dem/N43E006.hgt").exists() {
         throughput(&data, max_level);
     } else {
-        println!(
-            "skipping the pyramid throughput table: no SRTM tiles at {}",
-            data.display()
-        );
+        println!("skipping the pyramid throughput table: no SRTM tiles at {}", data.display());
     }
     kernels();
     reprojection();

@@ -10,10 +10,7 @@
 //! `cargo bench -p relief-daemon --bench reload` (RELIEF_BENCH_EDITS, default 25).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
-#![expect(
-    clippy::unwrap_used,
-    reason = "a bench that cannot set up has nothing to report"
-)]
+#![expect(clippy::unwrap_used, reason = "a bench that cannot set up has nothing to report")]
 
 use std::time::Instant;
 
@@ -73,24 +70,15 @@ async fn run(dir: &std::path::Path, label: &str, watch: &str, edits: usize, seed
     let mut generation = 1;
     let path = dir.join("dem.tif");
     for n in 0..edits {
-        let (x, y) = (
-            rng.range(0.0, (SIDE - 64) as f64) as usize,
-            rng.range(0.0, (SIDE - 64) as f64) as usize,
-        );
+        let (x, y) = (rng.range(0.0, (SIDE - 64) as f64) as usize, rng.range(0.0, (SIDE - 64) as f64) as usize);
         let t0 = Instant::now();
         edit::rewrite_window(&path, x, y, 64, 64, |_, _, h| h + 10.0 + n as f32).unwrap();
-        let state = edit::wait_for(channel.clone(), generation + 1)
-            .await
-            .unwrap();
+        let state = edit::wait_for(channel.clone(), generation + 1).await.unwrap();
         latencies_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         generation = state.generation;
         rebuilt.push(events.generation(generation).await.unwrap().tiles_rebuilt);
     }
-    let state = SceneServiceClient::new(channel)
-        .get_state(pb::GetStateRequest {})
-        .await
-        .unwrap()
-        .into_inner();
+    let state = SceneServiceClient::new(channel).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
     if std::env::var_os("RELIEF_TEST_LOG").is_some() {
         for line in daemon.log().iter().rev().take(12).rev() {
             println!("{line}");
@@ -108,10 +96,7 @@ async fn run(dir: &std::path::Path, label: &str, watch: &str, edits: usize, seed
 }
 
 fn main() {
-    let edits: usize = std::env::var("RELIEF_BENCH_EDITS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(25);
+    let edits: usize = std::env::var("RELIEF_BENCH_EDITS").ok().and_then(|v| v.parse().ok()).unwrap_or(25);
     let dir = tempfile::tempdir().unwrap();
     let pixel = 1.0 / 3600.0;
     let spec = RasterSpec {
@@ -126,44 +111,20 @@ fn main() {
     write_dem(&dir.path().join("dem.tif"), &spec, terrain).unwrap();
 
     let settings = [
-        (
-            "fast path + 500 ms quiet period (default)",
-            "fast_path = true\ndebounce_ms = 500",
-            edits,
-        ),
-        (
-            "quiet period only, 50 ms",
-            "fast_path = false\ndebounce_ms = 50",
-            edits.min(10),
-        ),
-        (
-            "quiet period only, 100 ms",
-            "fast_path = false\ndebounce_ms = 100",
-            edits.min(10),
-        ),
-        (
-            "quiet period only, 250 ms",
-            "fast_path = false\ndebounce_ms = 250",
-            edits.min(10),
-        ),
-        (
-            "quiet period only, 500 ms",
-            "fast_path = false\ndebounce_ms = 500",
-            edits.min(10),
-        ),
+        ("fast path + 500 ms quiet period (default)", "fast_path = true\ndebounce_ms = 500", edits),
+        ("quiet period only, 50 ms", "fast_path = false\ndebounce_ms = 50", edits.min(10)),
+        ("quiet period only, 100 ms", "fast_path = false\ndebounce_ms = 100", edits.min(10)),
+        ("quiet period only, 250 ms", "fast_path = false\ndebounce_ms = 250", edits.min(10)),
+        ("quiet period only, 500 ms", "fast_path = false\ndebounce_ms = 500", edits.min(10)),
     ];
     let runtime = tokio::runtime::Runtime::new().unwrap();
     let runs: Vec<Run> = settings
         .iter()
         .enumerate()
-        .map(|(i, (label, watch, n))| {
-            runtime.block_on(run(dir.path(), label, watch, *n, 17 + i as u64))
-        })
+        .map(|(i, (label, watch, n))| runtime.block_on(run(dir.path(), label, watch, *n, 17 + i as u64)))
         .collect();
 
-    println!(
-        "\n## Edit to WaitForGeneration: 64 x 64 window rewritten through GDAL in a {SIDE} x {SIDE} Float32 DEM"
-    );
+    println!("\n## Edit to WaitForGeneration: 64 x 64 window rewritten through GDAL in a {SIDE} x {SIDE} Float32 DEM");
     println!(
         "machine: {}; reliefd release build; every tile of levels 0..={MAX_LEVEL} over the DEM cached",
         relief_tests::machine()

@@ -4,9 +4,7 @@
 use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 
-use relief_source::{
-    GridKind, PayloadKind, ProjectedGrid, Source, SourceError, SourceSpec, TileGrid,
-};
+use relief_source::{GridKind, PayloadKind, ProjectedGrid, Source, SourceError, SourceSpec, TileGrid};
 
 use crate::manifest::{EFFECTS, GridSpec, Manifest, ManifestError};
 use crate::registry::Registry;
@@ -19,11 +17,7 @@ pub enum LoadError {
     Manifest(#[from] ManifestError),
     /// A source's files or options were rejected by the source itself.
     #[error("source '{source_id}', field '{field}': {error}")]
-    Source {
-        source_id: String,
-        field: String,
-        error: SourceError,
-    },
+    Source { source_id: String, field: String, error: SourceError },
 }
 
 /// The manifest field a source error is about, for messages.
@@ -39,11 +33,7 @@ fn field_of(error: &SourceError, spec: &SourceSpec) -> String {
 }
 
 pub fn source_error(spec: &SourceSpec, error: SourceError) -> LoadError {
-    LoadError::Source {
-        source_id: spec.id.clone(),
-        field: field_of(&error, spec),
-        error,
-    }
+    LoadError::Source { source_id: spec.id.clone(), field: field_of(&error, spec), error }
 }
 
 /// One node of the graph in one scene generation.
@@ -67,10 +57,7 @@ pub struct Slot {
 
 impl Slot {
     pub fn output(&self, registry: &Registry) -> Option<PayloadKind> {
-        self.source
-            .as_ref()
-            .map(|s| s.output())
-            .or_else(|| registry.get(&self.spec.kind).and_then(|k| k.output))
+        self.source.as_ref().map(|s| s.output()).or_else(|| registry.get(&self.spec.kind).and_then(|k| k.output))
     }
 }
 
@@ -128,32 +115,18 @@ fn order(manifest: &Manifest, registry: &Registry) -> Result<Vec<usize>, Vec<Loa
             message,
         })
     };
-    let index: HashMap<&str, usize> = manifest
-        .sources
-        .iter()
-        .enumerate()
-        .map(|(i, s)| (s.id.as_str(), i))
-        .collect();
+    let index: HashMap<&str, usize> = manifest.sources.iter().enumerate().map(|(i, s)| (s.id.as_str(), i)).collect();
     for spec in &manifest.sources {
         match registry.get(&spec.kind) {
             None => errors.push(err(
                 spec,
                 "kind",
-                format!(
-                    "unknown kind '{}' (known: {})",
-                    spec.kind,
-                    registry.names().join(", ")
-                ),
+                format!("unknown kind '{}' (known: {})", spec.kind, registry.names().join(", ")),
             )),
             Some(kind) if kind.inputs.len() != spec.inputs.len() => errors.push(err(
                 spec,
                 "inputs",
-                format!(
-                    "kind '{}' takes {} input(s), got {}",
-                    spec.kind,
-                    kind.inputs.len(),
-                    spec.inputs.len()
-                ),
+                format!("kind '{}' takes {} input(s), got {}", spec.kind, kind.inputs.len(), spec.inputs.len()),
             )),
             Some(_) => {}
         }
@@ -205,30 +178,16 @@ fn order(manifest: &Manifest, registry: &Registry) -> Result<Vec<usize>, Vec<Loa
     let mut out = Vec::new();
     for i in 0..manifest.sources.len() {
         if let Err(cycle) = visit(i, manifest, &index, &mut marks, &mut Vec::new(), &mut out) {
-            let names: Vec<&str> = cycle
-                .iter()
-                .map(|&c| manifest.sources[c].id.as_str())
-                .collect();
-            return Err(vec![err(
-                &manifest.sources[cycle[0]],
-                "inputs",
-                format!("cycle {}", names.join(" -> ")),
-            )]);
+            let names: Vec<&str> = cycle.iter().map(|&c| manifest.sources[c].id.as_str()).collect();
+            return Err(vec![err(&manifest.sources[cycle[0]], "inputs", format!("cycle {}", names.join(" -> ")))]);
         }
     }
     Ok(out)
 }
 
-fn grid_for(
-    manifest: &Manifest,
-    extents: impl Iterator<Item = relief_source::Extent>,
-) -> Result<TileGrid, LoadError> {
+fn grid_for(manifest: &Manifest, extents: impl Iterator<Item = relief_source::Extent>) -> Result<TileGrid, LoadError> {
     let field = |field: &str, message: String| {
-        LoadError::Manifest(ManifestError::Field {
-            path: manifest.path.clone(),
-            field: field.into(),
-            message,
-        })
+        LoadError::Manifest(ManifestError::Field { path: manifest.path.clone(), field: field.into(), message })
     };
     let kind = match &manifest.grid {
         GridSpec::Geodetic => GridKind::Geodetic,
@@ -237,7 +196,11 @@ fn grid_for(
                 Some(e) => *e,
                 None => {
                     let Some(u) = extents.reduce(|a, b| a.union(&b)) else {
-                        return Err(field("scene.grid.extent", "cannot derive it: no source has data here; give extent = [min_x, min_y, max_x, max_y]".into()));
+                        return Err(field(
+                            "scene.grid.extent",
+                            "cannot derive it: no source has data here; give extent = [min_x, min_y, max_x, max_y]"
+                                .into(),
+                        ));
                     };
                     [u.min_x, u.min_y, u.max_x, u.max_y]
                 }
@@ -254,14 +217,8 @@ fn grid_for(
 }
 
 /// Opens one source for `grid`.
-pub fn open_source(
-    spec: &SourceSpec,
-    grid: &TileGrid,
-    registry: &Registry,
-) -> Result<Arc<dyn Source>, LoadError> {
-    let kind = registry
-        .get(&spec.kind)
-        .ok_or_else(|| source_error(spec, SourceError::Unsupported("this kind")))?;
+pub fn open_source(spec: &SourceSpec, grid: &TileGrid, registry: &Registry) -> Result<Arc<dyn Source>, LoadError> {
+    let kind = registry.get(&spec.kind).ok_or_else(|| source_error(spec, SourceError::Unsupported("this kind")))?;
     (kind.open)(spec, grid).map_err(|e| source_error(spec, e))
 }
 
@@ -280,16 +237,10 @@ pub fn build(
     previous: Option<&SceneSnapshot>,
 ) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
     let generation = previous.map_or(1, |p| p.generation + 1);
-    let same_grid = previous.is_some_and(|p| {
-        p.manifest.grid == manifest.grid && p.manifest.tile_size == manifest.tile_size
-    });
-    let kept = |spec: &SourceSpec| -> Option<&Slot> {
-        previous
-            .filter(|_| same_grid)?
-            .slots
-            .iter()
-            .find(|s| s.spec == *spec)
-    };
+    let same_grid =
+        previous.is_some_and(|p| p.manifest.grid == manifest.grid && p.manifest.tile_size == manifest.tile_size);
+    let kept =
+        |spec: &SourceSpec| -> Option<&Slot> { previous.filter(|_| same_grid)?.slots.iter().find(|s| s.spec == *spec) };
     let order = order(&manifest, registry)?;
     if let GridSpec::Projected { crs, .. } = &manifest.grid
         && let Err(e) = relief_source_gdal::describe_crs(crs)
@@ -305,12 +256,7 @@ pub fn build(
     let provisional = match &manifest.grid {
         GridSpec::Geodetic => grid_for(&manifest, std::iter::empty()).map_err(|e| vec![e])?,
         GridSpec::Projected { crs, .. } => TileGrid::new(
-            GridKind::Projected(ProjectedGrid {
-                crs: crs.clone(),
-                min_x: 0.0,
-                min_y: 0.0,
-                size: 1.0,
-            }),
+            GridKind::Projected(ProjectedGrid { crs: crs.clone(), min_x: 0.0, min_y: 0.0, size: 1.0 }),
             manifest.tile_size,
         )
         .map_err(|m| {
@@ -329,25 +275,16 @@ pub fn build(
             if let Some(slot) = kept(spec) {
                 return slot.source.clone();
             }
-            open_source(spec, &provisional, registry)
-                .map_err(|e| open_errors.push(e))
-                .ok()
+            open_source(spec, &provisional, registry).map_err(|e| open_errors.push(e)).ok()
         })
         .collect();
     let grid = match previous {
         Some(p) if same_grid => p.grid.clone(),
-        _ => grid_for(
-            &manifest,
-            opened.iter().flatten().filter_map(|s| s.info().extent),
-        )
-        .map_err(|e| vec![e])?,
+        _ => grid_for(&manifest, opened.iter().flatten().filter_map(|s| s.info().extent)).map_err(|e| vec![e])?,
     };
 
-    let position: HashMap<&str, usize> = order
-        .iter()
-        .enumerate()
-        .map(|(pos, &i)| (manifest.sources[i].id.as_str(), pos))
-        .collect();
+    let position: HashMap<&str, usize> =
+        order.iter().enumerate().map(|(pos, &i)| (manifest.sources[i].id.as_str(), pos)).collect();
     let mut slots: Vec<Slot> = order
         .iter()
         .zip(opened)
@@ -361,27 +298,14 @@ pub fn build(
                 Some(old) => (old.version, old.error.clone()),
                 None => (generation, error.clone()),
             };
-            Slot {
-                spec,
-                source,
-                error,
-                version,
-                effective_version: 0,
-                inputs,
-                active: false,
-            }
+            Slot { spec, source, error, version, effective_version: 0, inputs, active: false }
         })
         .collect();
 
     // Type checks: op inputs and layers.
     let mut errors = Vec::new();
     let type_err = |id: &str, field: String, message: String| {
-        LoadError::Manifest(ManifestError::Source {
-            path: manifest.path.clone(),
-            source_id: id.into(),
-            field,
-            message,
-        })
+        LoadError::Manifest(ManifestError::Source { path: manifest.path.clone(), source_id: id.into(), field, message })
     };
     for slot in &slots {
         let Some(kind) = registry.get(&slot.spec.kind) else {
@@ -416,9 +340,7 @@ pub fn build(
             errors.push(LoadError::Manifest(ManifestError::Field {
                 path: manifest.path.clone(),
                 field: format!("layers.{layer}"),
-                message: format!(
-                    "source '{id}' gives {actual} tiles, the {layer} layer needs {expected}"
-                ),
+                message: format!("source '{id}' gives {actual} tiles, the {layer} layer needs {expected}"),
             }));
         }
     }
@@ -431,18 +353,10 @@ pub fn build(
     let mut wanted: Vec<&str> = manifest.layers.values().map(String::as_str).collect();
     for effect in &manifest.effects {
         if let Some((_, layers)) = EFFECTS.iter().find(|(e, _)| e == effect) {
-            wanted.extend(
-                layers
-                    .iter()
-                    .filter_map(|l| manifest.layers.get(*l))
-                    .map(String::as_str),
-            );
+            wanted.extend(layers.iter().filter_map(|l| manifest.layers.get(*l)).map(String::as_str));
         }
     }
-    let mut stack: Vec<usize> = wanted
-        .iter()
-        .filter_map(|id| position.get(id).copied())
-        .collect();
+    let mut stack: Vec<usize> = wanted.iter().filter_map(|id| position.get(id).copied()).collect();
     while let Some(i) = stack.pop() {
         if needed.insert(i) {
             stack.extend(slots[i].inputs.iter().copied());
@@ -452,22 +366,13 @@ pub fn build(
         slots[i].active = true;
     }
 
-    let mut snapshot = SceneSnapshot {
-        generation,
-        manifest: Arc::new(manifest),
-        grid,
-        slots,
-    };
+    let mut snapshot = SceneSnapshot { generation, manifest: Arc::new(manifest), grid, slots };
     snapshot.recompute_versions();
     Ok((snapshot, open_errors))
 }
 
 /// The error text of each source in `order`, None where it opened.
-fn open_errors_for(
-    order: &[usize],
-    manifest: &Manifest,
-    errors: &[LoadError],
-) -> Vec<Option<String>> {
+fn open_errors_for(order: &[usize], manifest: &Manifest, errors: &[LoadError]) -> Vec<Option<String>> {
     order
         .iter()
         .map(|&i| {

@@ -45,9 +45,7 @@ enum Command {
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
+        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
@@ -92,20 +90,11 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             let snap = scene.snapshot();
             #[expect(clippy::print_stdout, reason = "check reports to the terminal")]
             {
-                println!(
-                    "ok: scene '{}' with {} sources",
-                    snap.manifest.name,
-                    snap.slots.len()
-                );
+                println!("ok: scene '{}' with {} sources", snap.manifest.name, snap.slots.len());
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Serve {
-            manifest,
-            listen,
-            keep_going,
-            threads: asked,
-        } => {
+        Command::Serve { manifest, listen, keep_going, threads: asked } => {
             let Some(scene) = load(&manifest, keep_going, threads(asked)) else {
                 return Ok(ExitCode::from(2));
             };
@@ -121,12 +110,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
 }
 
 async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
-    let listener = tokio::net::TcpListener::bind(listen)
-        .await
-        .with_context(|| format!("cannot listen on {listen}"))?;
-    let addr = listener
-        .local_addr()
-        .context("cannot read the bound address")?;
+    let listener = tokio::net::TcpListener::bind(listen).await.with_context(|| format!("cannot listen on {listen}"))?;
+    let addr = listener.local_addr().context("cannot read the bound address")?;
     let shutdown = CancellationToken::new();
     let tasks = TaskTracker::new();
     let settings = scene.snapshot().manifest.watch;
@@ -138,16 +123,9 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
             tracing::error!("file watching stopped: {e:#}; use `relief reload` to pick up changes");
         }
     });
-    let server = tasks.spawn(relief_daemon::service::serve(
-        Arc::clone(&scene),
-        listener,
-        shutdown.clone(),
-    ));
+    let server = tasks.spawn(relief_daemon::service::serve(Arc::clone(&scene), listener, shutdown.clone()));
     tasks.close();
-    #[expect(
-        clippy::print_stdout,
-        reason = "the one line clients and tests read the address from"
-    )]
+    #[expect(clippy::print_stdout, reason = "the one line clients and tests read the address from")]
     {
         println!("listening on {addr}");
     }
@@ -163,10 +141,7 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
         }
     }
     shutdown.cancel();
-    if tokio::time::timeout(Duration::from_secs(5), tasks.wait())
-        .await
-        .is_err()
-    {
+    if tokio::time::timeout(Duration::from_secs(5), tasks.wait()).await.is_err() {
         tracing::warn!("tasks still running after 5 s; exiting anyway");
     }
     Ok(())
@@ -176,9 +151,7 @@ async fn shutdown_signal() {
     let ctrl_c = tokio::signal::ctrl_c();
     #[cfg(unix)]
     {
-        let Ok(mut term) =
-            tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-        else {
+        let Ok(mut term) = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) else {
             return ctrl_c.await.unwrap_or(());
         };
         tokio::select! {

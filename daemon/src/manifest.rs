@@ -20,18 +20,9 @@ pub enum ManifestError {
     #[error("invalid manifest: {message}: {}", path.display())]
     Parse { path: PathBuf, message: String },
     #[error("invalid manifest: field '{field}': {message}: {}", path.display())]
-    Field {
-        path: PathBuf,
-        field: String,
-        message: String,
-    },
+    Field { path: PathBuf, field: String, message: String },
     #[error("invalid manifest: source '{source_id}', field '{field}': {message}: {}", path.display())]
-    Source {
-        path: PathBuf,
-        source_id: String,
-        field: String,
-        message: String,
-    },
+    Source { path: PathBuf, source_id: String, field: String, message: String },
 }
 
 /// The effects a scene may declare, and the layers each one reads.
@@ -151,13 +142,7 @@ pub struct WatchSettings {
 
 impl Default for WatchSettings {
     fn default() -> Self {
-        Self {
-            settle_ms: 5,
-            debounce_ms: 500,
-            write_timeout_ms: 2000,
-            fast_path: true,
-            poll_ms: 0,
-        }
+        Self { settle_ms: 5, debounce_ms: 500, write_timeout_ms: 2000, fast_path: true, poll_ms: 0 }
     }
 }
 
@@ -165,10 +150,7 @@ impl Default for WatchSettings {
 #[derive(Debug, Clone, PartialEq)]
 pub enum GridSpec {
     Geodetic,
-    Projected {
-        crs: String,
-        extent: Option<[f64; 4]>,
-    },
+    Projected { crs: String, extent: Option<[f64; 4]> },
 }
 
 /// A parsed manifest: shape checked, paths resolved, graph not yet built.
@@ -188,10 +170,8 @@ pub struct Manifest {
 
 impl Manifest {
     pub fn load(path: &Path) -> Result<Self, ManifestError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ManifestError::Read {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ManifestError::Read { path: path.to_path_buf(), source })?;
         Self::parse(&text, path)
     }
 
@@ -201,11 +181,8 @@ impl Manifest {
             path: path.clone(),
             message: e.to_string().trim().replace('\n', " "),
         })?;
-        let field = |field: &str, message: String| ManifestError::Field {
-            path: path.clone(),
-            field: field.into(),
-            message,
-        };
+        let field =
+            |field: &str, message: String| ManifestError::Field { path: path.clone(), field: field.into(), message };
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
 
         let grid = match raw.scene.grid {
@@ -213,35 +190,24 @@ impl Manifest {
             RawGrid::Named(other) => {
                 return Err(field(
                     "scene.grid",
-                    format!(
-                        "'{other}' is not a grid (use \"geodetic\" or {{ crs = \"EPSG:...\" }})"
-                    ),
+                    format!("'{other}' is not a grid (use \"geodetic\" or {{ crs = \"EPSG:...\" }})"),
                 ));
             }
             RawGrid::Projected(p) => {
                 if let Some(e) = p.extent
                     && !(e.iter().all(|v| v.is_finite()) && e[2] > e[0] && e[3] > e[1])
                 {
-                    return Err(field(
-                        "scene.grid.extent",
-                        format!("{e:?} is not [min_x, min_y, max_x, max_y]"),
-                    ));
+                    return Err(field("scene.grid.extent", format!("{e:?} is not [min_x, min_y, max_x, max_y]")));
                 }
-                GridSpec::Projected {
-                    crs: p.crs,
-                    extent: p.extent,
-                }
+                GridSpec::Projected { crs: p.crs, extent: p.extent }
             }
         };
 
         let mut sources: Vec<SourceSpec> = Vec::new();
         for (index, s) in raw.sources.into_iter().enumerate() {
-            let id = s.id.filter(|id| !id.trim().is_empty()).ok_or_else(|| {
-                field(
-                    &format!("source[{index}].id"),
-                    "every source needs an id".into(),
-                )
-            })?;
+            let id =
+                s.id.filter(|id| !id.trim().is_empty())
+                    .ok_or_else(|| field(&format!("source[{index}].id"), "every source needs an id".into()))?;
             let source_err = |f: &str, message: String| ManifestError::Source {
                 path: path.clone(),
                 source_id: id.clone(),
@@ -255,10 +221,7 @@ impl Manifest {
             let mut paths: Vec<PathBuf> = Vec::new();
             match (s.path, s.paths) {
                 (Some(_), Some(_)) => {
-                    return Err(source_err(
-                        "paths",
-                        "give 'path' or 'paths', not both".into(),
-                    ));
+                    return Err(source_err("paths", "give 'path' or 'paths', not both".into()));
                 }
                 (Some(p), None) => paths.push(base.join(p)),
                 (None, Some(ps)) => paths.extend(ps.into_iter().map(|p| base.join(p))),
@@ -275,71 +238,42 @@ impl Manifest {
                 };
                 options.insert(key, v);
             }
-            sources.push(SourceSpec {
-                id,
-                kind,
-                paths,
-                inputs: s.inputs,
-                options,
-            });
+            sources.push(SourceSpec { id, kind, paths, inputs: s.inputs, options });
         }
 
         for (layer, id) in &raw.layers {
             if !LAYERS.contains(&layer.as_str()) {
-                return Err(field(
-                    &format!("layers.{layer}"),
-                    format!("unknown layer (known: {})", LAYERS.join(", ")),
-                ));
+                return Err(field(&format!("layers.{layer}"), format!("unknown layer (known: {})", LAYERS.join(", "))));
             }
             if !sources.iter().any(|s| &s.id == id) {
-                return Err(field(
-                    &format!("layers.{layer}"),
-                    format!("no source has id '{id}'"),
-                ));
+                return Err(field(&format!("layers.{layer}"), format!("no source has id '{id}'")));
             }
         }
         let mut effects = Vec::new();
         for (name, _params) in raw.effects {
             let Some((_, needs)) = EFFECTS.iter().find(|(e, _)| *e == name) else {
                 let known: Vec<&str> = EFFECTS.iter().map(|(e, _)| *e).collect();
-                return Err(field(
-                    &format!("effects.{name}"),
-                    format!("unknown effect (known: {})", known.join(", ")),
-                ));
+                return Err(field(&format!("effects.{name}"), format!("unknown effect (known: {})", known.join(", "))));
             };
             if let Some(missing) = needs.iter().find(|l| !raw.layers.contains_key(**l)) {
-                return Err(field(
-                    &format!("effects.{name}"),
-                    format!("needs a '{missing}' layer in [layers]"),
-                ));
+                return Err(field(&format!("effects.{name}"), format!("needs a '{missing}' layer in [layers]")));
             }
             effects.push(name);
         }
 
         let mut quality = Quality::default();
         if let Some(r) = raw.quality.resampling {
-            quality.resampling = r
-                .parse()
-                .map_err(|e: String| field("quality.resampling", e))?;
+            quality.resampling = r.parse().map_err(|e: String| field("quality.resampling", e))?;
         }
         if let Some(e) = raw.quality.reprojection_error_px {
             if !(e.is_finite() && (0.0..=16.0).contains(&e)) {
-                return Err(field(
-                    "quality.reprojection_error_px",
-                    format!("{e} is not between 0 and 16"),
-                ));
+                return Err(field("quality.reprojection_error_px", format!("{e} is not between 0 and 16")));
             }
             quality.reprojection_error_px = e;
         }
-        let tile_size = raw
-            .scene
-            .tile_size
-            .unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
+        let tile_size = raw.scene.tile_size.unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
-            return Err(field(
-                "scene.tile_size",
-                format!("{tile_size} is not a power of two from 16 to 4096"),
-            ));
+            return Err(field("scene.tile_size", format!("{tile_size} is not a power of two from 16 to 4096")));
         }
         let memory_mb = raw.cache.memory_mb.unwrap_or(512);
         if memory_mb == 0 {
@@ -349,10 +283,7 @@ impl Manifest {
         let watch = WatchSettings {
             settle_ms: raw.watch.settle_ms.unwrap_or(defaults.settle_ms),
             debounce_ms: raw.watch.debounce_ms.unwrap_or(defaults.debounce_ms),
-            write_timeout_ms: raw
-                .watch
-                .write_timeout_ms
-                .unwrap_or(defaults.write_timeout_ms),
+            write_timeout_ms: raw.watch.write_timeout_ms.unwrap_or(defaults.write_timeout_ms),
             fast_path: raw.watch.fast_path.unwrap_or(defaults.fast_path),
             poll_ms: raw.watch.poll_ms.unwrap_or(defaults.poll_ms),
         };
@@ -366,10 +297,7 @@ impl Manifest {
             }
         }
         if watch.poll_ms != 0 && watch.poll_ms < 10 {
-            return Err(field(
-                "watch.poll_ms",
-                format!("{} is below 10 ms (0 turns polling off)", watch.poll_ms),
-            ));
+            return Err(field("watch.poll_ms", format!("{} is below 10 ms (0 turns polling off)", watch.poll_ms)));
         }
         Ok(Self {
             path,
@@ -421,10 +349,7 @@ mod tests {
         .unwrap();
         assert_eq!(m.name, "alps");
         assert_eq!(m.grid, GridSpec::Geodetic);
-        assert_eq!(
-            m.sources[0].paths,
-            vec![PathBuf::from("/scenes/alps/N43E007.hgt")]
-        );
+        assert_eq!(m.sources[0].paths, vec![PathBuf::from("/scenes/alps/N43E007.hgt")]);
         assert_eq!(m.effects, vec!["lighting".to_string()]);
         assert_eq!(m.layers["color"], "ortho");
     }
@@ -432,51 +357,27 @@ mod tests {
     #[test]
     fn projected_grids_parse() {
         let m = parse("[scene]\nname = \"storm\"\ngrid = { crs = \"EPSG:32612\" }\n").unwrap();
-        assert_eq!(
-            m.grid,
-            GridSpec::Projected {
-                crs: "EPSG:32612".into(),
-                extent: None
-            }
-        );
+        assert_eq!(m.grid, GridSpec::Projected { crs: "EPSG:32612".into(), extent: None });
     }
 
     #[test]
     fn errors_name_the_source_and_the_field() {
         let cases = [
-            (
-                "[scene]\nname='a'\n[[source]]\nid='dem'\n",
-                "source 'dem', field 'kind'",
-            ),
-            (
-                "[scene]\nname='a'\n[quality]\nresampling='bicubic'\n",
-                "field 'quality.resampling'",
-            ),
-            (
-                "[scene]\nname='a'\n[effects]\nsparkles={}\n",
-                "field 'effects.sparkles'",
-            ),
-            (
-                "[scene]\nname='a'\n[layers]\nheight='nope'\n",
-                "field 'layers.height'",
-            ),
+            ("[scene]\nname='a'\n[[source]]\nid='dem'\n", "source 'dem', field 'kind'"),
+            ("[scene]\nname='a'\n[quality]\nresampling='bicubic'\n", "field 'quality.resampling'"),
+            ("[scene]\nname='a'\n[effects]\nsparkles={}\n", "field 'effects.sparkles'"),
+            ("[scene]\nname='a'\n[layers]\nheight='nope'\n", "field 'layers.height'"),
             ("[scene]\nname='a'\ngrid='mercator'\n", "field 'scene.grid'"),
             (
                 "[scene]\nname='a'\n[[source]]\nid='x'\nkind='gdal'\n[[source]]\nid='x'\nkind='gdal'\n",
                 "source 'x', field 'id'",
             ),
-            (
-                "[scene]\nname='a'\n[effects]\nlighting={}\n",
-                "needs a 'height' layer",
-            ),
+            ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
             ("[scene]\nname = \n", "invalid manifest"),
         ];
         for (text, expected) in cases {
             let msg = parse(text).unwrap_err().to_string();
-            assert!(
-                msg.contains(expected),
-                "{msg:?} should contain {expected:?}"
-            );
+            assert!(msg.contains(expected), "{msg:?} should contain {expected:?}");
             assert!(msg.ends_with("/scenes/alps/scene.toml"), "{msg}");
         }
     }

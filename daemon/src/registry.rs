@@ -27,11 +27,18 @@ impl Registry {
             kinds: vec![
                 Kind {
                     name: relief_source_gdal::KIND,
-                    open: |spec, grid| {
-                        Ok(Arc::new(relief_source_gdal::GdalSource::open(spec, grid)?))
-                    },
+                    open: |spec, grid| Ok(Arc::new(relief_source_gdal::GdalSource::open(spec, grid)?)),
                     inputs: &[],
                     output: None,
+                },
+                Kind {
+                    name: relief_source_shapefile::KIND,
+                    open: |spec, grid| {
+                        let crs = Arc::new(relief_source_gdal::OsrTransform);
+                        Ok(Arc::new(relief_source_shapefile::ShapefileSource::open(spec, grid, crs)?))
+                    },
+                    inputs: &[],
+                    output: Some(PayloadKind::Features),
                 },
                 Kind {
                     name: relief_source_ops::HILLSHADE_KIND,

@@ -131,10 +131,7 @@ impl Scene {
 
     /// Why the last manifest edit was not taken, if it was not.
     pub fn manifest_error(&self) -> Option<String> {
-        self.manifest_error
-            .read()
-            .expect("scene lock is never poisoned")
-            .clone()
+        self.manifest_error.read().expect("scene lock is never poisoned").clone()
     }
 
     /// Reads discarded so far because a writer was still at work.
@@ -158,16 +155,8 @@ impl Scene {
     /// fails keeps its last good version; with `report_errors` the error is
     /// shown on it, otherwise it is only handed back for a retry (the
     /// watcher does that while a writer may still be at work). Blocking.
-    pub fn refresh(
-        &self,
-        only: Option<&[String]>,
-        reason: &str,
-        report_errors: bool,
-    ) -> RefreshOutcome {
-        let _one_at_a_time = self
-            .refresh_lock
-            .lock()
-            .expect("refresh lock is never poisoned");
+    pub fn refresh(&self, only: Option<&[String]>, reason: &str, report_errors: bool) -> RefreshOutcome {
+        let _one_at_a_time = self.refresh_lock.lock().expect("refresh lock is never poisoned");
         let started = Instant::now();
         let old = self.snapshot();
         let mut new = (*old).clone();
@@ -183,20 +172,12 @@ impl Scene {
                 continue;
             }
             let result = match &slot.source {
-                Some(source) => source
-                    .refresh(&new.grid)
-                    .map_err(|e| (e.is_transient(), graph::source_error(&slot.spec, e))),
+                Some(source) => {
+                    source.refresh(&new.grid).map_err(|e| (e.is_transient(), graph::source_error(&slot.spec, e)))
+                }
                 None => graph::open_source(&slot.spec, &new.grid, &self.registry)
-                    .map(|source| Refresh::Changed {
-                        source,
-                        dirty: DirtySet::everything(),
-                    })
-                    .map_err(|e| {
-                        (
-                            matches!(&e, LoadError::Source { error, .. } if error.is_transient()),
-                            e,
-                        )
-                    }),
+                    .map(|source| Refresh::Changed { source, dirty: DirtySet::everything() })
+                    .map_err(|e| (matches!(&e, LoadError::Source { error, .. } if error.is_transient()), e)),
             };
             match result {
                 Ok(Refresh::Unchanged) => {
@@ -240,27 +221,13 @@ impl Scene {
                 }
             }
         }
-        tracing::debug!(
-            read_ms = started.elapsed().as_secs_f64() * 1e3,
-            "sources read"
-        );
+        tracing::debug!(read_ms = started.elapsed().as_secs_f64() * 1e3, "sources read");
         if changed_sources.is_empty() && !status_changed {
             // Quiet swaps (new fingerprints, same data) still take effect.
             *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);
-            return RefreshOutcome {
-                generation: old.generation,
-                retry,
-            };
+            return RefreshOutcome { generation: old.generation, retry };
         }
-        let generation = self.publish(
-            &old,
-            new,
-            dirt,
-            changed_sources,
-            error_events,
-            reason,
-            started,
-        );
+        let generation = self.publish(&old, new, dirt, changed_sources, error_events, reason, started);
         RefreshOutcome { generation, retry }
     }
 
@@ -269,10 +236,7 @@ impl Scene {
     /// (re)built. A manifest that does not load keeps the scene as it was
     /// and shows why. Blocking.
     pub fn reload_manifest(&self) -> u64 {
-        let _one_at_a_time = self
-            .refresh_lock
-            .lock()
-            .expect("refresh lock is never poisoned");
+        let _one_at_a_time = self.refresh_lock.lock().expect("refresh lock is never poisoned");
         let started = Instant::now();
         let old = self.snapshot();
         let built = Manifest::load(&self.manifest_path)
@@ -281,24 +245,14 @@ impl Scene {
         let (new, open_errors) = match built {
             Ok(b) => b,
             Err(errors) => {
-                let error = errors
-                    .iter()
-                    .map(ToString::to_string)
-                    .collect::<Vec<_>>()
-                    .join("; ");
+                let error = errors.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ");
                 tracing::warn!("{error}; keeping the scene as it was");
-                *self
-                    .manifest_error
-                    .write()
-                    .expect("scene lock is never poisoned") = Some(error.clone());
+                *self.manifest_error.write().expect("scene lock is never poisoned") = Some(error.clone());
                 self.send(old.generation, EventKind::ManifestError { error });
                 return old.generation;
             }
         };
-        *self
-            .manifest_error
-            .write()
-            .expect("scene lock is never poisoned") = None;
+        *self.manifest_error.write().expect("scene lock is never poisoned") = None;
         let mut dirt = HashMap::new();
         let mut changed = Vec::new();
         for slot in &new.slots {
@@ -308,32 +262,21 @@ impl Scene {
                 changed.push(slot.spec.id.clone());
             }
         }
-        for gone in old
-            .slots
-            .iter()
-            .filter(|s| new.index_of(&s.spec.id).is_none())
-        {
+        for gone in old.slots.iter().filter(|s| new.index_of(&s.spec.id).is_none()) {
             self.store.forget(&gone.spec.id, gone.effective_version);
             changed.push(gone.spec.id.clone());
         }
         let errors = open_errors
             .iter()
             .map(|e| match e {
-                LoadError::Source { source_id, .. } => EventKind::SourceError {
-                    source_id: source_id.clone(),
-                    error: e.to_string(),
-                    kept_last_good: false,
-                },
-                other => EventKind::ManifestError {
-                    error: other.to_string(),
-                },
+                LoadError::Source { source_id, .. } => {
+                    EventKind::SourceError { source_id: source_id.clone(), error: e.to_string(), kept_last_good: false }
+                }
+                other => EventKind::ManifestError { error: other.to_string() },
             })
             .collect();
-        let reason = if old.manifest.grid == new.manifest.grid {
-            "manifest edited"
-        } else {
-            "manifest edited (new grid)"
-        };
+        let reason =
+            if old.manifest.grid == new.manifest.grid { "manifest edited" } else { "manifest edited (new grid)" };
         self.publish(&old, new, dirt, changed, errors, reason, started)
     }
 
@@ -341,10 +284,7 @@ impl Scene {
     /// first, inputs before dependents, stopping where rebuilt tiles come
     /// out the same), then makes `new` the current generation and tells
     /// the watchers. Returns the new generation.
-    #[expect(
-        clippy::too_many_arguments,
-        reason = "one call site per kind of change; a struct would only rename them"
-    )]
+    #[expect(clippy::too_many_arguments, reason = "one call site per kind of change; a struct would only rename them")]
     fn publish(
         &self,
         old: &SceneSnapshot,
@@ -360,9 +300,7 @@ impl Scene {
             let Some(source) = &slot.source else { continue };
             let mut d = dirt.remove(&slot.spec.id).unwrap_or_default();
             for (n, &input) in slot.inputs.iter().enumerate() {
-                if let Some(input_dirt) =
-                    dirt.get(&new.slots[input].spec.id).filter(|d| !d.is_none())
-                {
+                if let Some(input_dirt) = dirt.get(&new.slots[input].spec.id).filter(|d| !d.is_none()) {
                     d = d.union(&source.dirty_from_input(n, input_dirt));
                 }
             }
@@ -384,10 +322,7 @@ impl Scene {
             .filter_map(|s| {
                 dirt.get(&s.spec.id)
                     .filter(|d| !d.is_none())
-                    .map(|d| DirtyRegion {
-                        source_id: s.spec.id.clone(),
-                        extents: d.extents(&new.grid),
-                    })
+                    .map(|d| DirtyRegion { source_id: s.spec.id.clone(), extents: d.extents(&new.grid) })
             })
             .collect();
         let generation = new.generation;
@@ -399,13 +334,7 @@ impl Scene {
         }
         self.send(
             generation,
-            EventKind::Generation {
-                changed_sources,
-                dirty,
-                stats,
-                elapsed_ms,
-                reason: reason.to_owned(),
-            },
+            EventKind::Generation { changed_sources, dirty, stats, elapsed_ms, reason: reason.to_owned() },
         );
         self.generation.send_replace(generation);
         generation
@@ -415,16 +344,10 @@ impl Scene {
     /// are carried over; touched ones are generated again, and a derived
     /// tile whose input tiles all came out the same is carried (early
     /// cutoff).
-    fn rebuild(
-        &self,
-        old: &SceneSnapshot,
-        new: &SceneSnapshot,
-        dirt: &HashMap<String, DirtySet>,
-    ) -> RebuildStats {
+    fn rebuild(&self, old: &SceneSnapshot, new: &SceneSnapshot, dirt: &HashMap<String, DirtySet>) -> RebuildStats {
         let mut stats = RebuildStats::default();
         // Per source, the touched tiles that were rebuilt: changed or not.
-        let mut outcome: Vec<HashMap<(QualityKey, TileKey), bool>> =
-            vec![HashMap::new(); new.slots.len()];
+        let mut outcome: Vec<HashMap<(QualityKey, TileKey), bool>> = vec![HashMap::new(); new.slots.len()];
         let none = DirtySet::none();
         for (i, slot) in new.slots.iter().enumerate() {
             let Some(before) = old.slots.iter().find(|s| s.spec.id == slot.spec.id) else {
@@ -441,9 +364,7 @@ impl Scene {
                 // change: only its inputs did.
                 let inputs_same = !slot.inputs.is_empty()
                     && slot.version == before.version
-                    && slot.inputs.iter().all(|&input| {
-                        Self::input_unchanged(new, dirt, &outcome, input, quality, key)
-                    });
+                    && slot.inputs.iter().all(|&input| Self::input_unchanged(new, dirt, &outcome, input, quality, key));
                 if touched && !inputs_same {
                     to_build.push((quality, key, tile.content_hash));
                 } else {
@@ -452,8 +373,7 @@ impl Scene {
                     } else {
                         stats.carried += 1;
                     }
-                    self.store
-                        .carry(&slot.spec.id, slot.effective_version, quality, key, tile);
+                    self.store.carry(&slot.spec.id, slot.effective_version, quality, key, tile);
                 }
             }
             self.store.forget(&slot.spec.id, before.effective_version);
@@ -462,16 +382,11 @@ impl Scene {
             for (q, key, _) in &to_build {
                 by_quality.entry(*q).or_default().push((i, *key));
             }
-            let hashes: HashMap<(QualityKey, TileKey), u64> =
-                to_build.iter().map(|(q, k, h)| ((*q, *k), *h)).collect();
+            let hashes: HashMap<(QualityKey, TileKey), u64> = to_build.iter().map(|(q, k, h)| ((*q, *k), *h)).collect();
             for (q, keys) in by_quality {
-                for ((_, key), built) in
-                    keys.iter()
-                        .zip(self.store.build(new, &keys, &Quality::from(q)))
-                {
+                for ((_, key), built) in keys.iter().zip(self.store.build(new, &keys, &Quality::from(q))) {
                     stats.rebuilt += 1;
-                    let changed =
-                        built.map_or(true, |t| Some(&t.content_hash) != hashes.get(&(q, *key)));
+                    let changed = built.map_or(true, |t| Some(&t.content_hash) != hashes.get(&(q, *key)));
                     outcome[i].insert((q, *key), changed);
                 }
             }
@@ -494,17 +409,8 @@ impl Scene {
             return true;
         };
         let lattice = new.grid.lattice(key, relief_source::SampleKind::Corner);
-        let reach = new
-            .grid
-            .tile_extent(key)
-            .dilate(lattice.step_x, lattice.step_y);
-        let read: HashSet<TileKey> = new
-            .grid
-            .keys_overlapping(key.level, &reach)
-            .into_iter()
-            .collect();
-        read.iter().all(|k| {
-            !d.touches_tile(&new.grid, *k) || outcome[input].get(&(quality, *k)) == Some(&false)
-        })
+        let reach = new.grid.tile_extent(key).dilate(lattice.step_x, lattice.step_y);
+        let read: HashSet<TileKey> = new.grid.keys_overlapping(key.level, &reach).into_iter().collect();
+        read.iter().all(|k| !d.touches_tile(&new.grid, *k) || outcome[input].get(&(quality, *k)) == Some(&false))
     }
 }

@@ -29,11 +29,7 @@ pub enum TileError {
     #[error("source '{id}' has no data to serve: {reason}")]
     Unavailable { id: String, reason: String },
     #[error("source '{id}' could not generate tile {key}: {message}")]
-    Generate {
-        id: String,
-        key: TileKey,
-        message: String,
-    },
+    Generate { id: String, key: TileKey, message: String },
     #[error("the tile worker pool shut down")]
     Cancelled,
 }
@@ -48,19 +44,13 @@ pub struct QualityKey {
 
 impl From<&Quality> for QualityKey {
     fn from(q: &Quality) -> Self {
-        Self {
-            resampling: q.resampling,
-            reprojection_error_bits: q.reprojection_error_px.to_bits(),
-        }
+        Self { resampling: q.resampling, reprojection_error_bits: q.reprojection_error_px.to_bits() }
     }
 }
 
 impl From<QualityKey> for Quality {
     fn from(k: QualityKey) -> Self {
-        Self {
-            resampling: k.resampling,
-            reprojection_error_px: f64::from_bits(k.reprojection_error_bits),
-        }
+        Self { resampling: k.resampling, reprojection_error_px: f64::from_bits(k.reprojection_error_bits) }
     }
 }
 
@@ -96,9 +86,7 @@ impl TileStore {
     pub fn new(budget_bytes: u64, threads: usize) -> Self {
         let cache = Cache::builder()
             .max_capacity(budget_bytes)
-            .weigher(|_k: &CacheKey, t: &Arc<Tile>| {
-                u32::try_from(t.payload.size_bytes() + 96).unwrap_or(u32::MAX)
-            })
+            .weigher(|_k: &CacheKey, t: &Arc<Tile>| u32::try_from(t.payload.size_bytes() + 96).unwrap_or(u32::MAX))
             .build();
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))
@@ -150,30 +138,14 @@ impl TileStore {
             .try_get_with(cache_key, || {
                 self.misses.fetch_add(1, Ordering::Relaxed);
                 let started = std::time::Instant::now();
-                let inputs = Inputs {
-                    store: self,
-                    snap,
-                    index,
-                    quality,
-                };
-                let ctx = GenerateContext {
-                    grid: &snap.grid,
-                    quality,
-                    inputs: &inputs,
-                };
-                let payload = source
-                    .generate(key, &ctx)
-                    .map_err(|e| TileError::Generate {
-                        id: id.into(),
-                        key,
-                        message: e.to_string(),
-                    })?;
-                *self
-                    .generated
-                    .lock()
-                    .expect("counter lock is never poisoned")
-                    .entry(id.to_owned())
-                    .or_default() += 1;
+                let inputs = Inputs { store: self, snap, index, quality };
+                let ctx = GenerateContext { grid: &snap.grid, quality, inputs: &inputs };
+                let payload = source.generate(key, &ctx).map_err(|e| TileError::Generate {
+                    id: id.into(),
+                    key,
+                    message: e.to_string(),
+                })?;
+                *self.generated.lock().expect("counter lock is never poisoned").entry(id.to_owned()).or_default() += 1;
                 tracing::trace!(
                     source.id = id,
                     tile.level = key.level,
@@ -183,10 +155,7 @@ impl TileStore {
                     "tile generated"
                 );
                 let content_hash = payload.content_hash();
-                Ok(Arc::new(Tile {
-                    payload: Arc::new(payload),
-                    content_hash,
-                }))
+                Ok(Arc::new(Tile { payload: Arc::new(payload), content_hash }))
             })
             .map_err(|e: Arc<TileError>| (*e).clone())
     }
@@ -200,25 +169,14 @@ impl TileStore {
         quality: &Quality,
     ) -> Vec<Result<Arc<Tile>, TileError>> {
         let mut order: Vec<usize> = (0..requests.len()).collect();
-        order.sort_by_key(|&i| {
-            (
-                requests[i].1.level,
-                requests[i].0,
-                requests[i].1.y,
-                requests[i].1.x,
-            )
-        });
+        order.sort_by_key(|&i| (requests[i].1.level, requests[i].0, requests[i].1.y, requests[i].1.x));
         let mut results: Vec<Option<Result<Arc<Tile>, TileError>>> = vec![None; requests.len()];
         self.pool.install(|| {
             // One level at a time, so no fine tile starts before every coarse one is done.
             let mut start = 0;
             while start < order.len() {
                 let level = requests[order[start]].1.level;
-                let end = start
-                    + order[start..]
-                        .iter()
-                        .take_while(|&&i| requests[i].1.level == level)
-                        .count();
+                let end = start + order[start..].iter().take_while(|&&i| requests[i].1.level == level).count();
                 let done: Vec<(usize, Result<Arc<Tile>, TileError>)> = order[start..end]
                     .par_iter()
                     .map(|&i| (i, self.tile(snap, requests[i].0, requests[i].1, quality)))
@@ -229,17 +187,11 @@ impl TileStore {
                 start = end;
             }
         });
-        results
-            .into_iter()
-            .map(|r| r.unwrap_or(Err(TileError::Cancelled)))
-            .collect()
+        results.into_iter().map(|r| r.unwrap_or(Err(TileError::Cancelled))).collect()
     }
 
     /// Runs blocking work on the tile pool and awaits its answer.
-    pub async fn run<R: Send + 'static>(
-        &self,
-        job: impl FnOnce() -> R + Send + 'static,
-    ) -> Result<R, TileError> {
+    pub async fn run<R: Send + 'static>(&self, job: impl FnOnce() -> R + Send + 'static) -> Result<R, TileError> {
         let (tx, rx) = tokio::sync::oneshot::channel();
         self.pool.spawn(move || {
             let _receiver_gone = tx.send(job());
@@ -248,12 +200,7 @@ impl TileStore {
     }
 
     pub fn generated_for(&self, id: &str) -> u64 {
-        self.generated
-            .lock()
-            .expect("counter lock is never poisoned")
-            .get(id)
-            .copied()
-            .unwrap_or(0)
+        self.generated.lock().expect("counter lock is never poisoned").get(id).copied().unwrap_or(0)
     }
 
     /// Every cached tile of `source` at `version`, coarse levels first.
@@ -269,33 +216,14 @@ impl TileStore {
     }
 
     /// Files a tile that is still right under a new version of its source.
-    pub fn carry(
-        &self,
-        source: &str,
-        version: u64,
-        quality: QualityKey,
-        key: TileKey,
-        tile: Arc<Tile>,
-    ) {
-        self.cache.insert(
-            CacheKey {
-                source: Arc::from(source),
-                version,
-                quality,
-                key,
-            },
-            tile,
-        );
+    pub fn carry(&self, source: &str, version: u64, quality: QualityKey, key: TileKey, tile: Arc<Tile>) {
+        self.cache.insert(CacheKey { source: Arc::from(source), version, quality, key }, tile);
     }
 
     /// Drops every cached tile of `source` at `version`.
     pub fn forget(&self, source: &str, version: u64) {
-        let stale: Vec<Arc<CacheKey>> = self
-            .cache
-            .iter()
-            .filter(|(k, _)| &*k.source == source && k.version == version)
-            .map(|(k, _)| k)
-            .collect();
+        let stale: Vec<Arc<CacheKey>> =
+            self.cache.iter().filter(|(k, _)| &*k.source == source && k.version == version).map(|(k, _)| k).collect();
         for k in stale {
             self.cache.invalidate(&*k);
         }
@@ -304,12 +232,7 @@ impl TileStore {
     pub fn counters(&self) -> StoreCounters {
         self.cache.run_pending_tasks();
         StoreCounters {
-            tiles_generated: self
-                .generated
-                .lock()
-                .expect("counter lock is never poisoned")
-                .values()
-                .sum(),
+            tiles_generated: self.generated.lock().expect("counter lock is never poisoned").values().sum(),
             hits: self.hits.load(Ordering::Relaxed),
             misses: self.misses.load(Ordering::Relaxed),
             entries: self.cache.entry_count(),
@@ -331,18 +254,11 @@ impl InputTiles for Inputs<'_> {
     fn tile(&self, input: usize, key: TileKey) -> Result<Arc<Payload>, SourceError> {
         let slot = &self.snap.slots[self.index];
         let Some(&input_index) = slot.inputs.get(input) else {
-            return Err(SourceError::Input {
-                input: input.to_string(),
-                message: "no such input".into(),
-            });
+            return Err(SourceError::Input { input: input.to_string(), message: "no such input".into() });
         };
-        self.store
-            .tile(self.snap, input_index, key, self.quality)
-            .map(|t| Arc::clone(&t.payload))
-            .map_err(|e| SourceError::Input {
-                input: self.snap.slots[input_index].spec.id.clone(),
-                message: e.to_string(),
-            })
+        self.store.tile(self.snap, input_index, key, self.quality).map(|t| Arc::clone(&t.payload)).map_err(|e| {
+            SourceError::Input { input: self.snap.slots[input_index].spec.id.clone(), message: e.to_string() }
+        })
     }
 }
 
@@ -370,28 +286,16 @@ mod tests {
         fn output(&self) -> PayloadKind {
             PayloadKind::Height
         }
-        fn generate(
-            &self,
-            key: TileKey,
-            ctx: &GenerateContext<'_>,
-        ) -> Result<Payload, SourceError> {
+        fn generate(&self, key: TileKey, ctx: &GenerateContext<'_>) -> Result<Payload, SourceError> {
             let n = ctx.grid.tile_size() as usize + 1;
-            Ok(Payload::Height(HeightTile {
-                size: n,
-                heights: vec![f32::from(key.level); n * n],
-            }))
+            Ok(Payload::Height(HeightTile { size: n, heights: vec![f32::from(key.level); n * n] }))
         }
     }
 
     fn snapshot() -> SceneSnapshot {
-        let manifest =
-            Manifest::parse("[scene]\nname = \"t\"\n", Path::new("/t/scene.toml")).unwrap();
+        let manifest = Manifest::parse("[scene]\nname = \"t\"\n", Path::new("/t/scene.toml")).unwrap();
         let slot = Slot {
-            spec: SourceSpec {
-                id: "flat".into(),
-                kind: "test".into(),
-                ..SourceSpec::default()
-            },
+            spec: SourceSpec { id: "flat".into(), kind: "test".into(), ..SourceSpec::default() },
             source: Some(Arc::new(Flat)),
             error: None,
             version: 1,
@@ -427,29 +331,18 @@ mod tests {
         let snap = snapshot();
         let keys = vec![(0, TileKey::new(3, 1, 1)); 16];
         let built = store.build(&snap, &keys, &Quality::default());
-        assert!(built.iter().all(|t| {
-            t.as_ref()
-                .is_ok_and(|t| t.content_hash == built[0].as_ref().unwrap().content_hash)
-        }));
+        assert!(
+            built
+                .iter()
+                .all(|t| { t.as_ref().is_ok_and(|t| t.content_hash == built[0].as_ref().unwrap().content_hash) })
+        );
         assert_eq!(store.counters().tiles_generated, 1);
     }
 
     #[test]
     fn keys_outside_the_grid_are_refused() {
         let store = TileStore::new(1 << 20, 1);
-        let err = store
-            .tile(&snapshot(), 0, TileKey::new(2, 8, 0), &Quality::default())
-            .unwrap_err();
-        assert!(
-            matches!(
-                err,
-                TileError::OutsideGrid {
-                    cols: 8,
-                    rows: 4,
-                    ..
-                }
-            ),
-            "{err}"
-        );
+        let err = store.tile(&snapshot(), 0, TileKey::new(2, 8, 0), &Quality::default()).unwrap_err();
+        assert!(matches!(err, TileError::OutsideGrid { cols: 8, rows: 4, .. }), "{err}");
     }
 }

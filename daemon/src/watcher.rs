@@ -74,14 +74,12 @@ fn readiness(p: &Pending, now: Instant, s: &WatchSettings, repacking: bool) -> O
     }
     let quiet = now.duration_since(p.last_event);
     if p.writing {
-        return (quiet >= Duration::from_millis(s.write_timeout_ms.max(s.debounce_ms)))
-            .then_some(Ready::Quiet);
+        return (quiet >= Duration::from_millis(s.write_timeout_ms.max(s.debounce_ms))).then_some(Ready::Quiet);
     }
     if quiet >= Duration::from_millis(s.debounce_ms) && !repacking {
         return Some(Ready::Quiet);
     }
-    (s.fast_path && !p.fast_failed && !repacking && quiet >= Duration::from_millis(s.settle_ms))
-        .then_some(Ready::Fast)
+    (s.fast_path && !p.fast_failed && !repacking && quiet >= Duration::from_millis(s.settle_ms)).then_some(Ready::Fast)
 }
 
 /// Which datasets (and the manifest) the scene reads, by folder and stem.
@@ -97,9 +95,7 @@ fn interests(scene: &Scene) -> HashMap<(PathBuf, String), BTreeSet<Target>> {
             .unwrap_or_else(|| slot.spec.paths.clone());
         for file in files {
             if let Some(key) = dataset_key(&file) {
-                map.entry(key)
-                    .or_default()
-                    .insert(Target::Source(slot.spec.id.clone()));
+                map.entry(key).or_default().insert(Target::Source(slot.spec.id.clone()));
             }
         }
     }
@@ -147,15 +143,7 @@ impl FileWatch {
                 Err(_) => flag.store(true, Ordering::Relaxed),
             })?;
         let groups = interests(&scene);
-        let mut watch = Self {
-            scene,
-            settings,
-            watcher,
-            events,
-            overflow,
-            watched: BTreeSet::new(),
-            groups,
-        };
+        let mut watch = Self { scene, settings, watcher, events, overflow, watched: BTreeSet::new(), groups };
         update_watches(&mut watch.watcher, &mut watch.watched, &watch.groups);
         Ok(watch)
     }
@@ -167,15 +155,7 @@ impl FileWatch {
 }
 
 async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()> {
-    let FileWatch {
-        scene,
-        settings,
-        mut watcher,
-        events: mut rx,
-        overflow,
-        mut watched,
-        mut groups,
-    } = watch;
+    let FileWatch { scene, settings, mut watcher, events: mut rx, overflow, mut watched, mut groups } = watch;
     // Anything saved between loading the scene and watching its folders is
     // caught by one look at every source (a fingerprint check when nothing
     // changed).
@@ -183,15 +163,9 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         .snapshot()
         .slots
         .iter()
-        .map(|s| {
-            (
-                Target::Source(s.spec.id.clone()),
-                Pending::new(Instant::now()),
-            )
-        })
+        .map(|s| (Target::Source(s.spec.id.clone()), Pending::new(Instant::now())))
         .collect();
-    let mut poll = (settings.poll_ms > 0)
-        .then(|| tokio::time::interval(Duration::from_millis(settings.poll_ms)));
+    let mut poll = (settings.poll_ms > 0).then(|| tokio::time::interval(Duration::from_millis(settings.poll_ms)));
     let mut tick = tokio::time::interval(Duration::from_millis(settings.settle_ms.clamp(1, 50)));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
 
@@ -213,17 +187,10 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         }
         let now = Instant::now();
         if overflow.swap(false, Ordering::Relaxed) {
-            tracing::warn!(
-                "too many file events at once; rescanning every source after the quiet period"
-            );
+            tracing::warn!("too many file events at once; rescanning every source after the quiet period");
             for slot in &scene.snapshot().slots {
-                pending.insert(
-                    Target::Source(slot.spec.id.clone()),
-                    Pending {
-                        fast_failed: true,
-                        ..Pending::new(now)
-                    },
-                );
+                pending
+                    .insert(Target::Source(slot.spec.id.clone()), Pending { fast_failed: true, ..Pending::new(now) });
             }
         }
 
@@ -234,9 +201,7 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         for (target, p) in &pending {
             let repacking = match target {
                 Target::Source(id) => {
-                    groups
-                        .iter()
-                        .any(|((dir, stem), t)| t.contains(target) && is_repacking(dir, stem))
+                    groups.iter().any(|((dir, stem), t)| t.contains(target) && is_repacking(dir, stem))
                         && !id.is_empty()
                 }
                 Target::Manifest => false,
@@ -259,14 +224,8 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
             }
             let s = Arc::clone(&scene);
             let asked = ids.clone();
-            let reason = if report {
-                "files changed (quiet)"
-            } else {
-                "files changed"
-            };
-            let outcome =
-                tokio::task::spawn_blocking(move || s.refresh(Some(&asked), reason, report))
-                    .await?;
+            let reason = if report { "files changed (quiet)" } else { "files changed" };
+            let outcome = tokio::task::spawn_blocking(move || s.refresh(Some(&asked), reason, report)).await?;
             let now = Instant::now();
             for id in ids {
                 let target = Target::Source(id.clone());
@@ -306,12 +265,8 @@ fn note(
         EventKind::Access(AccessKind::Close(AccessMode::Write))
         | EventKind::Modify(ModifyKind::Name(RenameMode::To | RenameMode::Both)) => (false, true),
         EventKind::Access(_) => return,
-        EventKind::Modify(ModifyKind::Data(_) | ModifyKind::Any) | EventKind::Create(_) => {
-            (true, false)
-        }
-        EventKind::Remove(_) | EventKind::Modify(_) | EventKind::Any | EventKind::Other => {
-            (false, false)
-        }
+        EventKind::Modify(ModifyKind::Data(_) | ModifyKind::Any) | EventKind::Create(_) => (true, false),
+        EventKind::Remove(_) | EventKind::Modify(_) | EventKind::Any | EventKind::Other => (false, false),
     };
     for path in &event.paths {
         if is_lock_or_temp(path) {
@@ -324,9 +279,7 @@ fn note(
             continue;
         };
         for target in targets {
-            let p = pending
-                .entry(target.clone())
-                .or_insert_with(|| Pending::new(now));
+            let p = pending.entry(target.clone()).or_insert_with(|| Pending::new(now));
             p.last_event = now;
             p.fast_failed = false;
             p.not_before = None;
@@ -347,13 +300,7 @@ fn update_watches(
 ) {
     let wanted: BTreeSet<PathBuf> = groups
         .keys()
-        .map(|(dir, _)| {
-            if dir.as_os_str().is_empty() {
-                PathBuf::from(".")
-            } else {
-                dir.clone()
-            }
-        })
+        .map(|(dir, _)| if dir.as_os_str().is_empty() { PathBuf::from(".") } else { dir.clone() })
         .collect();
     for gone in watched.difference(&wanted) {
         let _already_gone = watcher.unwatch(gone);
@@ -376,55 +323,17 @@ mod tests {
         let t0 = Instant::now();
         let closed = Pending::new(t0);
         assert_eq!(readiness(&closed, t0, &s, false), None, "settle first");
-        assert_eq!(
-            readiness(&closed, t0 + Duration::from_millis(6), &s, false),
-            Some(Ready::Fast)
-        );
-        assert_eq!(
-            readiness(&closed, t0 + Duration::from_millis(6), &s, true),
-            None,
-            "repack under way"
-        );
-        assert_eq!(
-            readiness(&closed, t0 + Duration::from_millis(600), &s, false),
-            Some(Ready::Quiet)
-        );
-        let writing = Pending {
-            writing: true,
-            ..closed
-        };
-        assert_eq!(
-            readiness(&writing, t0 + Duration::from_millis(600), &s, false),
-            None,
-            "still open for writing"
-        );
-        assert_eq!(
-            readiness(&writing, t0 + Duration::from_millis(2100), &s, false),
-            Some(Ready::Quiet)
-        );
-        let failed = Pending {
-            fast_failed: true,
-            ..closed
-        };
-        assert_eq!(
-            readiness(&failed, t0 + Duration::from_millis(100), &s, false),
-            None
-        );
-        let slow = WatchSettings {
-            fast_path: false,
-            ..s
-        };
-        assert_eq!(
-            readiness(&closed, t0 + Duration::from_millis(100), &slow, false),
-            None
-        );
-        let backing_off = Pending {
-            not_before: Some(t0 + Duration::from_secs(1)),
-            ..closed
-        };
-        assert_eq!(
-            readiness(&backing_off, t0 + Duration::from_millis(600), &s, false),
-            None
-        );
+        assert_eq!(readiness(&closed, t0 + Duration::from_millis(6), &s, false), Some(Ready::Fast));
+        assert_eq!(readiness(&closed, t0 + Duration::from_millis(6), &s, true), None, "repack under way");
+        assert_eq!(readiness(&closed, t0 + Duration::from_millis(600), &s, false), Some(Ready::Quiet));
+        let writing = Pending { writing: true, ..closed };
+        assert_eq!(readiness(&writing, t0 + Duration::from_millis(600), &s, false), None, "still open for writing");
+        assert_eq!(readiness(&writing, t0 + Duration::from_millis(2100), &s, false), Some(Ready::Quiet));
+        let failed = Pending { fast_failed: true, ..closed };
+        assert_eq!(readiness(&failed, t0 + Duration::from_millis(100), &s, false), None);
+        let slow = WatchSettings { fast_path: false, ..s };
+        assert_eq!(readiness(&closed, t0 + Duration::from_millis(100), &slow, false), None);
+        let backing_off = Pending { not_before: Some(t0 + Duration::from_secs(1)), ..closed };
+        assert_eq!(readiness(&backing_off, t0 + Duration::from_millis(600), &s, false), None);
     }
 }

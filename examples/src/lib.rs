@@ -29,20 +29,13 @@ impl RasterSpec<'_> {
 
     /// World coordinates of the centre of pixel (i, j).
     pub fn centre(&self, i: usize, j: usize) -> (f64, f64) {
-        (
-            self.origin_x + (i as f64 + 0.5) * self.pixel,
-            self.origin_y - (j as f64 + 0.5) * self.pixel,
-        )
+        (self.origin_x + (i as f64 + 0.5) * self.pixel, self.origin_y - (j as f64 + 0.5) * self.pixel)
     }
 }
 
 /// Writes a Float32 GeoTIFF whose pixel (i, j) holds `height(x, y)` at the
 /// pixel's centre.
-pub fn write_dem(
-    path: &Path,
-    spec: &RasterSpec<'_>,
-    height: impl Fn(f64, f64) -> f64,
-) -> anyhow::Result<PathBuf> {
+pub fn write_dem(path: &Path, spec: &RasterSpec<'_>, height: impl Fn(f64, f64) -> f64) -> anyhow::Result<PathBuf> {
     let data = spec.pixels().map(|(x, y)| height(x, y) as f32).collect();
     write_geotiff(path, spec, vec![data])
 }
@@ -57,14 +50,7 @@ fn write_geotiff<T: gdal::raster::GdalType + Copy>(
     let mut ds = driver
         .create_with_band_type::<T, _>(path, spec.width, spec.height, planes.len())
         .with_context(|| format!("cannot create {}", path.display()))?;
-    ds.set_geo_transform(&[
-        spec.origin_x,
-        spec.pixel,
-        0.0,
-        spec.origin_y,
-        0.0,
-        -spec.pixel,
-    ])?;
+    ds.set_geo_transform(&[spec.origin_x, spec.pixel, 0.0, spec.origin_y, 0.0, -spec.pixel])?;
     ds.set_spatial_ref(&SpatialRef::from_definition(spec.crs)?)?;
     let size = (spec.width, spec.height);
     for (b, plane) in planes.into_iter().enumerate() {
@@ -97,8 +83,7 @@ pub fn hill_spec() -> RasterSpec<'static> {
 
 /// A smooth analytic surface in UTM 12N metres, around Storm Lake, Montana.
 pub fn utm_surface(x: f64, y: f64) -> f64 {
-    2500.0 + 0.05 * (x - 300_000.0) - 0.02 * (y - 5_100_000.0)
-        + 80.0 * ((x / 700.0).sin() * (y / 900.0).cos())
+    2500.0 + 0.05 * (x - 300_000.0) - 0.02 * (y - 5_100_000.0) + 80.0 * ((x / 700.0).sin() * (y / 900.0).cos())
 }
 
 /// 300 x 200 pixels of 30 m in EPSG:32612.
@@ -126,10 +111,7 @@ pub struct Lcg(pub u64);
 
 impl Lcg {
     pub fn next_f64(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
+        self.0 = self.0.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
         (self.0 >> 11) as f64 / (1u64 << 53) as f64
     }
 
@@ -141,14 +123,11 @@ impl Lcg {
 /// The demo's mountain range: a ridge running north-east with three peaks
 /// (up to about 3100 m) over a 400 m valley floor, in degrees on WGS84.
 pub fn demo_terrain(lon: f64, lat: f64) -> f64 {
-    let peak = |cx: f64, cy: f64, h: f64, s: f64| {
-        h * (-((lon - cx).powi(2) + (lat - cy).powi(2)) / (2.0 * s * s)).exp()
-    };
+    let peak =
+        |cx: f64, cy: f64, h: f64, s: f64| h * (-((lon - cx).powi(2) + (lat - cy).powi(2)) / (2.0 * s * s)).exp();
     let along = (lon - 6.5) * 0.6 + (lat - 45.3) * 0.8;
     let across = -(lon - 6.5) * 0.8 + (lat - 45.3) * 0.6;
-    let ridge = 1400.0
-        * (-(across * across) / (2.0 * 0.06 * 0.06)).exp()
-        * (1.0 + 0.3 * (along * 40.0).sin());
+    let ridge = 1400.0 * (-(across * across) / (2.0 * 0.06 * 0.06)).exp() * (1.0 + 0.3 * (along * 40.0).sin());
     400.0
         + ridge
         + peak(6.35, 45.18, 1300.0, 0.05)
@@ -176,14 +155,8 @@ pub fn demo_color(height_m: f64) -> [u8; 3] {
 
 /// Writes a three-band Byte GeoTIFF, pixel (i, j) coloured by `color(x, y)`
 /// at its centre.
-pub fn write_rgb(
-    path: &Path,
-    spec: &RasterSpec<'_>,
-    color: impl Fn(f64, f64) -> [u8; 3],
-) -> anyhow::Result<PathBuf> {
+pub fn write_rgb(path: &Path, spec: &RasterSpec<'_>, color: impl Fn(f64, f64) -> [u8; 3]) -> anyhow::Result<PathBuf> {
     let colors: Vec<[u8; 3]> = spec.pixels().map(|(x, y)| color(x, y)).collect();
-    let planes = (0..3)
-        .map(|b| colors.iter().map(|c| c[b]).collect())
-        .collect();
+    let planes = (0..3).map(|b| colors.iter().map(|c| c[b]).collect()).collect();
     write_geotiff(path, spec, planes)
 }

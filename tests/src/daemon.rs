@@ -26,10 +26,7 @@ impl Reliefd {
             .arg(manifest)
             .args(["--listen", "127.0.0.1:0"])
             .args(extra)
-            .env(
-                "RUST_LOG",
-                std::env::var("RELIEF_TEST_LOG").unwrap_or_else(|_| "info".into()),
-            )
+            .env("RUST_LOG", std::env::var("RELIEF_TEST_LOG").unwrap_or_else(|_| "info".into()))
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -37,33 +34,26 @@ impl Reliefd {
         let log = Arc::new(Mutex::new(Vec::new()));
         let stderr = child.stderr.take().context("reliefd has no stderr")?;
         let err_log = Arc::clone(&log);
-        std::thread::Builder::new()
-            .name("reliefd-stderr".into())
-            .spawn(move || {
-                for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                    err_log.lock().expect("log lock").push(line);
-                }
-            })?;
+        std::thread::Builder::new().name("reliefd-stderr".into()).spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                err_log.lock().expect("log lock").push(line);
+            }
+        })?;
         let stdout = child.stdout.take().context("reliefd has no stdout")?;
         let (tx, rx) = mpsc::sync_channel(1);
-        std::thread::Builder::new()
-            .name("reliefd-stdout".into())
-            .spawn(move || {
-                for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                    if let Some(addr) = line.strip_prefix("listening on ") {
-                        let _ = tx.send(addr.to_owned());
-                    }
+        std::thread::Builder::new().name("reliefd-stdout".into()).spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                if let Some(addr) = line.strip_prefix("listening on ") {
+                    let _ = tx.send(addr.to_owned());
                 }
-            })?;
+            }
+        })?;
         match rx.recv_timeout(Duration::from_secs(60)) {
             Ok(addr) => Ok(Self { child, addr, log }),
             Err(_) => {
                 let _ = child.kill();
                 let _ = child.wait();
-                bail!(
-                    "reliefd did not start: {}",
-                    log.lock().expect("log lock").join("\n")
-                )
+                bail!("reliefd did not start: {}", log.lock().expect("log lock").join("\n"))
             }
         }
     }
@@ -126,22 +116,13 @@ impl Drop for Reliefd {
 
 /// Runs `reliefd check MANIFEST`: (exit code, stderr).
 pub fn check(manifest: &Path) -> anyhow::Result<(i32, String)> {
-    let out = Command::new(crate::bin("reliefd"))
-        .arg("check")
-        .arg(manifest)
-        .output()?;
-    Ok((
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    ))
+    let out = Command::new(crate::bin("reliefd")).arg("check").arg(manifest).output()?;
+    Ok((out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned()))
 }
 
 /// Runs the `relief` CLI against `daemon`: (exit code, stdout, stderr).
 pub fn relief(daemon: &Reliefd, args: &[&str]) -> anyhow::Result<(i32, String, String)> {
-    let out = Command::new(crate::bin("relief"))
-        .args(["--server", &daemon.url()])
-        .args(args)
-        .output()?;
+    let out = Command::new(crate::bin("relief")).args(["--server", &daemon.url()]).args(args).output()?;
     Ok((
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into_owned(),

@@ -28,22 +28,12 @@ pub fn rewrite_window(
         open_flags: GdalOpenFlags::GDAL_OF_UPDATE | GdalOpenFlags::GDAL_OF_RASTER,
         ..DatasetOptions::default()
     };
-    let ds = Dataset::open_ex(path, options)
-        .with_context(|| format!("cannot open {} for update", path.display()))?;
+    let ds = Dataset::open_ex(path, options).with_context(|| format!("cannot open {} for update", path.display()))?;
     let mut band = ds.rasterband(1)?;
-    let old = band
-        .read_as::<f32>((x as isize, y as isize), (w, h), (w, h), None)?
-        .into_shape_and_vec()
-        .1;
-    let new: Vec<f32> = (0..h)
-        .flat_map(|j| (0..w).map(move |i| (i, j)))
-        .map(|(i, j)| value(x + i, y + j, old[j * w + i]))
-        .collect();
-    band.write(
-        (x as isize, y as isize),
-        (w, h),
-        &mut Buffer::new((w, h), new),
-    )?;
+    let old = band.read_as::<f32>((x as isize, y as isize), (w, h), (w, h), None)?.into_shape_and_vec().1;
+    let new: Vec<f32> =
+        (0..h).flat_map(|j| (0..w).map(move |i| (i, j))).map(|(i, j)| value(x + i, y + j, old[j * w + i])).collect();
+    band.write((x as isize, y as isize), (w, h), &mut Buffer::new((w, h), new))?;
     ds.close()?;
     Ok(())
 }
@@ -54,10 +44,8 @@ pub struct Events(Arc<Mutex<Vec<pb::SceneEvent>>>);
 
 impl Events {
     pub async fn follow(channel: Channel) -> anyhow::Result<Self> {
-        let mut stream = SceneServiceClient::new(channel)
-            .watch(pb::WatchRequest { from_generation: 0 })
-            .await?
-            .into_inner();
+        let mut stream =
+            SceneServiceClient::new(channel).watch(pb::WatchRequest { from_generation: 0 }).await?.into_inner();
         let events = Self::default();
         let sink = events.clone();
         // The first message is the snapshot: take it before returning, so
@@ -100,11 +88,7 @@ impl Events {
     /// Waits until a generation event for `generation` has arrived.
     pub async fn generation(&self, generation: u64) -> anyhow::Result<pb::GenerationEvent> {
         for _ in 0..400 {
-            if let Some((_, g)) = self
-                .generations()
-                .into_iter()
-                .find(|(n, _)| *n == generation)
-            {
+            if let Some((_, g)) = self.generations().into_iter().find(|(n, _)| *n == generation) {
                 return Ok(g);
             }
             tokio::time::sleep(Duration::from_millis(50)).await;
@@ -116,28 +100,17 @@ impl Events {
 /// WaitForGeneration, up to 20 s.
 pub async fn wait_for(channel: Channel, generation: u64) -> anyhow::Result<pb::SceneState> {
     Ok(SceneServiceClient::new(channel)
-        .wait_for_generation(pb::WaitForGenerationRequest {
-            min_generation: generation,
-            timeout_ms: 20_000,
-        })
+        .wait_for_generation(pb::WaitForGenerationRequest { min_generation: generation, timeout_ms: 20_000 })
         .await?
         .into_inner())
 }
 
 /// The content hash of a tile.
-pub async fn tile_hash(
-    channel: Channel,
-    source: &str,
-    key: (u32, u32, u32),
-) -> anyhow::Result<u64> {
+pub async fn tile_hash(channel: Channel, source: &str, key: (u32, u32, u32)) -> anyhow::Result<u64> {
     Ok(TileServiceClient::new(channel)
         .get_tile(pb::GetTileRequest {
             source_id: source.into(),
-            key: Some(pb::TileKey {
-                level: key.0,
-                x: key.1,
-                y: key.2,
-            }),
+            key: Some(pb::TileKey { level: key.0, x: key.1, y: key.2 }),
             quality: None,
         })
         .await?
@@ -149,10 +122,7 @@ pub async fn tile_hash(
 pub async fn height_at(channel: Channel, lon: f64, lat: f64) -> anyhow::Result<Option<f64>> {
     Ok(TileServiceClient::new(channel)
         .sample_elevation(pb::SampleElevationRequest {
-            points: vec![pb::GeodeticPoint {
-                lon_deg: lon,
-                lat_deg: lat,
-            }],
+            points: vec![pb::GeodeticPoint { lon_deg: lon, lat_deg: lat }],
             source_id: String::new(),
         })
         .await?

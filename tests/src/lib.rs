@@ -20,10 +20,7 @@ pub fn workspace_root() -> PathBuf {
 pub fn bin(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("the test knows where it runs from");
     // target/<profile>/deps/<test> -> target/<profile>/<name>
-    let dir = exe
-        .parent()
-        .and_then(|deps| deps.parent())
-        .expect("tests run from target/<profile>/deps");
+    let dir = exe.parent().and_then(|deps| deps.parent()).expect("tests run from target/<profile>/deps");
     dir.join(name)
 }
 
@@ -36,10 +33,7 @@ pub fn shared_data(test: &str) -> Option<PathBuf> {
     if dir.join("SOURCES.md").exists() {
         Some(dir)
     } else {
-        eprintln!(
-            "skipping {test}: it needs the shared GIS data at {} (CI has it)",
-            dir.display()
-        );
+        eprintln!("skipping {test}: it needs the shared GIS data at {} (CI has it)", dir.display());
         None
     }
 }
@@ -49,13 +43,8 @@ pub fn machine() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("model name"))
-                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
+            s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
         })
         .unwrap_or_else(|| "unknown CPU".into());
-    format!(
-        "{cpu}, {} cores visible",
-        std::thread::available_parallelism().map_or(0, std::num::NonZero::get)
-    )
+    format!("{cpu}, {} cores visible", std::thread::available_parallelism().map_or(0, std::num::NonZero::get))
 }

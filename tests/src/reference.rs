@@ -11,30 +11,10 @@ use relief_proto::v1::GeodeticPoint;
 /// `gdalwarp` of `raster` onto `n` x `n` pixels covering `te` in `crs`,
 /// exact reprojection (-et 0), Float64 with NaN for nodata; the pixels,
 /// row-major from the north-west.
-fn warp(
-    raster: &Path,
-    te: [f64; 4],
-    n: usize,
-    crs: &str,
-    kernel: &str,
-    out: &Path,
-) -> anyhow::Result<Vec<f64>> {
+fn warp(raster: &Path, te: [f64; 4], n: usize, crs: &str, kernel: &str, out: &Path) -> anyhow::Result<Vec<f64>> {
     let size = n.to_string();
     let result = Command::new("gdalwarp")
-        .args([
-            "-q",
-            "-overwrite",
-            "-r",
-            kernel,
-            "-et",
-            "0",
-            "-t_srs",
-            crs,
-            "-ot",
-            "Float64",
-            "-dstnodata",
-            "nan",
-        ])
+        .args(["-q", "-overwrite", "-r", kernel, "-et", "0", "-t_srs", crs, "-ot", "Float64", "-dstnodata", "nan"])
         .args(["-ts", &size, &size, "-te"])
         .args(te.map(|v| format!("{v:.12}")))
         .arg(raster)
@@ -42,38 +22,18 @@ fn warp(
         .output()
         .context("cannot run gdalwarp (Debian package gdal-bin)")?;
     if !result.status.success() {
-        bail!(
-            "gdalwarp failed: {}",
-            String::from_utf8_lossy(&result.stderr)
-        );
+        bail!("gdalwarp failed: {}", String::from_utf8_lossy(&result.stderr));
     }
     let ds = Dataset::open(out)?;
-    Ok(ds
-        .rasterband(1)?
-        .read_as::<f64>((0, 0), (n, n), (n, n), None)?
-        .into_shape_and_vec()
-        .1)
+    Ok(ds.rasterband(1)?.read_as::<f64>((0, 0), (n, n), (n, n), None)?.into_shape_and_vec().1)
 }
 
 /// GDAL's value of `raster` at (lon, lat) with `kernel`: a one-pixel warp
 /// whose pixel centre is the point. None where GDAL finds no data.
-pub fn gdal_value_at(
-    raster: &Path,
-    lon: f64,
-    lat: f64,
-    kernel: &str,
-    scratch: &Path,
-) -> anyhow::Result<Option<f64>> {
+pub fn gdal_value_at(raster: &Path, lon: f64, lat: f64, kernel: &str, scratch: &Path) -> anyhow::Result<Option<f64>> {
     const HALF: f64 = 1e-7;
     let out = scratch.join(format!("ref-{lon:.9}-{lat:.9}.tif"));
-    let v = warp(
-        raster,
-        [lon - HALF, lat - HALF, lon + HALF, lat + HALF],
-        1,
-        "EPSG:4326",
-        kernel,
-        &out,
-    )?[0];
+    let v = warp(raster, [lon - HALF, lat - HALF, lon + HALF, lat + HALF], 1, "EPSG:4326", kernel, &out)?[0];
     std::fs::remove_file(&out)?;
     Ok((!v.is_nan()).then_some(v))
 }
@@ -89,16 +49,8 @@ pub fn gdal_lattice(
     kernel: &str,
     scratch: &Path,
 ) -> anyhow::Result<Vec<f64>> {
-    let (sx, sy) = (
-        (extent[2] - extent[0]) / (n - 1) as f64,
-        (extent[3] - extent[1]) / (n - 1) as f64,
-    );
-    let te = [
-        extent[0] - sx / 2.0,
-        extent[1] - sy / 2.0,
-        extent[2] + sx / 2.0,
-        extent[3] + sy / 2.0,
-    ];
+    let (sx, sy) = ((extent[2] - extent[0]) / (n - 1) as f64, (extent[3] - extent[1]) / (n - 1) as f64);
+    let te = [extent[0] - sx / 2.0, extent[1] - sy / 2.0, extent[2] + sx / 2.0, extent[3] + sy / 2.0];
     warp(raster, te, n, crs, kernel, &scratch.join("lattice.tif"))
 }
 
@@ -112,14 +64,6 @@ pub fn lon_lat_points(crs: &str, xs: &[f64], ys: &[f64]) -> anyhow::Result<Vec<G
         Ok(s)
     };
     let (mut xs, mut ys) = (xs.to_vec(), ys.to_vec());
-    CoordTransform::new(&srs(crs)?, &srs("EPSG:4326")?)?.transform_coords(
-        &mut xs,
-        &mut ys,
-        &mut [],
-    )?;
-    Ok(xs
-        .into_iter()
-        .zip(ys)
-        .map(|(lon_deg, lat_deg)| GeodeticPoint { lon_deg, lat_deg })
-        .collect())
+    CoordTransform::new(&srs(crs)?, &srs("EPSG:4326")?)?.transform_coords(&mut xs, &mut ys, &mut [])?;
+    Ok(xs.into_iter().zip(ys).map(|(lon_deg, lat_deg)| GeodeticPoint { lon_deg, lat_deg }).collect())
 }

@@ -1,10 +1,7 @@
 //! Bad input: every kind gets a clear error naming the file, the source id
 //! and the field, and a running daemon keeps serving its last good state.
 
-#![allow(
-    clippy::unwrap_used,
-    reason = "tests: a failed unwrap is a failed test"
-)]
+#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -16,12 +13,7 @@ use relief_tests::daemon::{Reliefd, check};
 use relief_tests::fixtures;
 
 fn hill(dir: &Path) -> std::path::PathBuf {
-    fixtures::write_dem(
-        &dir.join("hill.tif"),
-        &fixtures::hill_spec(),
-        fixtures::hill,
-    )
-    .unwrap()
+    fixtures::write_dem(&dir.join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).unwrap()
 }
 
 /// `reliefd check` and `reliefd serve` both refuse the manifest, exit 2,
@@ -30,15 +22,10 @@ fn assert_rejected(manifest: &Path, expected: &[&str]) {
     let (code, stderr) = check(manifest).unwrap();
     assert_eq!(code, 2, "reliefd check should fail: {stderr}");
     for text in expected {
-        assert!(
-            stderr.contains(text),
-            "error should mention {text:?}:\n{stderr}"
-        );
+        assert!(stderr.contains(text), "error should mention {text:?}:\n{stderr}");
     }
     assert!(!stderr.contains("panicked"), "{stderr}");
-    let err = Reliefd::start(manifest, &[])
-        .err()
-        .expect("reliefd serve refuses a bad scene");
+    let err = Reliefd::start(manifest, &[]).err().expect("reliefd serve refuses a bad scene");
     assert!(err.to_string().contains(expected[0]), "{err:#}");
 }
 
@@ -53,15 +40,7 @@ fn a_cycle_is_rejected_naming_the_sources() {
         &format!("{HEAD}[[source]]\nid = \"a\"\nkind = \"hillshade\"\ninputs = [\"b\"]\n\n[[source]]\nid = \"b\"\nkind = \"hillshade\"\ninputs = [\"a\"]\n"),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &[
-            "cycle a -> b -> a",
-            "source 'a'",
-            "field 'inputs'",
-            "scene.toml",
-        ],
-    );
+    assert_rejected(&m, &["cycle a -> b -> a", "source 'a'", "field 'inputs'", "scene.toml"]);
 }
 
 #[test]
@@ -74,13 +53,7 @@ fn an_unknown_kind_is_rejected() {
     .unwrap();
     assert_rejected(
         &m,
-        &[
-            "unknown kind 'geotiff'",
-            "source 'dem'",
-            "field 'kind'",
-            "known: gdal, hillshade",
-            "scene.toml",
-        ],
+        &["unknown kind 'geotiff'", "source 'dem'", "field 'kind'", "known: gdal, hillshade", "scene.toml"],
     );
 }
 
@@ -93,10 +66,7 @@ fn a_missing_input_and_a_type_mismatch_are_rejected() {
         &format!("{HEAD}[[source]]\nid = \"shade\"\nkind = \"hillshade\"\ninputs = [\"dem\"]\n"),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &["no source has id 'dem'", "source 'shade'", "field 'inputs'"],
-    );
+    assert_rejected(&m, &["no source has id 'dem'", "source 'shade'", "field 'inputs'"]);
     let m = fixtures::write_manifest(
         dir.path(),
         &format!(
@@ -105,14 +75,7 @@ fn a_missing_input_and_a_type_mismatch_are_rejected() {
         ),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &[
-            "'s1' gives color tiles, kind 'hillshade' needs height",
-            "source 's2'",
-            "field 'inputs[0]'",
-        ],
-    );
+    assert_rejected(&m, &["'s1' gives color tiles, kind 'hillshade' needs height", "source 's2'", "field 'inputs[0]'"]);
 }
 
 #[test]
@@ -124,15 +87,7 @@ fn a_missing_file_is_rejected_naming_the_file() {
     )
     .unwrap();
     let file = dir.path().join("nowhere.tif");
-    assert_rejected(
-        &m,
-        &[
-            "source 'dem'",
-            "field 'path'",
-            "No such file",
-            file.to_str().unwrap(),
-        ],
-    );
+    assert_rejected(&m, &["source 'dem'", "field 'path'", "No such file", file.to_str().unwrap()]);
 }
 
 #[test]
@@ -145,15 +100,7 @@ fn a_corrupt_raster_is_rejected_naming_the_file() {
         &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"garbage.tif\"\n"),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &[
-            "source 'dem'",
-            "field 'path'",
-            "cannot open raster",
-            file.to_str().unwrap(),
-        ],
-    );
+    assert_rejected(&m, &["source 'dem'", "field 'path'", "cannot open raster", file.to_str().unwrap()]);
 }
 
 #[test]
@@ -167,15 +114,7 @@ fn a_truncated_raster_is_rejected_naming_the_file() {
         &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n"),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &[
-            "source 'dem'",
-            "field 'path'",
-            "cannot read raster data",
-            file.to_str().unwrap(),
-        ],
-    );
+    assert_rejected(&m, &["source 'dem'", "field 'path'", "cannot read raster data", file.to_str().unwrap()]);
 }
 
 #[test]
@@ -187,14 +126,7 @@ fn an_unknown_crs_is_rejected() {
         &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\ncrs = \"EPSG:999999\"\n"),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &[
-            "source 'dem'",
-            "field 'crs'",
-            "unknown or unusable CRS 'EPSG:999999'",
-        ],
-    );
+    assert_rejected(&m, &["source 'dem'", "field 'crs'", "unknown or unusable CRS 'EPSG:999999'"]);
     let m = fixtures::write_manifest(
         dir.path(),
         "[scene]\nname = \"bad\"\ngrid = { crs = \"EPSG:999999\" }\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n",
@@ -208,23 +140,13 @@ fn a_raster_without_georeferencing_is_rejected() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("plain.tif");
     let driver = gdal::DriverManager::get_driver_by_name("GTiff").unwrap();
-    driver
-        .create_with_band_type::<f32, _>(&file, 8, 8, 1)
-        .unwrap();
+    driver.create_with_band_type::<f32, _>(&file, 8, 8, 1).unwrap();
     let m = fixtures::write_manifest(
         dir.path(),
         &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"plain.tif\"\n"),
     )
     .unwrap();
-    assert_rejected(
-        &m,
-        &[
-            "source 'dem'",
-            "field 'path'",
-            "no georeferencing",
-            file.to_str().unwrap(),
-        ],
-    );
+    assert_rejected(&m, &["source 'dem'", "field 'path'", "no georeferencing", file.to_str().unwrap()]);
 }
 
 #[test]
@@ -240,32 +162,21 @@ fn keep_going_serves_what_loaded_and_shows_what_failed() {
     let rt = tokio::runtime::Runtime::new().unwrap();
     rt.block_on(async {
         let channel = daemon.channel().await.unwrap();
-        let state = SceneServiceClient::new(channel.clone())
-            .get_state(pb::GetStateRequest {})
-            .await
-            .unwrap()
-            .into_inner();
+        let state =
+            SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
         let gone = state.sources.iter().find(|s| s.id == "gone").unwrap();
         assert_eq!(gone.status, pb::SourceStatus::Failed as i32);
         assert!(gone.error.contains("gone.tif"), "{}", gone.error);
         let status = TileServiceClient::new(channel)
             .get_tile(pb::GetTileRequest {
                 source_id: "gone".into(),
-                key: Some(pb::TileKey {
-                    level: 0,
-                    x: 0,
-                    y: 0,
-                }),
+                key: Some(pb::TileKey { level: 0, x: 0, y: 0 }),
                 quality: None,
             })
             .await
             .unwrap_err();
         assert_eq!(status.code(), tonic::Code::FailedPrecondition);
-        assert!(
-            status.message().contains("gone.tif"),
-            "{}",
-            status.message()
-        );
+        assert!(status.message().contains("gone.tif"), "{}", status.message());
     });
     daemon.stop(&["gone.tif"]).unwrap();
 }
@@ -277,22 +188,11 @@ async fn wait_for_status(
 ) -> pb::SceneState {
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
-        let state = scene
-            .get_state(pb::GetStateRequest {})
-            .await
-            .unwrap()
-            .into_inner();
-        if state
-            .sources
-            .iter()
-            .any(|s| s.id == id && s.status == status as i32)
-        {
+        let state = scene.get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
+        if state.sources.iter().any(|s| s.id == id && s.status == status as i32) {
             return state;
         }
-        assert!(
-            Instant::now() < deadline,
-            "source '{id}' never became {status:?}: {state:#?}"
-        );
+        assert!(Instant::now() < deadline, "source '{id}' never became {status:?}: {state:#?}");
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
 }
@@ -309,26 +209,12 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
     .unwrap();
     let mut daemon = Reliefd::start(&m, &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
-    let (mut scene, mut tiles) = (
-        SceneServiceClient::new(channel.clone()),
-        TileServiceClient::new(channel),
-    );
-    let key = Some(pb::TileKey {
-        level: 10,
-        x: 1082,
-        y: 254,
-    });
-    let get = || pb::GetTileRequest {
-        source_id: "dem".into(),
-        key,
-        quality: None,
-    };
+    let (mut scene, mut tiles) = (SceneServiceClient::new(channel.clone()), TileServiceClient::new(channel));
+    let key = Some(pb::TileKey { level: 10, x: 1082, y: 254 });
+    let get = || pb::GetTileRequest { source_id: "dem".into(), key, quality: None };
     let before = tiles.get_tile(get()).await.unwrap().into_inner();
 
-    for (what, bytes) in [
-        ("garbage", b"not a raster".to_vec()),
-        ("truncated", good[..good.len() / 3].to_vec()),
-    ] {
+    for (what, bytes) in [("garbage", b"not a raster".to_vec()), ("truncated", good[..good.len() / 3].to_vec())] {
         std::fs::write(&file, &bytes).unwrap();
         let state = wait_for_status(&mut scene, "dem", pb::SourceStatus::Error).await;
         let dem = state.sources.iter().find(|s| s.id == "dem").unwrap();
@@ -342,10 +228,7 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
         assert_eq!(during.content_hash, before.content_hash, "{what}");
         let e = tiles
             .sample_elevation(pb::SampleElevationRequest {
-                points: vec![pb::GeodeticPoint {
-                    lon_deg: 10.25,
-                    lat_deg: 45.25,
-                }],
+                points: vec![pb::GeodeticPoint { lon_deg: 10.25, lat_deg: 45.25 }],
                 source_id: String::new(),
             })
             .await
@@ -358,10 +241,7 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
     // Deleted, then restored with new heights: the error clears and the new data shows.
     std::fs::remove_file(&file).unwrap();
     wait_for_status(&mut scene, "dem", pb::SourceStatus::Error).await;
-    fixtures::write_dem(&file, &fixtures::hill_spec(), |lon, lat| {
-        fixtures::hill(lon, lat) + 10.0
-    })
-    .unwrap();
+    fixtures::write_dem(&file, &fixtures::hill_spec(), |lon, lat| fixtures::hill(lon, lat) + 10.0).unwrap();
     let state = wait_for_status(&mut scene, "dem", pb::SourceStatus::Ready).await;
     assert!(state.generation > 1);
     let after = tiles.get_tile(get()).await.unwrap().into_inner();
@@ -369,10 +249,7 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
     assert_eq!(after.generation, state.generation);
     let e = tiles
         .sample_elevation(pb::SampleElevationRequest {
-            points: vec![pb::GeodeticPoint {
-                lon_deg: 10.25,
-                lat_deg: 45.25,
-            }],
+            points: vec![pb::GeodeticPoint { lon_deg: 10.25, lat_deg: 45.25 }],
             source_id: String::new(),
         })
         .await

@@ -1,10 +1,7 @@
 //! Hard cases of the planet grid: the antimeridian and the poles, with a
 //! global DEM whose heights are known everywhere.
 
-#![allow(
-    clippy::unwrap_used,
-    reason = "tests: a failed unwrap is a failed test"
-)]
+#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
 use relief_proto::v1 as pb;
 use relief_proto::v1::tile_service_client::TileServiceClient;
@@ -18,10 +15,9 @@ fn globe(lon: f64, lat: f64) -> f64 {
 
 fn heights(t: &pb::GetTileResponse) -> Vec<f32> {
     match &t.payload {
-        Some(pb::get_tile_response::Payload::HeightsF32Le(b)) => b
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect(),
+        Some(pb::get_tile_response::Payload::HeightsF32Le(b)) => {
+            b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+        }
         other => panic!("heights expected, got {other:?}"),
     }
 }
@@ -63,19 +59,10 @@ async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
         for y in [0, rows / 2, rows - 1] {
             // The west edge of the first column and the east edge of the last
             // are the same meridian: the same heights, bit for bit.
-            let (west, east) = (
-                heights(&get(level, 0, y).await),
-                heights(&get(level, cols - 1, y).await),
-            );
+            let (west, east) = (heights(&get(level, 0, y).await), heights(&get(level, cols - 1, y).await));
             for j in 0..n {
-                assert_eq!(
-                    west[j * n].to_bits(),
-                    east[j * n + n - 1].to_bits(),
-                    "level {level} row {y} sample {j}"
-                );
-                let lat = 90.0
-                    - f64::from(y) * 180.0 / f64::from(rows)
-                    - j as f64 * 180.0 / f64::from(rows) / 64.0;
+                assert_eq!(west[j * n].to_bits(), east[j * n + n - 1].to_bits(), "level {level} row {y} sample {j}");
+                let lat = 90.0 - f64::from(y) * 180.0 / f64::from(rows) - j as f64 * 180.0 / f64::from(rows) / 64.0;
                 // Interpolated across the date line, not clamped to one side.
                 assert!(
                     (f64::from(west[j * n]) - globe(180.0, lat)).abs() < 2.5,
@@ -89,39 +76,23 @@ async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
         for x in 0..cols {
             let top = heights(&get(level, x, 0).await);
             let bottom = heights(&get(level, x, rows - 1).await);
-            for (h, south) in top[..n]
-                .iter()
-                .map(|h| (h, false))
-                .chain(bottom[n * (n - 1)..].iter().map(|h| (h, true)))
+            for (h, south) in top[..n].iter().map(|h| (h, false)).chain(bottom[n * (n - 1)..].iter().map(|h| (h, true)))
             {
                 assert!(!h.is_nan());
                 let p = *pole.get_or_insert(*h);
-                assert_eq!(
-                    h.to_bits(),
-                    p.to_bits(),
-                    "level {level} tile {x} (south: {south})"
-                );
+                assert_eq!(h.to_bits(), p.to_bits(), "level {level} tile {x} (south: {south})");
             }
         }
         assert!((f64::from(pole.unwrap()) - 1000.0).abs() < 5.0, "{pole:?}");
     }
     // Elevations either side of the antimeridian and at the poles.
-    let points: Vec<pb::GeodeticPoint> = [
-        (179.9, 10.0),
-        (-179.9, 10.0),
-        (180.0, -30.0),
-        (0.0, 90.0),
-        (123.0, 90.0),
-        (-45.0, -90.0),
-    ]
-    .into_iter()
-    .map(|(lon_deg, lat_deg)| pb::GeodeticPoint { lon_deg, lat_deg })
-    .collect();
+    let points: Vec<pb::GeodeticPoint> =
+        [(179.9, 10.0), (-179.9, 10.0), (180.0, -30.0), (0.0, 90.0), (123.0, 90.0), (-45.0, -90.0)]
+            .into_iter()
+            .map(|(lon_deg, lat_deg)| pb::GeodeticPoint { lon_deg, lat_deg })
+            .collect();
     let answer = tiles
-        .sample_elevation(pb::SampleElevationRequest {
-            points: points.clone(),
-            source_id: String::new(),
-        })
+        .sample_elevation(pb::SampleElevationRequest { points: points.clone(), source_id: String::new() })
         .await
         .unwrap()
         .into_inner();
@@ -129,29 +100,20 @@ async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
         let h = s.height_m.unwrap();
         assert!((h - globe(p.lon_deg, p.lat_deg)).abs() < 1.0, "{p:?}: {h}");
     }
-    let poles: Vec<f64> = answer.samples[3..]
-        .iter()
-        .map(|s| s.height_m.unwrap())
-        .collect();
+    let poles: Vec<f64> = answer.samples[3..].iter().map(|s| s.height_m.unwrap()).collect();
     assert_eq!(poles[0], poles[1], "one north pole");
     assert!((poles[2] - 1000.0).abs() < 5.0);
     // The hillshade over the pole and the date line has no holes.
     let shade = tiles
         .get_tile(pb::GetTileRequest {
             source_id: "shade".into(),
-            key: Some(pb::TileKey {
-                level: 2,
-                x: 0,
-                y: 0,
-            }),
+            key: Some(pb::TileKey { level: 2, x: 0, y: 0 }),
             quality: None,
         })
         .await
         .unwrap()
         .into_inner();
-    let Some(pb::get_tile_response::Payload::ColorPng(png)) = shade.payload else {
-        panic!("png expected")
-    };
+    let Some(pb::get_tile_response::Payload::ColorPng(png)) = shade.payload else { panic!("png expected") };
     let img = image::load_from_memory(&png).unwrap().to_rgba8();
     assert!(img.pixels().all(|p| p[3] == 255), "every texel shaded");
     daemon.stop(&[]).unwrap();

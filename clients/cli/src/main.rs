@@ -18,12 +18,7 @@ mod output;
 #[command(name = "relief", version, about = "Talk to a running reliefd")]
 struct Args {
     /// reliefd's gRPC address.
-    #[arg(
-        long,
-        global = true,
-        default_value = "http://127.0.0.1:50051",
-        env = "RELIEF_SERVER"
-    )]
+    #[arg(long, global = true, default_value = "http://127.0.0.1:50051", env = "RELIEF_SERVER")]
     server: String,
     /// Print JSON for scripts instead of text.
     #[arg(long, global = true)]
@@ -48,7 +43,7 @@ enum Command {
         #[arg(long, default_value_t = 30.0)]
         timeout: f64,
     },
-    /// Fetch one tile: heights as a GeoTIFF, colour as a PNG.
+    /// Fetch one tile: heights as a GeoTIFF, colour as a PNG, features as GeoJSON.
     Tile {
         source: String,
         level: u32,
@@ -74,10 +69,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let args = Args::parse();
-    let runtime = match tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-    {
+    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
         Ok(rt) => rt,
         Err(e) => {
             eprintln!("relief: cannot start the async runtime: {e}");
@@ -106,23 +98,15 @@ async fn connect(server: &str) -> anyhow::Result<Channel> {
 
 /// Turns a gRPC status into a plain error with its message.
 fn rpc<T>(result: Result<tonic::Response<T>, tonic::Status>) -> anyhow::Result<T> {
-    result
-        .map(tonic::Response::into_inner)
-        .map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))
+    result.map(tonic::Response::into_inner).map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))
 }
 
 fn parse_point(text: &str) -> anyhow::Result<pb::GeodeticPoint> {
     let Some((lon, lat)) = text.split_once(',') else {
         bail!("'{text}' is not LON,LAT");
     };
-    let lon_deg: f64 = lon
-        .trim()
-        .parse()
-        .with_context(|| format!("'{lon}' is not a longitude"))?;
-    let lat_deg: f64 = lat
-        .trim()
-        .parse()
-        .with_context(|| format!("'{lat}' is not a latitude"))?;
+    let lon_deg: f64 = lon.trim().parse().with_context(|| format!("'{lon}' is not a longitude"))?;
+    let lat_deg: f64 = lat.trim().parse().with_context(|| format!("'{lat}' is not a latitude"))?;
     Ok(pb::GeodeticPoint { lon_deg, lat_deg })
 }
 
@@ -133,28 +117,16 @@ async fn run(args: Args) -> anyhow::Result<()> {
     match args.command {
         Command::State => {
             let state = rpc(scene.get_state(pb::GetStateRequest {}).await)?;
-            output::emit(args.json, &output::state_json(&state), || {
-                output::state_text(&state)
-            });
+            output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
         }
         Command::Watch { from } => {
-            let mut stream = rpc(scene
-                .watch(pb::WatchRequest {
-                    from_generation: from,
-                })
-                .await)?;
+            let mut stream = rpc(scene.watch(pb::WatchRequest { from_generation: from }).await)?;
             while let Some(event) = stream.next().await {
-                let event =
-                    event.map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))?;
-                output::emit(args.json, &output::event_json(&event), || {
-                    output::event_text(&event)
-                });
+                let event = event.map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))?;
+                output::emit(args.json, &output::event_json(&event), || output::event_text(&event));
             }
         }
-        Command::Wait {
-            generation,
-            timeout,
-        } => {
+        Command::Wait { generation, timeout } => {
             if !(timeout.is_finite() && timeout >= 0.0) {
                 bail!("--timeout {timeout} is not a number of seconds");
             }
@@ -168,22 +140,12 @@ async fn run(args: Args) -> anyhow::Result<()> {
                 format!("generation {}", state.generation)
             });
         }
-        Command::Tile {
-            source,
-            level,
-            x,
-            y,
-            output: path,
-            resampling,
-        } => {
+        Command::Tile { source, level, x, y, output: path, resampling } => {
             let tile = rpc(tiles
                 .get_tile(pb::GetTileRequest {
                     source_id: source,
                     key: Some(pb::TileKey { level, x, y }),
-                    quality: Some(pb::QualityOverrides {
-                        resampling,
-                        ..Default::default()
-                    }),
+                    quality: Some(pb::QualityOverrides { resampling, ..Default::default() }),
                 })
                 .await)?;
             write_tile(&tile, &path)?;
@@ -205,21 +167,15 @@ async fn run(args: Args) -> anyhow::Result<()> {
             });
         }
         Command::Elevation { points, source } => {
-            let points = points
-                .iter()
-                .map(|p| parse_point(p))
-                .collect::<anyhow::Result<Vec<_>>>()?;
+            let points = points.iter().map(|p| parse_point(p)).collect::<anyhow::Result<Vec<_>>>()?;
             let answer = rpc(tiles
                 .sample_elevation(pb::SampleElevationRequest {
                     points: points.clone(),
                     source_id: source.unwrap_or_default(),
                 })
                 .await)?;
-            let heights: Vec<Value> = answer
-                .samples
-                .iter()
-                .map(|s| s.height_m.map_or(Value::Null, |h| json!(h)))
-                .collect();
+            let heights: Vec<Value> =
+                answer.samples.iter().map(|s| s.height_m.map_or(Value::Null, |h| json!(h))).collect();
             output::emit(
                 args.json,
                 &json!({"source": answer.source_id, "generation": answer.generation, "heights_m": heights}),
@@ -237,14 +193,8 @@ async fn run(args: Args) -> anyhow::Result<()> {
             );
         }
         Command::Reload { sources } => {
-            let state = rpc(scene
-                .reload(pb::ReloadRequest {
-                    source_ids: sources,
-                })
-                .await)?;
-            output::emit(args.json, &output::state_json(&state), || {
-                output::state_text(&state)
-            });
+            let state = rpc(scene.reload(pb::ReloadRequest { source_ids: sources }).await)?;
+            output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
         }
     }
     Ok(())
@@ -260,35 +210,17 @@ fn write_tile(tile: &pb::GetTileResponse, path: &Path) -> anyhow::Result<()> {
         Some(pb::get_tile_response::Payload::HeightsF32Le(bytes)) => {
             let (w, h) = (tile.width as usize, tile.height as usize);
             if bytes.len() != w * h * 4 || w < 2 || h < 2 {
-                bail!(
-                    "reliefd sent {} bytes for a {w}x{h} height tile",
-                    bytes.len()
-                );
+                bail!("reliefd sent {} bytes for a {w}x{h} height tile", bytes.len());
             }
-            let heights: Vec<f32> = bytes
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-                .collect();
-            let e = tile
-                .extent
-                .context("reliefd sent a tile without an extent")?;
-            let (step_x, step_y) = (
-                (e.max_x - e.min_x) / (w - 1) as f64,
-                (e.max_y - e.min_y) / (h - 1) as f64,
-            );
-            let driver = gdal::DriverManager::get_driver_by_name("GTiff")
-                .context("GDAL has no GTiff driver")?;
+            let heights: Vec<f32> =
+                bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+            let e = tile.extent.context("reliefd sent a tile without an extent")?;
+            let (step_x, step_y) = ((e.max_x - e.min_x) / (w - 1) as f64, (e.max_y - e.min_y) / (h - 1) as f64);
+            let driver = gdal::DriverManager::get_driver_by_name("GTiff").context("GDAL has no GTiff driver")?;
             let mut ds = driver
                 .create_with_band_type::<f32, _>(path, w, h, 1)
                 .with_context(|| format!("cannot create {}", path.display()))?;
-            ds.set_geo_transform(&[
-                e.min_x - step_x / 2.0,
-                step_x,
-                0.0,
-                e.max_y + step_y / 2.0,
-                0.0,
-                -step_y,
-            ])?;
+            ds.set_geo_transform(&[e.min_x - step_x / 2.0, step_x, 0.0, e.max_y + step_y / 2.0, 0.0, -step_y])?;
             let srs = gdal::spatial_ref::SpatialRef::from_definition(&tile.crs)
                 .with_context(|| format!("reliefd sent an unknown CRS '{}'", tile.crs))?;
             ds.set_spatial_ref(&srs)?;

@@ -57,11 +57,8 @@ pub fn state_json(s: &pb::SceneState) -> Value {
         json!({"kind": g.kind, "crs": g.crs, "tile_size": g.tile_size, "extent": extent_json(g.extent.as_ref()),
                "level0_columns": g.level0_columns, "level0_rows": g.level0_rows})
     });
-    let effects: Vec<Value> = s
-        .effects
-        .iter()
-        .map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran}))
-        .collect();
+    let effects: Vec<Value> =
+        s.effects.iter().map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran})).collect();
     let c = s.counters.unwrap_or_default();
     json!({
         "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
@@ -73,10 +70,7 @@ pub fn state_json(s: &pb::SceneState) -> Value {
 }
 
 pub fn state_text(s: &pb::SceneState) -> String {
-    let mut out = format!(
-        "scene '{}' at generation {}\n  manifest: {}\n",
-        s.name, s.generation, s.manifest
-    );
+    let mut out = format!("scene '{}' at generation {}\n  manifest: {}\n", s.name, s.generation, s.manifest);
     if let Some(g) = &s.grid {
         let _ = writeln!(
             out,
@@ -95,19 +89,11 @@ pub fn state_text(s: &pb::SceneState) -> String {
             status_name(src.status),
             src.version,
             if src.active { "active" } else { "idle" },
-            if src.crs.is_empty() {
-                String::new()
-            } else {
-                format!(" crs={}", src.crs)
-            },
+            if src.crs.is_empty() { String::new() } else { format!(" crs={}", src.crs) },
             src.tiles_generated
         );
         if !src.vertical_datum.is_empty() {
-            let _ = writeln!(
-                out,
-                "                 heights: {}, datum {}",
-                src.vertical_units, src.vertical_datum
-            );
+            let _ = writeln!(out, "                 heights: {}, datum {}", src.vertical_units, src.vertical_datum);
         }
         if !src.error.is_empty() {
             let _ = writeln!(out, "                 error: {}", src.error);
@@ -115,35 +101,12 @@ pub fn state_text(s: &pb::SceneState) -> String {
     }
     let mut layers: Vec<_> = s.layers.iter().collect();
     layers.sort();
-    let _ = writeln!(
-        out,
-        "  layers: {}",
-        layers
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
-    let _ = writeln!(
-        out,
-        "  effects: {}",
-        s.effects
-            .iter()
-            .map(|e| e.name.as_str())
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
+    let _ = writeln!(out, "  layers: {}", layers.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
+    let _ = writeln!(out, "  effects: {}", s.effects.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(" "));
     let mut quality: Vec<_> = s.quality.iter().collect();
     quality.sort();
-    let _ = writeln!(
-        out,
-        "  quality: {}",
-        quality
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    );
+    let _ =
+        writeln!(out, "  quality: {}", quality.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
     if let Some(c) = s.counters {
         let _ = write!(
             out,
@@ -201,17 +164,10 @@ pub fn event_text(e: &pb::SceneEvent) -> String {
             e.generation,
             err.source_id,
             err.error,
-            if err.kept_last_good {
-                " (last good version kept)"
-            } else {
-                ""
-            }
+            if err.kept_last_good { " (last good version kept)" } else { "" }
         ),
         Some(pb::scene_event::Event::ManifestError(m)) => {
-            format!(
-                "[{}] manifest edit not taken (the scene stays as it was): {}",
-                e.generation, m.error
-            )
+            format!("[{}] manifest edit not taken (the scene stays as it was): {}", e.generation, m.error)
         }
         None => format!("[{}]", e.generation),
     }

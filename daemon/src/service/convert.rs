@@ -9,12 +9,7 @@ use crate::scene::{EventKind, Scene, SceneEvent};
 use crate::service::status::invalid_field;
 
 pub fn extent(e: Extent) -> pb::Extent {
-    pb::Extent {
-        min_x: e.min_x,
-        min_y: e.min_y,
-        max_x: e.max_x,
-        max_y: e.max_y,
-    }
+    pb::Extent { min_x: e.min_x, min_y: e.min_y, max_x: e.max_x, max_y: e.max_y }
 }
 
 pub fn payload_kind(kind: PayloadKind) -> pb::PayloadKind {
@@ -29,28 +24,14 @@ pub fn payload_kind(kind: PayloadKind) -> pb::PayloadKind {
 
 pub fn tile_key(key: Option<&pb::TileKey>) -> Result<TileKey, Status> {
     let key = key.ok_or_else(|| invalid_field("key", "missing"))?;
-    let level = u8::try_from(key.level)
-        .ok()
-        .filter(|l| *l <= relief_source::MAX_LEVEL)
-        .ok_or_else(|| {
-            invalid_field(
-                "key.level",
-                format!(
-                    "{} is above the finest level {}",
-                    key.level,
-                    relief_source::MAX_LEVEL
-                ),
-            )
-        })?;
+    let level = u8::try_from(key.level).ok().filter(|l| *l <= relief_source::MAX_LEVEL).ok_or_else(|| {
+        invalid_field("key.level", format!("{} is above the finest level {}", key.level, relief_source::MAX_LEVEL))
+    })?;
     Ok(TileKey::new(level, key.x, key.y))
 }
 
 pub fn key(k: TileKey) -> pb::TileKey {
-    pb::TileKey {
-        level: u32::from(k.level),
-        x: k.x,
-        y: k.y,
-    }
+    pb::TileKey { level: u32::from(k.level), x: k.x, y: k.y }
 }
 
 /// The scene's quality with a request's overrides applied.
@@ -58,16 +39,11 @@ pub fn quality(base: Quality, overrides: Option<&pb::QualityOverrides>) -> Resul
     let mut q = base;
     let Some(o) = overrides else { return Ok(q) };
     if let Some(r) = &o.resampling {
-        q.resampling = r
-            .parse()
-            .map_err(|e: String| invalid_field("quality.resampling", e))?;
+        q.resampling = r.parse().map_err(|e: String| invalid_field("quality.resampling", e))?;
     }
     if let Some(e) = o.reprojection_error_px {
         if !(e.is_finite() && (0.0..=16.0).contains(&e)) {
-            return Err(invalid_field(
-                "quality.reprojection_error_px",
-                format!("{e} is not between 0 and 16"),
-            ));
+            return Err(invalid_field("quality.reprojection_error_px", format!("{e} is not between 0 and 16")));
         }
         q.reprojection_error_px = e;
     }
@@ -77,12 +53,7 @@ pub fn quality(base: Quality, overrides: Option<&pb::QualityOverrides>) -> Resul
 fn grid_info(grid: &TileGrid) -> pb::GridInfo {
     let (cols, rows) = grid.tiles_at(0);
     pb::GridInfo {
-        kind: if grid.is_geodetic() {
-            "geodetic"
-        } else {
-            "projected"
-        }
-        .into(),
+        kind: if grid.is_geodetic() { "geodetic" } else { "projected" }.into(),
         crs: grid.crs().into(),
         tile_size: grid.tile_size(),
         extent: Some(extent(grid.extent())),
@@ -110,22 +81,14 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
             pb::SourceState {
                 id: slot.spec.id.clone(),
                 kind: slot.spec.kind.clone(),
-                output: slot
-                    .source
-                    .as_ref()
-                    .map_or(pb::PayloadKind::Unspecified, |s| payload_kind(s.output()))
-                    as i32,
+                output: slot.source.as_ref().map_or(pb::PayloadKind::Unspecified, |s| payload_kind(s.output())) as i32,
                 inputs: slot.spec.inputs.clone(),
                 status: status as i32,
                 error: slot.error.clone().unwrap_or_default(),
-                files: if info.files.is_empty() {
-                    &slot.spec.paths
-                } else {
-                    &info.files
-                }
-                .iter()
-                .map(|p| p.display().to_string())
-                .collect(),
+                files: if info.files.is_empty() { &slot.spec.paths } else { &info.files }
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect(),
                 version: slot.version,
                 active: slot.active,
                 extent: info.extent.map(extent),
@@ -142,17 +105,10 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
         .effects
         .iter()
         .map(|name| {
-            let layers = EFFECTS
-                .iter()
-                .find(|(e, _)| e == name)
-                .map(|(_, l)| *l)
-                .unwrap_or_default();
+            let layers = EFFECTS.iter().find(|(e, _)| e == name).map(|(_, l)| *l).unwrap_or_default();
             pb::EffectState {
                 name: name.clone(),
-                sources: layers
-                    .iter()
-                    .filter_map(|l| m.layers.get(*l).cloned())
-                    .collect(),
+                sources: layers.iter().filter_map(|l| m.layers.get(*l).cloned()).collect(),
                 ran: false,
                 last_cost_ms: 0.0,
             }
@@ -168,10 +124,7 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
         layers: m.layers.clone().into_iter().collect(),
         quality: [
             ("resampling".to_string(), m.quality.resampling.to_string()),
-            (
-                "reprojection_error_px".to_string(),
-                m.quality.reprojection_error_px.to_string(),
-            ),
+            ("reprojection_error_px".to_string(), m.quality.reprojection_error_px.to_string()),
             ("tile_size".to_string(), snap.grid.tile_size().to_string()),
         ]
         .into_iter()
@@ -193,43 +146,54 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
 
 pub fn scene_event(e: SceneEvent) -> pb::SceneEvent {
     let event = match e.kind {
-        EventKind::Generation {
-            changed_sources,
-            dirty,
-            stats,
-            elapsed_ms,
-            reason,
-        } => pb::scene_event::Event::GenerationChanged(pb::GenerationEvent {
-            changed_sources,
-            dirty: dirty
-                .into_iter()
-                .map(|d| pb::DirtyRegion {
-                    source_id: d.source_id,
-                    extents: d.extents.into_iter().map(extent).collect(),
-                })
-                .collect(),
-            tiles_rebuilt: stats.rebuilt,
-            tiles_invalidated: stats.invalidated,
-            tiles_carried_over: stats.carried,
-            tiles_cut_off: stats.cut_off,
-            elapsed_ms,
-            reason,
-        }),
-        EventKind::ManifestError { error } => {
-            pb::scene_event::Event::ManifestError(pb::ManifestErrorEvent { error })
+        EventKind::Generation { changed_sources, dirty, stats, elapsed_ms, reason } => {
+            pb::scene_event::Event::GenerationChanged(pb::GenerationEvent {
+                changed_sources,
+                dirty: dirty
+                    .into_iter()
+                    .map(|d| pb::DirtyRegion {
+                        source_id: d.source_id,
+                        extents: d.extents.into_iter().map(extent).collect(),
+                    })
+                    .collect(),
+                tiles_rebuilt: stats.rebuilt,
+                tiles_invalidated: stats.invalidated,
+                tiles_carried_over: stats.carried,
+                tiles_cut_off: stats.cut_off,
+                elapsed_ms,
+                reason,
+            })
         }
-        EventKind::SourceError {
-            source_id,
-            error,
-            kept_last_good,
-        } => pb::scene_event::Event::SourceError(pb::SourceErrorEvent {
-            source_id,
-            error,
-            kept_last_good,
-        }),
+        EventKind::ManifestError { error } => pb::scene_event::Event::ManifestError(pb::ManifestErrorEvent { error }),
+        EventKind::SourceError { source_id, error, kept_last_good } => {
+            pb::scene_event::Event::SourceError(pb::SourceErrorEvent { source_id, error, kept_last_good })
+        }
     };
-    pb::SceneEvent {
-        generation: e.generation,
-        event: Some(event),
-    }
+    pb::SceneEvent { generation: e.generation, event: Some(event) }
+}
+
+/// A feature tile as a GeoJSON FeatureCollection (coordinates in the grid's
+/// CRS; z where the source has it).
+pub fn geojson(tile: &relief_source::FeatureTile) -> Vec<u8> {
+    use relief_source::Geometry;
+    use serde_json::{Value, json};
+    let position = |p: &[f64; 3]| if p[2].is_nan() { json!([p[0], p[1]]) } else { json!([p[0], p[1], p[2]]) };
+    let line = |l: &Vec<[f64; 3]>| Value::Array(l.iter().map(position).collect());
+    let features: Vec<Value> = tile
+        .features
+        .iter()
+        .map(|f| {
+            let geometry = match &f.geometry {
+                Geometry::Points(ps) if ps.len() == 1 => json!({"type": "Point", "coordinates": position(&ps[0])}),
+                Geometry::Points(ps) => json!({"type": "MultiPoint", "coordinates": ps.iter().map(position).collect::<Vec<_>>()}),
+                Geometry::Lines(ls) => json!({"type": "MultiLineString", "coordinates": ls.iter().map(line).collect::<Vec<_>>()}),
+                Geometry::Polygons(polys) => json!({
+                    "type": "MultiPolygon",
+                    "coordinates": polys.iter().map(|rings| rings.iter().map(line).collect::<Vec<_>>()).collect::<Vec<_>>(),
+                }),
+            };
+            json!({"type": "Feature", "id": f.id, "geometry": geometry, "properties": f.properties})
+        })
+        .collect();
+    serde_json::to_vec(&json!({"type": "FeatureCollection", "features": features})).unwrap_or_default()
 }

@@ -22,21 +22,11 @@ pub const WINDOW_BYTES: u32 = 8 * 1024 * 1024;
 
 /// Serves every relief.v1 service, gRPC health and reflection on
 /// `listener` until `shutdown` is cancelled.
-pub async fn serve(
-    scene: Arc<Scene>,
-    listener: TcpListener,
-    shutdown: CancellationToken,
-) -> anyhow::Result<()> {
+pub async fn serve(scene: Arc<Scene>, listener: TcpListener, shutdown: CancellationToken) -> anyhow::Result<()> {
     let (health, health_service) = tonic_health::server::health_reporter();
-    health
-        .set_serving::<SceneServiceServer<scene::SceneApi>>()
-        .await;
-    health
-        .set_serving::<TileServiceServer<tiles::TileApi>>()
-        .await;
-    health
-        .set_serving::<ViewServiceServer<view::ViewApi>>()
-        .await;
+    health.set_serving::<SceneServiceServer<scene::SceneApi>>().await;
+    health.set_serving::<TileServiceServer<tiles::TileApi>>().await;
+    health.set_serving::<ViewServiceServer<view::ViewApi>>().await;
     let reflection = tonic_reflection::server::Builder::configure()
         .register_encoded_file_descriptor_set(relief_proto::FILE_DESCRIPTOR_SET)
         .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
@@ -49,13 +39,8 @@ pub async fn serve(
         .initial_connection_window_size(2 * WINDOW_BYTES)
         .add_service(health_service)
         .add_service(reflection)
-        .add_service(SceneServiceServer::new(scene::SceneApi::new(
-            Arc::clone(&scene),
-            shutdown.clone(),
-        )))
-        .add_service(TileServiceServer::new(tiles::TileApi::new(Arc::clone(
-            &scene,
-        ))))
+        .add_service(SceneServiceServer::new(scene::SceneApi::new(Arc::clone(&scene), shutdown.clone())))
+        .add_service(TileServiceServer::new(tiles::TileApi::new(Arc::clone(&scene))))
         .add_service(ViewServiceServer::new(view::ViewApi))
         .serve_with_incoming_shutdown(incoming, shutdown.cancelled_owned())
         .await?;

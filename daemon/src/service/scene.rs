@@ -4,8 +4,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use relief_proto::v1::{
-    GetStateRequest, ReloadRequest, SceneEvent, SceneState, SetSourceParameterRequest,
-    WaitForGenerationRequest, WatchRequest, scene_event, scene_service_server::SceneService,
+    GetStateRequest, ReloadRequest, SceneEvent, SceneState, SetSourceParameterRequest, WaitForGenerationRequest,
+    WatchRequest, scene_event, scene_service_server::SceneService,
 };
 use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::mpsc;
@@ -36,19 +36,13 @@ impl SceneApi {
 
 #[tonic::async_trait]
 impl SceneService for SceneApi {
-    async fn get_state(
-        &self,
-        _request: Request<GetStateRequest>,
-    ) -> Result<Response<SceneState>, Status> {
+    async fn get_state(&self, _request: Request<GetStateRequest>) -> Result<Response<SceneState>, Status> {
         Ok(Response::new(self.state()))
     }
 
     type WatchStream = ReceiverStream<Result<SceneEvent, Status>>;
 
-    async fn watch(
-        &self,
-        request: Request<WatchRequest>,
-    ) -> Result<Response<Self::WatchStream>, Status> {
+    async fn watch(&self, request: Request<WatchRequest>) -> Result<Response<Self::WatchStream>, Status> {
         let from = request.into_inner().from_generation;
         // Subscribe before taking the snapshot, so no event falls between.
         let mut events = self.scene.events();
@@ -58,10 +52,7 @@ impl SceneService for SceneApi {
         tokio::spawn(async move {
             let snapshot = |scene: &Scene| {
                 let state = convert::scene_state(scene);
-                SceneEvent {
-                    generation: state.generation,
-                    event: Some(scene_event::Event::Snapshot(state)),
-                }
+                SceneEvent { generation: state.generation, event: Some(scene_event::Event::Snapshot(state)) }
             };
             if tx.send(Ok(snapshot(&scene))).await.is_err() {
                 return;
@@ -93,10 +84,9 @@ impl SceneService for SceneApi {
         let r = request.into_inner();
         let timeout = Duration::from_millis(u64::from(r.timeout_ms)).min(MAX_WAIT);
         let mut generations = self.scene.generations();
-        let reached =
-            tokio::time::timeout(timeout, generations.wait_for(|g| *g >= r.min_generation))
-                .await
-                .map(|r| r.map(|_| ()));
+        let reached = tokio::time::timeout(timeout, generations.wait_for(|g| *g >= r.min_generation))
+            .await
+            .map(|r| r.map(|_| ()));
         match reached {
             Ok(Ok(())) => Ok(Response::new(self.state())),
             Ok(Err(_)) => Err(Status::unavailable("the scene is shutting down")),
@@ -120,10 +110,7 @@ impl SceneService for SceneApi {
         )))
     }
 
-    async fn reload(
-        &self,
-        request: Request<ReloadRequest>,
-    ) -> Result<Response<SceneState>, Status> {
+    async fn reload(&self, request: Request<ReloadRequest>) -> Result<Response<SceneState>, Status> {
         let ids = request.into_inner().source_ids;
         let snap = self.scene.snapshot();
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {

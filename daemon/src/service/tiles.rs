@@ -5,8 +5,8 @@ use std::sync::Arc;
 
 use image::ImageEncoder;
 use relief_proto::v1::{
-    ElevationSample, GetTileRequest, GetTileResponse, SampleElevationRequest,
-    SampleElevationResponse, get_tile_response, tile_service_server::TileService,
+    ElevationSample, GetTileRequest, GetTileResponse, SampleElevationRequest, SampleElevationResponse,
+    get_tile_response, tile_service_server::TileService,
 };
 use relief_source::{GeodeticPoint, Payload};
 use tonic::{Request, Response, Status};
@@ -31,22 +31,14 @@ impl TileApi {
 fn png(rgba: &[u8], size: usize) -> Result<Vec<u8>, Status> {
     let mut out = Vec::new();
     image::codecs::png::PngEncoder::new(Cursor::new(&mut out))
-        .write_image(
-            rgba,
-            size as u32,
-            size as u32,
-            image::ExtendedColorType::Rgba8,
-        )
+        .write_image(rgba, size as u32, size as u32, image::ExtendedColorType::Rgba8)
         .map_err(|e| Status::internal(format!("cannot encode tile as PNG: {e}")))?;
     Ok(out)
 }
 
 #[tonic::async_trait]
 impl TileService for TileApi {
-    async fn get_tile(
-        &self,
-        request: Request<GetTileRequest>,
-    ) -> Result<Response<GetTileResponse>, Status> {
+    async fn get_tile(&self, request: Request<GetTileRequest>) -> Result<Response<GetTileResponse>, Status> {
         let r = request.into_inner();
         let key = convert::tile_key(r.key.as_ref())?;
         let snap = self.scene.snapshot();
@@ -66,23 +58,12 @@ impl TileService for TileApi {
         let (size, payload) = match tile.payload.as_ref() {
             Payload::Height(h) => (
                 h.size,
-                get_tile_response::Payload::HeightsF32Le(
-                    h.heights.iter().flat_map(|v| v.to_le_bytes()).collect(),
-                ),
+                get_tile_response::Payload::HeightsF32Le(h.heights.iter().flat_map(|v| v.to_le_bytes()).collect()),
             ),
-            Payload::Color(c) => (
-                c.size,
-                get_tile_response::Payload::ColorPng(png(&c.rgba, c.size)?),
-            ),
-            Payload::Mask(m) => (
-                m.size,
-                get_tile_response::Payload::MaskU8(m.coverage.clone()),
-            ),
+            Payload::Color(c) => (c.size, get_tile_response::Payload::ColorPng(png(&c.rgba, c.size)?)),
+            Payload::Mask(m) => (m.size, get_tile_response::Payload::MaskU8(m.coverage.clone())),
             other => {
-                return Err(Status::unimplemented(format!(
-                    "{} tiles cannot be fetched yet",
-                    other.kind()
-                )));
+                return Err(Status::unimplemented(format!("{} tiles cannot be fetched yet", other.kind())));
             }
         };
         Ok(Response::new(GetTileResponse {
@@ -107,10 +88,7 @@ impl TileService for TileApi {
         if r.points.len() > MAX_POINTS {
             return Err(invalid_field(
                 "points",
-                format!(
-                    "{} points is more than the limit of {MAX_POINTS}",
-                    r.points.len()
-                ),
+                format!("{} points is more than the limit of {MAX_POINTS}", r.points.len()),
             ));
         }
         let points = r
@@ -118,36 +96,27 @@ impl TileService for TileApi {
             .iter()
             .enumerate()
             .map(|(i, p)| {
-                if p.lon_deg.is_finite()
-                    && p.lat_deg.is_finite()
-                    && (-90.0..=90.0).contains(&p.lat_deg)
-                {
-                    Ok(GeodeticPoint {
-                        lon_deg: p.lon_deg,
-                        lat_deg: p.lat_deg,
-                    })
+                if p.lon_deg.is_finite() && p.lat_deg.is_finite() && (-90.0..=90.0).contains(&p.lat_deg) {
+                    Ok(GeodeticPoint { lon_deg: p.lon_deg, lat_deg: p.lat_deg })
                 } else {
                     Err(invalid_field(
                         &format!("points[{i}]"),
-                        format!(
-                            "({}, {}) is not a longitude, latitude in degrees",
-                            p.lon_deg, p.lat_deg
-                        ),
+                        format!("({}, {}) is not a longitude, latitude in degrees", p.lon_deg, p.lat_deg),
                     ))
                 }
             })
             .collect::<Result<Vec<_>, _>>()?;
         let snap = self.scene.snapshot();
         let id = if r.source_id.is_empty() {
-            snap.manifest.layers.get("height").cloned().ok_or_else(|| {
-                Status::failed_precondition("the scene has no height layer; name a source_id")
-            })?
+            snap.manifest
+                .layers
+                .get("height")
+                .cloned()
+                .ok_or_else(|| Status::failed_precondition("the scene has no height layer; name a source_id"))?
         } else {
             r.source_id
         };
-        let index = snap
-            .index_of(&id)
-            .ok_or_else(|| Status::not_found(format!("no source has id '{id}'")))?;
+        let index = snap.index_of(&id).ok_or_else(|| Status::not_found(format!("no source has id '{id}'")))?;
         let Some(source) = snap.slots[index].source.clone() else {
             return Err(Status::failed_precondition(format!(
                 "source '{id}' has no data to serve: {}",
@@ -170,10 +139,7 @@ impl TileService for TileApi {
         Ok(Response::new(SampleElevationResponse {
             generation: snap.generation,
             source_id: id,
-            samples: heights
-                .into_iter()
-                .map(|height_m| ElevationSample { height_m })
-                .collect(),
+            samples: heights.into_iter().map(|height_m| ElevationSample { height_m }).collect(),
         }))
     }
 }

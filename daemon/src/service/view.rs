@@ -16,24 +16,15 @@ fn not_yet(call: &str) -> Status {
 
 #[tonic::async_trait]
 impl ViewService for ViewApi {
-    async fn set_camera(
-        &self,
-        _request: Request<SetCameraRequest>,
-    ) -> Result<Response<Camera>, Status> {
+    async fn set_camera(&self, _request: Request<SetCameraRequest>) -> Result<Response<Camera>, Status> {
         Err(not_yet("SetCamera"))
     }
 
-    async fn get_camera(
-        &self,
-        _request: Request<GetCameraRequest>,
-    ) -> Result<Response<Camera>, Status> {
+    async fn get_camera(&self, _request: Request<GetCameraRequest>) -> Result<Response<Camera>, Status> {
         Err(not_yet("GetCamera"))
     }
 
-    async fn render(
-        &self,
-        _request: Request<RenderRequest>,
-    ) -> Result<Response<RenderResponse>, Status> {
+    async fn render(&self, _request: Request<RenderRequest>) -> Result<Response<RenderResponse>, Status> {
         Err(not_yet("Render"))
     }
 

@@ -44,11 +44,7 @@ reprojection_error_px = 0.125
 "#;
 
 fn main() -> anyhow::Result<()> {
-    let out = PathBuf::from(
-        std::env::args()
-            .nth(1)
-            .context("usage: relief-demo-scene OUT_DIR")?,
-    );
+    let out = PathBuf::from(std::env::args().nth(1).context("usage: relief-demo-scene OUT_DIR")?);
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let dem = RasterSpec {
         width: 1000,
@@ -61,11 +57,7 @@ fn main() -> anyhow::Result<()> {
     };
     // A small void (a lake the survey missed) so nodata handling shows.
     write_dem(&out.join("dem.tif"), &dem, |lon, lat| {
-        if (lon - 6.2).powi(2) + (lat - 45.45).powi(2) < 0.01f64.powi(2) {
-            -9999.0
-        } else {
-            demo_terrain(lon, lat)
-        }
+        if (lon - 6.2).powi(2) + (lat - 45.45).powi(2) < 0.01f64.powi(2) { -9999.0 } else { demo_terrain(lon, lat) }
     })?;
     let ortho = RasterSpec {
         width: 500,
@@ -76,9 +68,7 @@ fn main() -> anyhow::Result<()> {
         crs: "EPSG:4326",
         nodata: None,
     };
-    write_rgb(&out.join("ortho.tif"), &ortho, |lon, lat| {
-        demo_color(demo_terrain(lon, lat))
-    })?;
+    write_rgb(&out.join("ortho.tif"), &ortho, |lon, lat| demo_color(demo_terrain(lon, lat)))?;
     let manifest = write_manifest(&out, MANIFEST)?;
     #[expect(clippy::print_stdout, reason = "tells the caller where the scene is")]
     {

@@ -19,19 +19,11 @@ impl DirtySet {
     }
 
     pub fn everything() -> Self {
-        Self {
-            everything: true,
-            extents: Vec::new(),
-            margin_samples: 0,
-        }
+        Self { everything: true, extents: Vec::new(), margin_samples: 0 }
     }
 
     pub fn from_extents(extents: impl IntoIterator<Item = Extent>) -> Self {
-        Self {
-            everything: false,
-            extents: extents.into_iter().filter(|e| !e.is_empty()).collect(),
-            margin_samples: 0,
-        }
+        Self { everything: false, extents: extents.into_iter().filter(Extent::is_valid).collect(), margin_samples: 0 }
     }
 
     pub fn is_none(&self) -> bool {
@@ -44,11 +36,7 @@ impl DirtySet {
 
     /// The extents, or the whole grid when everything is dirty.
     pub fn extents(&self, grid: &TileGrid) -> Vec<Extent> {
-        if self.everything {
-            vec![grid.extent()]
-        } else {
-            self.extents.clone()
-        }
+        if self.everything { vec![grid.extent()] } else { self.extents.clone() }
     }
 
     #[must_use]
@@ -58,19 +46,13 @@ impl DirtySet {
         }
         let mut extents = self.extents.clone();
         extents.extend(other.extents.iter().copied());
-        Self {
-            margin_samples: self.margin_samples.max(other.margin_samples),
-            ..Self::from_extents(extents)
-        }
+        Self { margin_samples: self.margin_samples.max(other.margin_samples), ..Self::from_extents(extents) }
     }
 
     /// Grows the dirt by `samples` samples of whatever level a tile is at.
     #[must_use]
     pub fn dilate_samples(&self, samples: u32) -> Self {
-        Self {
-            margin_samples: self.margin_samples + samples,
-            ..self.clone()
-        }
+        Self { margin_samples: self.margin_samples + samples, ..self.clone() }
     }
 
     /// Grows each extent by (dx, dy): an op whose output sample reads its
@@ -90,9 +72,7 @@ impl DirtySet {
         }
         let lattice = grid.lattice(key, crate::grid::SampleKind::Corner);
         let margin = f64::from(self.margin_samples);
-        let t = grid
-            .tile_extent(key)
-            .dilate(margin * lattice.step_x, margin * lattice.step_y);
+        let t = grid.tile_extent(key).dilate(margin * lattice.step_x, margin * lattice.step_y);
         self.extents.iter().any(|e| e.touches(&t))
     }
 }
@@ -114,19 +94,14 @@ mod tests {
         assert_eq!(d.extents(&grid)[0], Extent::new(0.5, 0.5, 2.5, 2.5));
         // A margin in samples reaches one sample further at each level.
         let edge = grid.tile_extent(TileKey::new(8, 300, 40));
-        let beside = DirtySet::from_extents([Extent::new(
-            edge.max_x + 0.001,
-            edge.min_y,
-            edge.max_x + 0.002,
-            edge.max_y,
-        )]);
+        let beside =
+            DirtySet::from_extents([Extent::new(edge.max_x + 0.001, edge.min_y, edge.max_x + 0.002, edge.max_y)]);
         assert!(!beside.touches_tile(&grid, TileKey::new(8, 300, 40)));
+        assert!(beside.dilate_samples(1).touches_tile(&grid, TileKey::new(8, 300, 40)));
+        // Inverted or non-finite extents are dropped; a point's is kept.
         assert!(
-            beside
-                .dilate_samples(1)
-                .touches_tile(&grid, TileKey::new(8, 300, 40))
+            DirtySet::from_extents([Extent::new(2.0, 1.0, 1.0, 2.0), Extent::new(f64::NAN, 0.0, 1.0, 1.0)]).is_none()
         );
-        // Empty extents are dropped.
-        assert!(DirtySet::from_extents([Extent::new(1.0, 1.0, 1.0, 2.0)]).is_none());
+        assert!(!DirtySet::from_extents([Extent::new(1.0, 1.0, 1.0, 1.0)]).is_none());
     }
 }

@@ -15,11 +15,7 @@ pub enum SourceError {
     #[error("{message}: {}", path.display())]
     Format { message: String, path: PathBuf },
     #[error("unknown or unusable CRS '{crs}': {message}{}", path_suffix(path.as_ref()))]
-    Crs {
-        crs: String,
-        message: String,
-        path: Option<PathBuf>,
-    },
+    Crs { crs: String, message: String, path: Option<PathBuf> },
     #[error("invalid option '{field}': {message}")]
     InvalidOption { field: String, message: String },
     #[error("input '{input}' failed: {message}")]
@@ -33,8 +29,7 @@ pub enum SourceError {
 }
 
 fn path_suffix(path: Option<&PathBuf>) -> String {
-    path.map(|p| format!(": {}", p.display()))
-        .unwrap_or_default()
+    path.map(|p| format!(": {}", p.display())).unwrap_or_default()
 }
 
 impl SourceError {
@@ -44,16 +39,10 @@ impl SourceError {
     }
 
     pub fn format(message: impl Into<String>, path: impl Into<PathBuf>) -> Self {
-        Self::Format {
-            message: message.into(),
-            path: path.into(),
-        }
+        Self::Format { message: message.into(), path: path.into() }
     }
 
     pub fn option(field: impl Into<String>, message: impl Into<String>) -> Self {
-        Self::InvalidOption {
-            field: field.into(),
-            message: message.into(),
-        }
+        Self::InvalidOption { field: field.into(), message: message.into() }
     }
 }

@@ -15,19 +15,9 @@ use std::path::{Path, PathBuf};
 /// file `roads_packed.dbf` gives (folder, "roads").
 pub fn dataset_key(path: &Path) -> Option<(PathBuf, String)> {
     let name = path.file_name()?.to_str()?;
-    let stem = name
-        .split('.')
-        .next()
-        .filter(|s| !s.is_empty())?
-        .to_lowercase();
-    let stem = stem
-        .strip_suffix("_packed")
-        .map(str::to_owned)
-        .unwrap_or(stem);
-    Some((
-        path.parent().map(Path::to_path_buf).unwrap_or_default(),
-        stem,
-    ))
+    let stem = name.split('.').next().filter(|s| !s.is_empty())?.to_lowercase();
+    let stem = stem.strip_suffix("_packed").map(str::to_owned).unwrap_or(stem);
+    Some((path.parent().map(Path::to_path_buf).unwrap_or_default(), stem))
 }
 
 /// True for a QGIS repack in progress (`<stem>_packed.*`): the dataset is
@@ -40,10 +30,7 @@ pub fn is_repack_marker(path: &Path) -> bool {
 }
 
 /// Lock files, editor back-ups and SQLite journals: never data.
-#[expect(
-    clippy::case_sensitive_file_extension_comparisons,
-    reason = "the name is lower-cased first"
-)]
+#[expect(clippy::case_sensitive_file_extension_comparisons, reason = "the name is lower-cased first")]
 pub fn is_lock_or_temp(path: &Path) -> bool {
     let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
         return true;
@@ -68,11 +55,7 @@ pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
     let Some((dir, stem)) = dataset_key(primary) else {
         return files;
     };
-    let Ok(entries) = std::fs::read_dir(if dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        &dir
-    }) else {
+    let Ok(entries) = std::fs::read_dir(if dir.as_os_str().is_empty() { Path::new(".") } else { &dir }) else {
         return files;
     };
     let mut sidecars: Vec<PathBuf> = entries
@@ -84,6 +67,30 @@ pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
     sidecars.sort();
     files.extend(sidecars);
     files
+}
+
+/// What a dataset's files looked like: names, sizes, modification times
+/// and inodes. A refresh compares it; a read that sees it change while
+/// reading is discarded (a writer was at work).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Fingerprint(Vec<(PathBuf, u64, Option<std::time::SystemTime>, u64)>);
+
+impl Fingerprint {
+    /// The fingerprint of `primary`'s dataset; `what` names the primary in
+    /// the error when it is missing.
+    pub fn of(primary: &Path, what: &'static str) -> Result<Self, crate::SourceError> {
+        use std::os::unix::fs::MetadataExt;
+        let mut files = Vec::new();
+        for (n, file) in dataset_files(primary).into_iter().enumerate() {
+            match std::fs::metadata(&file) {
+                Ok(meta) => files.push((file, meta.len(), meta.modified().ok(), meta.ino())),
+                // The primary must be there; a sidecar may vanish between listing and stat.
+                Err(source) if n == 0 => return Err(crate::SourceError::Io { what, path: file, source }),
+                Err(_) => {}
+            }
+        }
+        Ok(Self(files))
+    }
 }
 
 #[cfg(test)]
@@ -104,15 +111,9 @@ mod tests {
 
     #[test]
     fn locks_and_temporaries_are_not_data() {
-        for p in [
-            ".~lock.dem.tif#",
-            "dem.tif~",
-            "x.gpkg-journal",
-            "x.gpkg-shm",
-            "dem.tif.lock",
-            "~$dem.tif",
-            ".#dem.tif",
-        ] {
+        for p in
+            [".~lock.dem.tif#", "dem.tif~", "x.gpkg-journal", "x.gpkg-shm", "dem.tif.lock", "~$dem.tif", ".#dem.tif"]
+        {
             assert!(is_lock_or_temp(Path::new(p)), "{p}");
         }
         for p in ["dem.tif", "dem.tif.aux.xml", "roads.dbf", "N43E007.hgt"] {

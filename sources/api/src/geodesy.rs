@@ -45,11 +45,7 @@ pub fn geodetic_from_ecef(p: [f64; 3]) -> (f64, f64, f64) {
     for _ in 0..3 {
         let (sin_lat, cos_lat) = lat.sin_cos();
         let n = WGS84_A / (1.0 - WGS84_E2 * sin_lat * sin_lat).sqrt();
-        h = if cos_lat.abs() > 1e-3 {
-            r / cos_lat - n
-        } else {
-            z / sin_lat - n * (1.0 - WGS84_E2)
-        };
+        h = if cos_lat.abs() > 1e-3 { r / cos_lat - n } else { z / sin_lat - n * (1.0 - WGS84_E2) };
         lat = (z / r / (1.0 - WGS84_E2 * n / (n + h))).atan();
     }
     (lon.to_degrees(), lat.to_degrees(), h)

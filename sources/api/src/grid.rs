@@ -54,12 +54,7 @@ pub struct Extent {
 
 impl Extent {
     pub const fn new(min_x: f64, min_y: f64, max_x: f64, max_y: f64) -> Self {
-        Self {
-            min_x,
-            min_y,
-            max_x,
-            max_y,
-        }
+        Self { min_x, min_y, max_x, max_y }
     }
 
     pub fn width(&self) -> f64 {
@@ -70,24 +65,25 @@ impl Extent {
         self.max_y - self.min_y
     }
 
+    /// Finite, with max >= min: a point or a line is a valid extent.
+    pub fn is_valid(&self) -> bool {
+        [self.min_x, self.min_y, self.max_x, self.max_y].iter().all(|v| v.is_finite())
+            && self.max_x >= self.min_x
+            && self.max_y >= self.min_y
+    }
+
     pub fn is_empty(&self) -> bool {
         !(self.max_x > self.min_x && self.max_y > self.min_y)
     }
 
     /// True when the two extents share interior area (touching edges do not count).
     pub fn overlaps(&self, other: &Self) -> bool {
-        self.min_x < other.max_x
-            && other.min_x < self.max_x
-            && self.min_y < other.max_y
-            && other.min_y < self.max_y
+        self.min_x < other.max_x && other.min_x < self.max_x && self.min_y < other.max_y && other.min_y < self.max_y
     }
 
     /// True when the extents overlap or touch.
     pub fn touches(&self, other: &Self) -> bool {
-        self.min_x <= other.max_x
-            && other.min_x <= self.max_x
-            && self.min_y <= other.max_y
-            && other.min_y <= self.max_y
+        self.min_x <= other.max_x && other.min_x <= self.max_x && self.min_y <= other.max_y && other.min_y <= self.max_y
     }
 
     pub fn contains(&self, x: f64, y: f64) -> bool {
@@ -117,12 +113,7 @@ impl Extent {
     /// Grows the extent by `dx` and `dy` on each side.
     #[must_use]
     pub fn dilate(&self, dx: f64, dy: f64) -> Self {
-        Self::new(
-            self.min_x - dx,
-            self.min_y - dy,
-            self.max_x + dx,
-            self.max_y + dy,
-        )
+        Self::new(self.min_x - dx, self.min_y - dy, self.max_x + dx, self.max_y + dy)
     }
 }
 
@@ -209,16 +200,12 @@ impl TileGrid {
     /// of two from 16 to 4096, so that sample steps are exact in f64.
     pub fn new(kind: GridKind, tile_size: u32) -> Result<Self, String> {
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
-            return Err(format!(
-                "tile size {tile_size} must be a power of two from 16 to 4096"
-            ));
+            return Err(format!("tile size {tile_size} must be a power of two from 16 to 4096"));
         }
         if let GridKind::Projected(p) = &kind
             && !(p.size.is_finite() && p.size > 0.0 && p.min_x.is_finite() && p.min_y.is_finite())
         {
-            return Err(format!(
-                "projected grid extent is not finite and positive: {p:?}"
-            ));
+            return Err(format!("projected grid extent is not finite and positive: {p:?}"));
         }
         Ok(Self { kind, tile_size })
     }
@@ -247,9 +234,7 @@ impl TileGrid {
     pub fn extent(&self) -> Extent {
         match &self.kind {
             GridKind::Geodetic => Extent::new(-180.0, -90.0, 180.0, 90.0),
-            GridKind::Projected(p) => {
-                Extent::new(p.min_x, p.min_y, p.min_x + p.size, p.min_y + p.size)
-            }
+            GridKind::Projected(p) => Extent::new(p.min_x, p.min_y, p.min_x + p.size, p.min_y + p.size),
         }
     }
 
@@ -368,18 +353,9 @@ impl TileGrid {
         if !self.contains_key(key) {
             return None;
         }
-        let plain = |x, y| {
-            Some(Neighbour {
-                key: TileKey::new(key.level, x, y),
-                across_pole: false,
-            })
-        };
-        let across_pole = || {
-            Some(Neighbour {
-                key: TileKey::new(key.level, (key.x + cols / 2) % cols, key.y),
-                across_pole: true,
-            })
-        };
+        let plain = |x, y| Some(Neighbour { key: TileKey::new(key.level, x, y), across_pole: false });
+        let across_pole =
+            || Some(Neighbour { key: TileKey::new(key.level, (key.x + cols / 2) % cols, key.y), across_pole: true });
         match (&self.kind, direction) {
             (GridKind::Geodetic, Direction::East) => plain((key.x + 1) % cols, key.y),
             (GridKind::Geodetic, Direction::West) => plain((key.x + cols - 1) % cols, key.y),
@@ -398,11 +374,7 @@ impl TileGrid {
 pub fn wrap_longitude(lon: f64) -> f64 {
     let wrapped = (lon + 180.0).rem_euclid(360.0) - 180.0;
     // rem_euclid can return 360 for tiny negative inputs.
-    if wrapped >= 180.0 {
-        wrapped - 360.0
-    } else {
-        wrapped
-    }
+    if wrapped >= 180.0 { wrapped - 360.0 } else { wrapped }
 }
 
 #[cfg(test)]
@@ -439,18 +411,12 @@ mod tests {
                         area += t.width() * t.height();
                         // Shared edges are bit-identical: no gap, no overlap.
                         if x + 1 < cols {
-                            assert_eq!(
-                                t.max_x,
-                                grid.tile_extent(TileKey::new(level, x + 1, y)).min_x
-                            );
+                            assert_eq!(t.max_x, grid.tile_extent(TileKey::new(level, x + 1, y)).min_x);
                         } else {
                             assert_eq!(t.max_x, e.max_x);
                         }
                         if y + 1 < rows {
-                            assert_eq!(
-                                t.min_y,
-                                grid.tile_extent(TileKey::new(level, x, y + 1)).max_y
-                            );
+                            assert_eq!(t.min_y, grid.tile_extent(TileKey::new(level, x, y + 1)).max_y);
                         } else {
                             assert_eq!(t.min_y, e.min_y);
                         }
@@ -473,10 +439,7 @@ mod tests {
         let grid = TileGrid::geodetic(256).unwrap();
         assert_eq!(grid.tiles_at(0), (2, 1));
         assert_eq!(grid.tiles_at(3), (16, 8));
-        assert_eq!(
-            grid.tile_extent(TileKey::new(0, 0, 0)),
-            Extent::new(-180.0, -90.0, 0.0, 90.0)
-        );
+        assert_eq!(grid.tile_extent(TileKey::new(0, 0, 0)), Extent::new(-180.0, -90.0, 0.0, 90.0));
     }
 
     #[test]
@@ -508,10 +471,7 @@ mod tests {
         let key = TileKey::new(5, 40, 9);
         let e = grid.tile_extent(key);
         let l = grid.lattice(key, SampleKind::Corner);
-        assert_eq!(
-            (l.x(0), l.y(0), l.x(256), l.y(256)),
-            (e.min_x, e.max_y, e.max_x, e.min_y)
-        );
+        assert_eq!((l.x(0), l.y(0), l.x(256), l.y(256)), (e.min_x, e.max_y, e.max_x, e.min_y));
         let c = grid.lattice(key, SampleKind::TexelWithBorder);
         assert_eq!(c.cols, 258);
         assert!((c.x(1) - (e.min_x + l.step_x / 2.0)).abs() < 1e-12);
@@ -524,22 +484,11 @@ mod tests {
         let (cols, _) = grid.tiles_at(4);
         let east_edge = TileKey::new(4, cols - 1, 5);
         let n = grid.neighbour(east_edge, Direction::East).unwrap();
-        assert_eq!(
-            n,
-            Neighbour {
-                key: TileKey::new(4, 0, 5),
-                across_pole: false
-            }
-        );
-        let w = grid
-            .neighbour(TileKey::new(4, 0, 5), Direction::West)
-            .unwrap();
+        assert_eq!(n, Neighbour { key: TileKey::new(4, 0, 5), across_pole: false });
+        let w = grid.neighbour(TileKey::new(4, 0, 5), Direction::West).unwrap();
         assert_eq!(w.key, east_edge);
         // The east edge of the last column is the west edge of the first, round the planet.
-        assert_eq!(
-            grid.tile_extent(east_edge).max_x - 360.0,
-            grid.tile_extent(n.key).min_x
-        );
+        assert_eq!(grid.tile_extent(east_edge).max_x - 360.0, grid.tile_extent(n.key).min_x);
     }
 
     #[test]
@@ -548,22 +497,15 @@ mod tests {
         for level in 0..6u8 {
             let (cols, rows) = grid.tiles_at(level);
             for x in 0..cols {
-                let north = grid
-                    .neighbour(TileKey::new(level, x, 0), Direction::North)
-                    .unwrap();
+                let north = grid.neighbour(TileKey::new(level, x, 0), Direction::North).unwrap();
                 assert!(north.across_pole);
                 assert_eq!(north.key, TileKey::new(level, (x + cols / 2) % cols, 0));
                 // Going over the pole twice comes back.
                 let back = grid.neighbour(north.key, Direction::North).unwrap();
                 assert_eq!(back.key, TileKey::new(level, x, 0));
-                let south = grid
-                    .neighbour(TileKey::new(level, x, rows - 1), Direction::South)
-                    .unwrap();
+                let south = grid.neighbour(TileKey::new(level, x, rows - 1), Direction::South).unwrap();
                 assert!(south.across_pole);
-                assert_eq!(
-                    south.key,
-                    TileKey::new(level, (x + cols / 2) % cols, rows - 1)
-                );
+                assert_eq!(south.key, TileKey::new(level, (x + cols / 2) % cols, rows - 1));
                 // The tile over the pole covers the longitudes opposite.
                 let here = grid.tile_extent(TileKey::new(level, x, 0));
                 let there = grid.tile_extent(north.key);
@@ -577,17 +519,9 @@ mod tests {
     fn projected_grids_stop_at_their_edges() {
         let grid = grids().remove(1);
         assert_eq!(grid.neighbour(TileKey::new(2, 0, 0), Direction::West), None);
-        assert_eq!(
-            grid.neighbour(TileKey::new(2, 0, 0), Direction::North),
-            None
-        );
+        assert_eq!(grid.neighbour(TileKey::new(2, 0, 0), Direction::North), None);
         assert_eq!(grid.neighbour(TileKey::new(2, 3, 3), Direction::East), None);
-        assert_eq!(
-            grid.neighbour(TileKey::new(2, 0, 0), Direction::East)
-                .unwrap()
-                .key,
-            TileKey::new(2, 1, 0)
-        );
+        assert_eq!(grid.neighbour(TileKey::new(2, 0, 0), Direction::East).unwrap().key, TileKey::new(2, 1, 0));
     }
 
     #[test]

@@ -7,6 +7,7 @@
 //! It must never depend on GDAL, gRPC, the renderer or any source crate:
 //! source crates depend on it, not the other way round.
 
+mod crs;
 mod dirty;
 mod error;
 pub mod files;
@@ -16,18 +17,16 @@ mod payload;
 mod quality;
 mod source;
 
+pub use crs::CrsTransform;
 pub use dirty::DirtySet;
 pub use error::SourceError;
 pub use grid::{
-    Direction, Extent, GridKind, Lattice, MAX_LEVEL, Neighbour, ProjectedGrid, SampleKind,
-    TileGrid, TileKey,
+    Direction, Extent, GridKind, Lattice, MAX_LEVEL, Neighbour, ProjectedGrid, SampleKind, TileGrid, TileKey,
 };
 pub use payload::{
-    ColorTile, Feature, FeatureTile, Geometry, HeightTile, Instance, InstanceTile, MaskTile,
-    Payload, PayloadKind,
+    ColorTile, Feature, FeatureTile, Geometry, HeightTile, Instance, InstanceTile, MaskTile, Payload, PayloadKind,
 };
 pub use quality::{Quality, Resampling};
 pub use source::{
-    GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source, SourceInfo,
-    SourceSpec,
+    GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source, SourceInfo, SourceSpec,
 };

@@ -59,13 +59,31 @@ pub struct MaskTile {
     pub coverage: Vec<u8>,
 }
 
-/// Geometry in the grid's CRS.
+/// Geometry in the grid's CRS: x, y and z (NaN when the source has none).
 #[derive(Debug, Clone, PartialEq)]
 pub enum Geometry {
-    Point([f64; 3]),
-    LineString(Vec<[f64; 3]>),
-    /// Exterior ring first, then holes.
-    Polygon(Vec<Vec<[f64; 3]>>),
+    Points(Vec<[f64; 3]>),
+    Lines(Vec<Vec<[f64; 3]>>),
+    /// Polygons, each its exterior ring first, then its holes.
+    Polygons(Vec<Vec<Vec<[f64; 3]>>>),
+}
+
+impl Geometry {
+    /// The bounding box of each part (point, line or polygon), so a
+    /// feature split at the antimeridian is not one box round the planet.
+    pub fn part_extents(&self) -> Vec<crate::Extent> {
+        fn bbox<'a>(points: impl Iterator<Item = &'a [f64; 3]>) -> Option<crate::Extent> {
+            points.filter(|p| p[0].is_finite() && p[1].is_finite()).fold(None, |e: Option<crate::Extent>, p| {
+                let point = crate::Extent::new(p[0], p[1], p[0], p[1]);
+                Some(e.map_or(point, |e| e.union(&point)))
+            })
+        }
+        match self {
+            Self::Points(ps) => ps.iter().filter_map(|p| bbox(std::iter::once(p))).collect(),
+            Self::Lines(ls) => ls.iter().filter_map(|l| bbox(l.iter())).collect(),
+            Self::Polygons(polys) => polys.iter().filter_map(|rings| bbox(rings.iter().take(1).flatten())).collect(),
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -135,11 +153,8 @@ impl Payload {
         match self {
             Self::Height(t) => {
                 // All NaNs hash alike; one update for the whole tile.
-                let canonical: Vec<u8> = t
-                    .heights
-                    .iter()
-                    .flat_map(|v| if v.is_nan() { f32::NAN } else { *v }.to_le_bytes())
-                    .collect();
+                let canonical: Vec<u8> =
+                    t.heights.iter().flat_map(|v| if v.is_nan() { f32::NAN } else { *v }.to_le_bytes()).collect();
                 h.update(&canonical);
             }
             Self::Color(t) => h.update(&t.rgba),
@@ -157,18 +172,9 @@ mod tests {
 
     #[test]
     fn content_hash_ignores_nan_payload_bits_and_sees_values() {
-        let a = Payload::Height(HeightTile {
-            size: 2,
-            heights: vec![1.0, f32::NAN, 3.0, 4.0],
-        });
-        let b = Payload::Height(HeightTile {
-            size: 2,
-            heights: vec![1.0, f32::from_bits(0x7fc0_0001), 3.0, 4.0],
-        });
-        let c = Payload::Height(HeightTile {
-            size: 2,
-            heights: vec![1.0, f32::NAN, 3.0, 4.5],
-        });
+        let a = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.0] });
+        let b = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::from_bits(0x7fc0_0001), 3.0, 4.0] });
+        let c = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.5] });
         assert_eq!(a.content_hash(), b.content_hash());
         assert_ne!(a.content_hash(), c.content_hash());
     }

@@ -87,9 +87,7 @@ impl FromStr for Resampling {
         Self::ALL
             .into_iter()
             .find(|r| r.name() == s)
-            .ok_or_else(|| {
-                format!("unknown resampling '{s}' (expected nearest, bilinear, cubic or lanczos)")
-            })
+            .ok_or_else(|| format!("unknown resampling '{s}' (expected nearest, bilinear, cubic or lanczos)"))
     }
 }
 
@@ -107,10 +105,7 @@ pub struct Quality {
 
 impl Default for Quality {
     fn default() -> Self {
-        Self {
-            resampling: Resampling::Bilinear,
-            reprojection_error_px: 0.125,
-        }
+        Self { resampling: Resampling::Bilinear, reprojection_error_px: 0.125 }
     }
 }
 

@@ -41,10 +41,7 @@ impl SourceSpec {
         match self.options.get(field) {
             None => Ok(None),
             Some(OptionValue::Text(s)) => Ok(Some(s)),
-            Some(other) => Err(SourceError::option(
-                field,
-                format!("expected a string, found {other:?}"),
-            )),
+            Some(other) => Err(SourceError::option(field, format!("expected a string, found {other:?}"))),
         }
     }
 
@@ -52,10 +49,7 @@ impl SourceSpec {
         match self.options.get(field) {
             None => Ok(None),
             Some(OptionValue::Number(n)) if n.is_finite() => Ok(Some(*n)),
-            Some(other) => Err(SourceError::option(
-                field,
-                format!("expected a finite number, found {other:?}"),
-            )),
+            Some(other) => Err(SourceError::option(field, format!("expected a finite number, found {other:?}"))),
         }
     }
 
@@ -64,11 +58,7 @@ impl SourceSpec {
         match self.options.keys().find(|k| !known.contains(&k.as_str())) {
             Some(unknown) => Err(SourceError::option(
                 unknown.clone(),
-                format!(
-                    "unknown option for kind '{}' (known: {})",
-                    self.kind,
-                    known.join(", ")
-                ),
+                format!("unknown option for kind '{}' (known: {})", self.kind, known.join(", ")),
             )),
             None => Ok(()),
         }
@@ -99,10 +89,7 @@ pub struct NoInputs;
 
 impl InputTiles for NoInputs {
     fn tile(&self, input: usize, _key: TileKey) -> Result<Arc<Payload>, SourceError> {
-        Err(SourceError::Input {
-            input: input.to_string(),
-            message: "this source has no inputs".into(),
-        })
+        Err(SourceError::Input { input: input.to_string(), message: "this source has no inputs".into() })
     }
 }
 
@@ -162,11 +149,7 @@ pub trait Source: Send + Sync + std::fmt::Debug {
 
     /// Heights at points, at the source's native resolution; None where the
     /// source has no data.
-    fn sample_heights(
-        &self,
-        _points: &[GeodeticPoint],
-        _quality: &Quality,
-    ) -> Result<Vec<Option<f64>>, SourceError> {
+    fn sample_heights(&self, _points: &[GeodeticPoint], _quality: &Quality) -> Result<Vec<Option<f64>>, SourceError> {
         Err(SourceError::Unsupported("sampling elevations"))
     }
 }

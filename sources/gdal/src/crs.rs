@@ -11,10 +11,7 @@ use gdal::spatial_ref::{AxisMappingStrategy, CoordTransform, SpatialRef};
 use relief_source::SourceError;
 
 /// A CRS definition GDAL accepts ("EPSG:4326", WKT, PROJ string...).
-pub(crate) fn spatial_ref(
-    definition: &str,
-    path: Option<&Path>,
-) -> Result<SpatialRef, SourceError> {
+pub(crate) fn spatial_ref(definition: &str, path: Option<&Path>) -> Result<SpatialRef, SourceError> {
     let mut srs = SpatialRef::from_definition(definition).map_err(|e| SourceError::Crs {
         crs: definition.chars().take(80).collect(),
         message: e.to_string(),
@@ -40,12 +37,7 @@ thread_local! {
 
 /// Transforms points in place from `from` to `to` (both WKT or definitions
 /// that `spatial_ref` accepts). Points PROJ cannot transform become NaN.
-pub(crate) fn transform(
-    from: &str,
-    to: &str,
-    xs: &mut [f64],
-    ys: &mut [f64],
-) -> Result<(), SourceError> {
+pub(crate) fn transform(from: &str, to: &str, xs: &mut [f64], ys: &mut [f64]) -> Result<(), SourceError> {
     TRANSFORMS.with(|cell| {
         let mut cache = cell.borrow_mut();
         let key = (from.to_owned(), to.to_owned());
@@ -53,12 +45,13 @@ pub(crate) fn transform(
             if cache.len() > 64 {
                 cache.clear();
             }
-            let t = CoordTransform::new(&spatial_ref(from, None)?, &spatial_ref(to, None)?)
-                .map_err(|e| SourceError::Crs {
+            let t = CoordTransform::new(&spatial_ref(from, None)?, &spatial_ref(to, None)?).map_err(|e| {
+                SourceError::Crs {
                     crs: to.chars().take(80).collect(),
                     message: format!("no transformation from the source CRS: {e}"),
                     path: None,
-                })?;
+                }
+            })?;
             cache.insert(key.clone(), t);
         }
         let t = &cache[&key];
@@ -89,20 +82,10 @@ pub(crate) fn transform_bounds(from: &str, to: &str, bounds: [f64; 4]) -> Option
         }
     }
     transform(from, to, &mut xs, &mut ys).ok()?;
-    let mut out = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
+    let mut out = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
     for (x, y) in xs.iter().zip(&ys) {
         if x.is_finite() {
-            out = [
-                out[0].min(*x),
-                out[1].min(*y),
-                out[2].max(*x),
-                out[3].max(*y),
-            ];
+            out = [out[0].min(*x), out[1].min(*y), out[2].max(*x), out[3].max(*y)];
         }
     }
     out[0].is_finite().then_some(out)
@@ -118,10 +101,7 @@ mod tests {
         let mut xs = [-113.6];
         let mut ys = [46.0];
         transform("EPSG:4326", "EPSG:26912", &mut xs, &mut ys).unwrap();
-        assert!(
-            (xs[0] - 298_678.309_2).abs() < 1e-3 && (ys[0] - 5_097_334.438_7).abs() < 1e-3,
-            "{xs:?} {ys:?}"
-        );
+        assert!((xs[0] - 298_678.309_2).abs() < 1e-3 && (ys[0] - 5_097_334.438_7).abs() < 1e-3, "{xs:?} {ys:?}");
         transform("EPSG:26912", "EPSG:4326", &mut xs, &mut ys).unwrap();
         assert!((xs[0] + 113.6).abs() < 1e-9 && (ys[0] - 46.0).abs() < 1e-9);
     }
@@ -130,9 +110,6 @@ mod tests {
     fn unknown_crs_is_a_clear_error() {
         let err = spatial_ref("EPSG:999999", Some(Path::new("/data/x.tif"))).unwrap_err();
         let msg = err.to_string();
-        assert!(
-            msg.contains("EPSG:999999") && msg.contains("/data/x.tif"),
-            "{msg}"
-        );
+        assert!(msg.contains("EPSG:999999") && msg.contains("/data/x.tif"), "{msg}");
     }
 }

@@ -33,3 +33,20 @@ pub use source::{GdalSource, KIND};
 pub fn describe_crs(definition: &str) -> Result<String, relief_source::SourceError> {
     crs::spatial_ref(definition, None).map(|srs| crs::describe(&srs))
 }
+
+/// Coordinate transforms through GDAL's OSR, for sources that do not link
+/// GDAL themselves.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct OsrTransform;
+
+impl relief_source::CrsTransform for OsrTransform {
+    fn transform(
+        &self,
+        from: &str,
+        to: &str,
+        xs: &mut [f64],
+        ys: &mut [f64],
+    ) -> Result<(), relief_source::SourceError> {
+        crs::transform(from, to, xs, ys)
+    }
+}

@@ -4,12 +4,12 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::SystemTime;
 
 use gdal::raster::{ColorInterpretation, GdalDataType, RasterBand};
 use gdal::{Dataset, GeoTransformEx};
 use rayon::prelude::*;
 use relief_source::SourceError;
+pub(crate) use relief_source::files::Fingerprint;
 
 use crate::crs;
 
@@ -54,36 +54,6 @@ impl VerticalUnits {
             Self::Feet => "ft",
             Self::UsSurveyFeet => "us-ft",
         }
-    }
-}
-
-/// What a dataset's files looked like when they were read: a later
-/// refresh compares it, and a read that sees it change is discarded.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct Fingerprint(Vec<(PathBuf, u64, Option<SystemTime>, u64)>);
-
-impl Fingerprint {
-    pub(crate) fn of(path: &Path) -> Result<Self, SourceError> {
-        use std::os::unix::fs::MetadataExt;
-        let mut files = Vec::new();
-        for (n, file) in relief_source::files::dataset_files(path)
-            .into_iter()
-            .enumerate()
-        {
-            match std::fs::metadata(&file) {
-                Ok(meta) => files.push((file, meta.len(), meta.modified().ok(), meta.ino())),
-                // The primary must be there; a sidecar may vanish between listing and stat.
-                Err(source) if n == 0 => {
-                    return Err(SourceError::Io {
-                        what: "raster",
-                        path: file,
-                        source,
-                    });
-                }
-                Err(_) => {}
-            }
-        }
-        Ok(Self(files))
     }
 }
 
@@ -166,16 +136,8 @@ impl Raster {
 
     /// This raster with `planes` as its base level and a full pyramid.
     fn with_base(self, planes: Vec<Vec<f32>>) -> Self {
-        let base = Level {
-            width: self.width(),
-            height: self.height(),
-            scale: 1.0,
-            planes,
-        };
-        Self {
-            levels: Arc::new(build_pyramid(base, self.kind)),
-            ..self
-        }
+        let base = Level { width: self.width(), height: self.height(), scale: 1.0, planes };
+        Self { levels: Arc::new(build_pyramid(base, self.kind)), ..self }
     }
 
     /// Reads the file again and compares it with this version block by
@@ -198,46 +160,19 @@ impl Raster {
         let rects = diff_blocks(&self.levels[0].planes, &planes, self.width(), self.height());
         tracing::debug!(diff_ms = t.elapsed().as_secs_f64() * 1e3, "raster compared");
         if rects.is_empty() {
-            return Ok(Reloaded::Same(Self {
-                levels: Arc::clone(&self.levels),
-                ..raster
-            }));
+            return Ok(Reloaded::Same(Self { levels: Arc::clone(&self.levels), ..raster }));
         }
         let mut levels: Vec<Level> = Vec::with_capacity(self.levels.len());
-        levels.push(Level {
-            width: self.width(),
-            height: self.height(),
-            scale: 1.0,
-            planes,
-        });
+        levels.push(Level { width: self.width(), height: self.height(), scale: 1.0, planes });
         for old in &self.levels[1..] {
             let prev = levels.last().expect("the base level is there");
             let mut planes = old.planes.clone();
             for rect in &rects {
-                update_halved(
-                    prev,
-                    &mut planes,
-                    old.width,
-                    old.height,
-                    rect,
-                    old.scale as usize,
-                    self.kind,
-                );
+                update_halved(prev, &mut planes, old.width, old.height, rect, old.scale as usize, self.kind);
             }
-            levels.push(Level {
-                width: old.width,
-                height: old.height,
-                scale: old.scale,
-                planes,
-            });
+            levels.push(Level { width: old.width, height: old.height, scale: old.scale, planes });
         }
-        Ok(Reloaded::Pixels(
-            Self {
-                levels: Arc::new(levels),
-                ..raster
-            },
-            rects,
-        ))
+        Ok(Reloaded::Pixels(Self { levels: Arc::new(levels), ..raster }, rects))
     }
 
     pub(crate) fn width(&self) -> usize {
@@ -253,12 +188,10 @@ impl Raster {
     /// makes the read fail as `Changing`, never half-read.
     fn read(path: &Path, options: &ReadOptions) -> Result<(Self, Vec<Vec<f32>>), SourceError> {
         crate::source::install_gdal_error_handler();
-        let fingerprint = Fingerprint::of(path)?;
+        let fingerprint = Fingerprint::of(path, "raster")?;
         let (raster, planes) = Self::read_unguarded(path, options, fingerprint.clone())?;
-        if Fingerprint::of(path)? != fingerprint {
-            return Err(SourceError::Changing {
-                path: path.to_path_buf(),
-            });
+        if Fingerprint::of(path, "raster")? != fingerprint {
+            return Err(SourceError::Changing { path: path.to_path_buf() });
         }
         Ok((raster, planes))
     }
@@ -273,21 +206,14 @@ impl Raster {
         if width == 0 || height == 0 || ds.raster_count() == 0 {
             return Err(format_err("raster has no pixels or no bands", path));
         }
-        let geo = ds
-            .geo_transform()
-            .map_err(|_| format_err("raster has no georeferencing (no geotransform)", path))?;
-        let inverse = geo
-            .invert()
-            .map_err(|_| format_err("raster geotransform cannot be inverted", path))?;
+        let geo = ds.geo_transform().map_err(|_| format_err("raster has no georeferencing (no geotransform)", path))?;
+        let inverse = geo.invert().map_err(|_| format_err("raster geotransform cannot be inverted", path))?;
         let srs = if let Some(def) = &options.crs_override {
             crs::spatial_ref(def, Some(path))?
         } else {
             let wkt = ds.projection();
             if wkt.trim().is_empty() {
-                return Err(format_err(
-                    "raster has no CRS (set 'crs' on the source in the manifest)",
-                    path,
-                ));
+                return Err(format_err("raster has no CRS (set 'crs' on the source in the manifest)", path));
             }
             crs::spatial_ref(&wkt, Some(path))?
         };
@@ -309,10 +235,7 @@ impl Raster {
         details.insert("driver".into(), ds.driver().short_name());
         details.insert("size".into(), format!("{width}x{height}"));
         details.insert("bands".into(), ds.raster_count().to_string());
-        details.insert(
-            "pixel_size".into(),
-            format!("{} x {}", geo[1], geo[5].abs()),
-        );
+        details.insert("pixel_size".into(), format!("{} x {}", geo[1], geo[5].abs()));
 
         let (planes, units) = match kind {
             RasterKind::Height => {
@@ -341,22 +264,12 @@ impl Raster {
 
     /// The raster's outer pixel edges in its own CRS: [min x, min y, max x, max y].
     pub(crate) fn bounds(&self) -> [f64; 4] {
-        self.rect_bounds(&PixelRect {
-            x0: 0,
-            y0: 0,
-            x1: self.size.0,
-            y1: self.size.1,
-        })
+        self.rect_bounds(&PixelRect { x0: 0, y0: 0, x1: self.size.0, y1: self.size.1 })
     }
 
     /// The outer edges of a pixel rectangle in the raster's CRS.
     pub(crate) fn rect_bounds(&self, rect: &PixelRect) -> [f64; 4] {
-        let (x0, y0, w, h) = (
-            rect.x0 as f64,
-            rect.y0 as f64,
-            rect.x1 as f64,
-            rect.y1 as f64,
-        );
+        let (x0, y0, w, h) = (rect.x0 as f64, rect.y0 as f64, rect.x1 as f64, rect.y1 as f64);
         let corners = [(x0, y0), (w, y0), (x0, h), (w, h)].map(|(p, l)| apply(&self.geo, p, l));
         let xs = corners.map(|c| c.0);
         let ys = corners.map(|c| c.1);
@@ -376,21 +289,15 @@ impl Raster {
             return None;
         }
         let [_, min_y, _, max_y] = self.bounds();
-        let reaches = if north {
-            max_y >= 90.0 - 1e-9
-        } else {
-            min_y <= -90.0 + 1e-9
-        };
+        let reaches = if north { max_y >= 90.0 - 1e-9 } else { min_y <= -90.0 + 1e-9 };
         if !reaches {
             return None;
         }
         let base = &self.levels[0];
         let row = if north { 0 } else { base.height - 1 };
         let values = &base.planes[0][row * base.width..(row + 1) * base.width];
-        let (sum, n) = values
-            .iter()
-            .filter(|v| !v.is_nan())
-            .fold((0.0f64, 0u32), |(s, n), v| (s + f64::from(*v), n + 1));
+        let (sum, n) =
+            values.iter().filter(|v| !v.is_nan()).fold((0.0f64, 0u32), |(s, n), v| (s + f64::from(*v), n + 1));
         (n > 0).then(|| (sum / f64::from(n)) as f32)
     }
 
@@ -418,9 +325,8 @@ fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
             other => other.to_string(),
         };
         // GDAL repeats the path inside its message; we put it last once.
-        let message = message
-            .replace(&format!("`{}' ", path.display()), "")
-            .replace(&path.display().to_string(), "the file");
+        let message =
+            message.replace(&format!("`{}' ", path.display()), "").replace(&path.display().to_string(), "the file");
         format_err(format!("cannot open raster: {}", message.trim()), path)
     })
 }
@@ -430,15 +336,8 @@ fn apply(gt: &[f64; 6], a: f64, b: f64) -> (f64, f64) {
 }
 
 fn guess_kind(ds: &Dataset) -> RasterKind {
-    let byte_bands = ds
-        .rasterbands()
-        .filter_map(Result::ok)
-        .filter(|b| b.band_type() == GdalDataType::UInt8)
-        .count();
-    let paletted = ds
-        .rasterband(1)
-        .ok()
-        .is_some_and(|b| b.color_table().is_some());
+    let byte_bands = ds.rasterbands().filter_map(Result::ok).filter(|b| b.band_type() == GdalDataType::UInt8).count();
+    let paletted = ds.rasterband(1).ok().is_some_and(|b| b.color_table().is_some());
     if (byte_bands >= 3 && byte_bands == ds.raster_count()) || paletted {
         RasterKind::Color
     } else {
@@ -464,25 +363,22 @@ fn read_band_parallel(
     (width, height): (usize, usize),
 ) -> Result<Vec<f32>, SourceError> {
     let mut values = vec![0.0f32; width * height];
-    values
-        .par_chunks_mut(width * DIFF_BLOCK)
-        .enumerate()
-        .try_for_each_init(
-            || open_dataset(path),
-            |ds, (chunk, rows)| {
-                let ds = ds.as_ref().map_err(|e| format_err(e.to_string(), path))?;
-                let band = ds.rasterband(band_index).map_err(|e| format_err(e, path))?;
-                let n_rows = rows.len() / width;
-                band.read_into_slice::<f32>(
-                    (0, (chunk * DIFF_BLOCK) as isize),
-                    (width, n_rows),
-                    (width, n_rows),
-                    rows,
-                    None,
-                )
-                .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))
-            },
-        )?;
+    values.par_chunks_mut(width * DIFF_BLOCK).enumerate().try_for_each_init(
+        || open_dataset(path),
+        |ds, (chunk, rows)| {
+            let ds = ds.as_ref().map_err(|e| format_err(e.to_string(), path))?;
+            let band = ds.rasterband(band_index).map_err(|e| format_err(e, path))?;
+            let n_rows = rows.len() / width;
+            band.read_into_slice::<f32>(
+                (0, (chunk * DIFF_BLOCK) as isize),
+                (width, n_rows),
+                (width, n_rows),
+                rows,
+                None,
+            )
+            .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))
+        },
+    )?;
     Ok(values)
 }
 
@@ -495,9 +391,7 @@ fn read_mask(band: &RasterBand<'_>, path: &Path) -> Result<Option<Vec<f32>>, Sou
     if flags.is_all_valid() || flags.is_nodata() {
         return Ok(None);
     }
-    let mask = band
-        .open_mask_band()
-        .map_err(|e| format_err(format!("cannot open mask band: {e}"), path))?;
+    let mask = band.open_mask_band().map_err(|e| format_err(format!("cannot open mask band: {e}"), path))?;
     read_band(&mask, path).map(Some)
 }
 
@@ -508,14 +402,7 @@ fn read_heights(
     details: &mut BTreeMap<String, String>,
 ) -> Result<(Vec<f32>, VerticalUnits), SourceError> {
     let band = ds.rasterband(options.band).map_err(|e| {
-        format_err(
-            format!(
-                "raster has no band {} ({} bands): {e}",
-                options.band,
-                ds.raster_count()
-            ),
-            path,
-        )
+        format_err(format!("raster has no band {} ({} bands): {e}", options.band, ds.raster_count()), path)
     })?;
     let unit_type = band.unit();
     let units = match options.units_override {
@@ -531,18 +418,8 @@ fn read_heights(
     let scale = band.scale().unwrap_or(1.0) * units.to_metres();
     let offset = band.offset().unwrap_or(0.0) * units.to_metres();
     details.insert("band_type".into(), band.band_type().name());
-    details.insert(
-        "nodata".into(),
-        nodata.map_or_else(|| "none".into(), |v| v.to_string()),
-    );
-    details.insert(
-        "unit_type".into(),
-        if unit_type.is_empty() {
-            "(unset: metres assumed)".into()
-        } else {
-            unit_type
-        },
-    );
+    details.insert("nodata".into(), nodata.map_or_else(|| "none".into(), |v| v.to_string()));
+    details.insert("unit_type".into(), if unit_type.is_empty() { "(unset: metres assumed)".into() } else { unit_type });
 
     let (width, height) = band.size();
     let mut heights = read_band_parallel(path, options.band, (width, height))?;
@@ -572,11 +449,7 @@ fn read_heights(
     Ok((heights, units))
 }
 
-fn read_color(
-    ds: &Dataset,
-    path: &Path,
-    details: &mut BTreeMap<String, String>,
-) -> Result<Vec<Vec<f32>>, SourceError> {
+fn read_color(ds: &Dataset, path: &Path, details: &mut BTreeMap<String, String>) -> Result<Vec<Vec<f32>>, SourceError> {
     let count = ds.raster_count();
     let first = ds.rasterband(1).map_err(|e| format_err(e, path))?;
     let n = first.size().0 * first.size().1;
@@ -593,12 +466,7 @@ fn read_color(
             if nodata.is_some_and(|nd| v == nd as f32) || entry.is_none() {
                 valid[i] = false;
             }
-            let c = entry.unwrap_or(gdal::raster::RgbaEntry {
-                r: 0,
-                g: 0,
-                b: 0,
-                a: 0,
-            });
+            let c = entry.unwrap_or(gdal::raster::RgbaEntry { r: 0, g: 0, b: 0, a: 0 });
             for (plane, value) in planes.iter_mut().zip([c.r, c.g, c.b, c.a]) {
                 plane.push(f32::from(value));
             }
@@ -625,22 +493,13 @@ fn read_color(
             if let Some(nd) = band.no_data_value() {
                 // A pixel is nodata when every colour band holds the nodata value.
                 if rgba.is_empty() {
-                    valid
-                        .iter_mut()
-                        .zip(&values)
-                        .for_each(|(ok, v)| *ok = *v != nd as f32);
+                    valid.iter_mut().zip(&values).for_each(|(ok, v)| *ok = *v != nd as f32);
                 } else {
-                    valid
-                        .iter_mut()
-                        .zip(&values)
-                        .for_each(|(ok, v)| *ok = *ok || *v != nd as f32);
+                    valid.iter_mut().zip(&values).for_each(|(ok, v)| *ok = *ok || *v != nd as f32);
                 }
             }
             if let Some(mask) = read_mask(&band, path)? {
-                valid
-                    .iter_mut()
-                    .zip(&mask)
-                    .for_each(|(ok, m)| *ok = *ok && *m != 0.0);
+                valid.iter_mut().zip(&mask).for_each(|(ok, m)| *ok = *ok && *m != 0.0);
             }
             if rgba.len() < 3 {
                 rgba.push(values);
@@ -655,15 +514,9 @@ fn read_color(
 
     let voids = valid.iter().filter(|v| !**v).count();
     details.insert("nodata_pixels".into(), voids.to_string());
-    let alpha: Vec<f32> = rgba[3]
-        .iter()
-        .zip(&valid)
-        .map(|(a, ok)| if *ok { *a / 255.0 } else { 0.0 })
-        .collect();
-    let mut planes: Vec<Vec<f32>> = rgba[..3]
-        .iter()
-        .map(|p| p.iter().zip(&alpha).map(|(c, a)| *c / 255.0 * a).collect())
-        .collect();
+    let alpha: Vec<f32> = rgba[3].iter().zip(&valid).map(|(a, ok)| if *ok { *a / 255.0 } else { 0.0 }).collect();
+    let mut planes: Vec<Vec<f32>> =
+        rgba[..3].iter().map(|p| p.iter().zip(&alpha).map(|(c, a)| *c / 255.0 * a).collect()).collect();
     planes.push(alpha);
     Ok(planes)
 }
@@ -680,32 +533,16 @@ fn build_pyramid(base: Level, kind: RasterKind) -> Vec<Level> {
         let planes = match kind {
             RasterKind::Height => vec![halve(&prev.planes[0], prev.width, prev.height, true)],
             // Premultiplied colour averages plainly: transparent pixels weigh nothing.
-            RasterKind::Color => prev
-                .planes
-                .iter()
-                .map(|p| halve(p, prev.width, prev.height, false))
-                .collect(),
+            RasterKind::Color => prev.planes.iter().map(|p| halve(p, prev.width, prev.height, false)).collect(),
         };
-        levels.push(Level {
-            width: w,
-            height: h,
-            scale: prev.scale * 2.0,
-            planes,
-        });
+        levels.push(Level { width: w, height: h, scale: prev.scale * 2.0, planes });
     }
     levels
 }
 
 /// One pixel of the next level: the mean of the (up to) four pixels under
 /// it, valid ones only for heights.
-fn halved_pixel(
-    plane: &[f32],
-    width: usize,
-    height: usize,
-    i: usize,
-    j: usize,
-    skip_nan: bool,
-) -> f32 {
+fn halved_pixel(plane: &[f32], width: usize, height: usize, i: usize, j: usize, skip_nan: bool) -> f32 {
     let mut sum = 0.0f64;
     let (mut count, mut cells) = (0u32, 0u32);
     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
@@ -720,11 +557,7 @@ fn halved_pixel(
         }
     }
     let divisor = if skip_nan { count } else { cells };
-    if count == 0 {
-        f32::NAN
-    } else {
-        (sum / f64::from(divisor)) as f32
-    }
+    if count == 0 { f32::NAN } else { (sum / f64::from(divisor)) as f32 }
 }
 
 fn halve(plane: &[f32], width: usize, height: usize, skip_nan: bool) -> Vec<f32> {
@@ -748,21 +581,11 @@ fn update_halved(
     kind: RasterKind,
 ) {
     let (i0, j0) = (rect.x0 / scale, rect.y0 / scale);
-    let (i1, j1) = (
-        rect.x1.div_ceil(scale).min(width),
-        rect.y1.div_ceil(scale).min(height),
-    );
+    let (i1, j1) = (rect.x1.div_ceil(scale).min(width), rect.y1.div_ceil(scale).min(height));
     for (plane, below) in planes.iter_mut().zip(&prev.planes) {
         for j in j0..j1 {
             for i in i0..i1 {
-                plane[j * width + i] = halved_pixel(
-                    below,
-                    prev.width,
-                    prev.height,
-                    i,
-                    j,
-                    kind == RasterKind::Height,
-                );
+                plane[j * width + i] = halved_pixel(below, prev.width, prev.height, i, j, kind == RasterKind::Height);
             }
         }
     }
@@ -781,10 +604,7 @@ fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) 
             let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
             old.iter().zip(new).any(|(o, n)| {
                 (y0..y1).any(|y| {
-                    let (o, n) = (
-                        &o[y * width + x0..y * width + x1],
-                        &n[y * width + x0..y * width + x1],
-                    );
+                    let (o, n) = (&o[y * width + x0..y * width + x1], &n[y * width + x0..y * width + x1]);
                     // Plain float equality is the fast check; NaNs (nodata)
                     // fail it and get the exact one.
                     o != n && o.iter().zip(n).any(|(a, b)| !same(*a, *b))
@@ -812,20 +632,14 @@ fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) 
         let (y0, y1) = (by * DIFF_BLOCK, ((by + 1) * DIFF_BLOCK).min(height));
         let mut still_open = Vec::new();
         for rect in open.drain(..) {
-            if let Some(pos) = runs
-                .iter()
-                .position(|&(x0, x1)| x0 == rect.x0 && x1 == rect.x1)
-            {
+            if let Some(pos) = runs.iter().position(|&(x0, x1)| x0 == rect.x0 && x1 == rect.x1) {
                 runs.remove(pos);
                 still_open.push(PixelRect { y1, ..rect });
             } else {
                 rects.push(rect);
             }
         }
-        still_open.extend(
-            runs.into_iter()
-                .map(|(x0, x1)| PixelRect { x0, y0, x1, y1 }),
-        );
+        still_open.extend(runs.into_iter().map(|(x0, x1)| PixelRect { x0, y0, x1, y1 }));
         open = still_open;
     }
     rects.extend(open);
@@ -860,24 +674,8 @@ mod tests {
             new[0][y * w + x] = 3.0;
         }
         let rects = diff_blocks(&old, &new, w, h);
-        assert!(
-            rects.contains(&PixelRect {
-                x0: 0,
-                y0: 128,
-                x1: 64,
-                y1: 192
-            }),
-            "{rects:?}"
-        );
-        assert!(
-            rects.contains(&PixelRect {
-                x0: 128,
-                y0: 0,
-                x1: 256,
-                y1: 128
-            }),
-            "{rects:?}"
-        );
+        assert!(rects.contains(&PixelRect { x0: 0, y0: 128, x1: 64, y1: 192 }), "{rects:?}");
+        assert!(rects.contains(&PixelRect { x0: 128, y0: 0, x1: 256, y1: 128 }), "{rects:?}");
         assert_eq!(rects.len(), 2, "{rects:?}");
         // NaN over NaN is no change.
         let holes = vec![vec![f32::NAN; 16]];
@@ -888,41 +686,18 @@ mod tests {
     fn incremental_pyramids_equal_full_rebuilds() {
         let (w, h) = (150, 90);
         let base: Vec<f32> = (0..w * h).map(|i| (i % 97) as f32).collect();
-        let old = build_pyramid(
-            Level {
-                width: w,
-                height: h,
-                scale: 1.0,
-                planes: vec![base.clone()],
-            },
-            RasterKind::Height,
-        );
+        let old =
+            build_pyramid(Level { width: w, height: h, scale: 1.0, planes: vec![base.clone()] }, RasterKind::Height);
         let mut edited = base;
         for y in 20..41 {
             for x in 65..99 {
-                edited[y * w + x] = if (x + y) % 7 == 0 {
-                    f32::NAN
-                } else {
-                    500.0 + x as f32
-                };
+                edited[y * w + x] = if (x + y) % 7 == 0 { f32::NAN } else { 500.0 + x as f32 };
             }
         }
         let rects = diff_blocks(&old[0].planes, &[edited.clone()], w, h);
-        let full = build_pyramid(
-            Level {
-                width: w,
-                height: h,
-                scale: 1.0,
-                planes: vec![edited.clone()],
-            },
-            RasterKind::Height,
-        );
-        let mut levels = vec![Level {
-            width: w,
-            height: h,
-            scale: 1.0,
-            planes: vec![edited],
-        }];
+        let full =
+            build_pyramid(Level { width: w, height: h, scale: 1.0, planes: vec![edited.clone()] }, RasterKind::Height);
+        let mut levels = vec![Level { width: w, height: h, scale: 1.0, planes: vec![edited] }];
         for o in &old[1..] {
             let mut planes = o.planes.clone();
             for r in &rects {
@@ -936,42 +711,20 @@ mod tests {
                     RasterKind::Height,
                 );
             }
-            levels.push(Level {
-                width: o.width,
-                height: o.height,
-                scale: o.scale,
-                planes,
-            });
+            levels.push(Level { width: o.width, height: o.height, scale: o.scale, planes });
         }
         for (a, b) in levels.iter().zip(&full) {
-            let bits = |p: &[f32]| {
-                p.iter()
-                    .map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() })
-                    .collect::<Vec<_>>()
-            };
-            assert_eq!(
-                bits(&a.planes[0]),
-                bits(&b.planes[0]),
-                "level of scale {}",
-                a.scale
-            );
+            let bits =
+                |p: &[f32]| p.iter().map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() }).collect::<Vec<_>>();
+            assert_eq!(bits(&a.planes[0]), bits(&b.planes[0]), "level of scale {}", a.scale);
         }
     }
 
     #[test]
     fn unit_types_map_to_metres() {
-        assert_eq!(
-            VerticalUnits::from_unit_type("metre"),
-            Some(VerticalUnits::Metres)
-        );
-        assert_eq!(
-            VerticalUnits::from_unit_type(""),
-            Some(VerticalUnits::Metres)
-        );
-        assert_eq!(
-            VerticalUnits::from_unit_type("ft"),
-            Some(VerticalUnits::Feet)
-        );
+        assert_eq!(VerticalUnits::from_unit_type("metre"), Some(VerticalUnits::Metres));
+        assert_eq!(VerticalUnits::from_unit_type(""), Some(VerticalUnits::Metres));
+        assert_eq!(VerticalUnits::from_unit_type("ft"), Some(VerticalUnits::Feet));
         assert_eq!(VerticalUnits::from_unit_type("fathoms"), None);
     }
 }

@@ -31,17 +31,9 @@ pub(crate) fn axis_taps(u: f64, size: usize, kernel: Resampling, wrap: bool) -> 
     }
     let last = size as i64 - 1;
     let place = |k: i64| {
-        if wrap {
-            k.rem_euclid(size as i64) as usize
-        } else {
-            k.clamp(0, last) as usize
-        }
+        if wrap { k.rem_euclid(size as i64) as usize } else { k.clamp(0, last) as usize }
     };
-    let mut t = Taps {
-        index: [0; MAX_TAPS],
-        weight: [0.0; MAX_TAPS],
-        len: 0,
-    };
+    let mut t = Taps { index: [0; MAX_TAPS], weight: [0.0; MAX_TAPS], len: 0 };
     if kernel == Resampling::Nearest {
         t.index[0] = place(u.floor() as i64);
         t.weight[0] = 1.0;
@@ -67,10 +59,7 @@ pub(crate) fn axis_taps(u: f64, size: usize, kernel: Resampling, wrap: bool) -> 
 /// NaN when the point is off the raster or mostly over nodata.
 pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling, wrap_x: bool) -> f32 {
     let (u, v) = (u / level.scale, v / level.scale);
-    match (
-        axis_taps(u, level.width, kernel, wrap_x),
-        taps(v, level.height, kernel),
-    ) {
+    match (axis_taps(u, level.width, kernel, wrap_x), taps(v, level.height, kernel)) {
         (Some(tx), Some(ty)) => height_from_taps(level, &tx, &ty),
         _ => f32::NAN,
     }
@@ -83,18 +72,12 @@ pub(crate) fn height_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> f32 {
     if tx.len == 2 && ty.len == 2 {
         // Bilinear, the common case, without the general loops.
         let (r0, r1) = (ty.index[0] * level.width, ty.index[1] * level.width);
-        let h = [
-            plane[r0 + tx.index[0]],
-            plane[r0 + tx.index[1]],
-            plane[r1 + tx.index[0]],
-            plane[r1 + tx.index[1]],
-        ];
+        let h = [plane[r0 + tx.index[0]], plane[r0 + tx.index[1]], plane[r1 + tx.index[0]], plane[r1 + tx.index[1]]];
         if !h.iter().any(|v| v.is_nan()) {
             let top = tx.weight[0] * f64::from(h[0]) + tx.weight[1] * f64::from(h[1]);
             let bottom = tx.weight[0] * f64::from(h[2]) + tx.weight[1] * f64::from(h[3]);
             return ((ty.weight[0] * top + ty.weight[1] * bottom)
-                / ((tx.weight[0] + tx.weight[1]) * (ty.weight[0] + ty.weight[1])))
-                as f32;
+                / ((tx.weight[0] + tx.weight[1]) * (ty.weight[0] + ty.weight[1]))) as f32;
         }
     }
     let (mut sum, mut valid_w, mut total_w) = (0.0f64, 0.0f64, 0.0f64);
@@ -110,11 +93,7 @@ pub(crate) fn height_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> f32 {
             }
         }
     }
-    if valid_w > 1e-9 && valid_w >= 0.5 * total_w {
-        (sum / valid_w) as f32
-    } else {
-        f32::NAN
-    }
+    if valid_w > 1e-9 && valid_w >= 0.5 * total_w { (sum / valid_w) as f32 } else { f32::NAN }
 }
 
 /// Premultiplied RGBA from taps already found.
@@ -140,16 +119,8 @@ mod tests {
     use proptest::prelude::*;
 
     fn level(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Level {
-        let plane = (0..height)
-            .flat_map(|j| (0..width).map(move |i| (i, j)))
-            .map(|(i, j)| f(i, j))
-            .collect();
-        Level {
-            width,
-            height,
-            scale: 1.0,
-            planes: vec![plane],
-        }
+        let plane = (0..height).flat_map(|j| (0..width).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect();
+        Level { width, height, scale: 1.0, planes: vec![plane] }
     }
 
     #[test]
@@ -185,11 +156,7 @@ mod tests {
         let ty = axis_taps(0.5, 1, Resampling::Bilinear, false).unwrap();
         assert_eq!(height_from_taps(&l, &t, &ty), 15.0);
         let t = axis_taps(0.0, 4, Resampling::Bilinear, true).unwrap();
-        assert_eq!(
-            height_from_taps(&l, &t, &ty),
-            15.0,
-            "the same point from the other side"
-        );
+        assert_eq!(height_from_taps(&l, &t, &ty), 15.0, "the same point from the other side");
         assert!(axis_taps(-0.5, 4, Resampling::Bilinear, false).is_none());
         assert!(axis_taps(f64::NAN, 4, Resampling::Bilinear, true).is_none());
     }

@@ -5,9 +5,8 @@ use std::sync::{Arc, Once};
 
 use gdal::errors::CplErrType;
 use relief_source::{
-    ColorTile, DirtySet, Extent, GenerateContext, GeodeticPoint, HeightTile, Lattice, Payload,
-    PayloadKind, Quality, Refresh, SampleKind, Source, SourceError, SourceInfo, SourceSpec,
-    TileGrid, TileKey,
+    ColorTile, DirtySet, Extent, GenerateContext, GeodeticPoint, HeightTile, Lattice, Payload, PayloadKind, Quality,
+    Refresh, SampleKind, Source, SourceError, SourceInfo, SourceSpec, TileGrid, TileKey,
 };
 
 use crate::crs;
@@ -54,11 +53,8 @@ impl Sampler {
         for j in 0..rows {
             for i in 0..cols {
                 let n = j * cols + i;
-                let (tx, ty) = if self.separable {
-                    (&self.columns[i], &self.rows[j])
-                } else {
-                    (&self.columns[n], &self.rows[n])
-                };
+                let (tx, ty) =
+                    if self.separable { (&self.columns[i], &self.rows[j]) } else { (&self.columns[n], &self.rows[n]) };
                 f(n, tx.as_ref().zip(ty.as_ref()));
             }
         }
@@ -92,20 +88,14 @@ impl GdalSource {
     pub fn open(spec: &SourceSpec, grid: &TileGrid) -> Result<Self, SourceError> {
         spec.only_options(OPTIONS)?;
         if spec.paths.is_empty() {
-            return Err(SourceError::option(
-                "path",
-                "a gdal source needs 'path' (or 'paths')",
-            ));
+            return Err(SourceError::option("path", "a gdal source needs 'path' (or 'paths')"));
         }
         let kind = match spec.text("output")? {
             None => None,
             Some("height") => Some(RasterKind::Height),
             Some("color" | "colour") => Some(RasterKind::Color),
             Some(other) => {
-                return Err(SourceError::option(
-                    "output",
-                    format!("'{other}' is neither \"height\" nor \"color\""),
-                ));
+                return Err(SourceError::option("output", format!("'{other}' is neither \"height\" nor \"color\"")));
             }
         };
         let units_override = match spec.text("vertical_units")? {
@@ -114,63 +104,37 @@ impl GdalSource {
             Some("ft") => Some(VerticalUnits::Feet),
             Some("us-ft") => Some(VerticalUnits::UsSurveyFeet),
             Some(other) => {
-                return Err(SourceError::option(
-                    "vertical_units",
-                    format!("'{other}' is not m, ft or us-ft"),
-                ));
+                return Err(SourceError::option("vertical_units", format!("'{other}' is not m, ft or us-ft")));
             }
         };
         let band = match spec.number("band")? {
             None => 1,
             Some(b) if b >= 1.0 && b.fract() == 0.0 => b as usize,
             Some(b) => {
-                return Err(SourceError::option(
-                    "band",
-                    format!("{b} is not a band number (1, 2, ...)"),
-                ));
+                return Err(SourceError::option("band", format!("{b} is not a band number (1, 2, ...)")));
             }
         };
         let crs_override = spec.text("crs")?.map(str::to_owned);
         if let Some(def) = &crs_override {
             crs::spatial_ref(def, None)?;
         }
-        let read = ReadOptions {
-            kind,
-            crs_override,
-            units_override,
-            band,
-        };
-        let rasters = spec
-            .paths
-            .iter()
-            .map(|p| Raster::open(p, &read))
-            .collect::<Result<Vec<_>, _>>()?;
+        let read = ReadOptions { kind, crs_override, units_override, band };
+        let rasters = spec.paths.iter().map(|p| Raster::open(p, &read)).collect::<Result<Vec<_>, _>>()?;
         let kind = rasters[0].kind;
         if let Some(odd) = rasters.iter().find(|r| r.kind != kind) {
             return Err(SourceError::format(
-                format!(
-                    "mosaic mixes colour and height rasters ({:?} vs {kind:?})",
-                    odd.kind
-                ),
+                format!("mosaic mixes colour and height rasters ({:?} vs {kind:?})", odd.kind),
                 &odd.path,
             ));
         }
         let vertical_datum = match spec.text("vertical_datum")? {
             Some(d) => d.to_owned(),
-            None if rasters[0]
-                .details
-                .get("driver")
-                .is_some_and(|d| d == "SRTMHGT") =>
-            {
-                "EGM96 geoid (SRTM)".into()
-            }
+            None if rasters[0].details.get("driver").is_some_and(|d| d == "SRTMHGT") => "EGM96 geoid (SRTM)".into(),
             None => "unknown (not stated by the file)".into(),
         };
         let grid_srs = crs::spatial_ref(grid.crs(), None)?;
-        let rasters = rasters
-            .into_iter()
-            .map(|raster| place(raster, grid, &grid_srs))
-            .collect::<Result<Vec<_>, _>>()?;
+        let rasters =
+            rasters.into_iter().map(|raster| place(raster, grid, &grid_srs)).collect::<Result<Vec<_>, _>>()?;
         Ok(Self {
             id: spec.id.clone(),
             spec: spec.clone(),
@@ -208,11 +172,7 @@ impl GdalSource {
             let mut xs: Vec<f64> = points.iter().map(|&(i, _)| lattice.x(i)).collect();
             let mut ys: Vec<f64> = points.iter().map(|&(_, j)| lattice.y(j)).collect();
             crs::transform(&self.grid_crs, &r.crs_wkt, &mut xs, &mut ys)?;
-            Ok(xs
-                .iter()
-                .zip(&ys)
-                .map(|(x, y)| r.pixel_of(*x, *y))
-                .collect())
+            Ok(xs.iter().zip(&ys).map(|(x, y)| r.pixel_of(*x, *y)).collect())
         };
         // Transform a coarse lattice exactly and interpolate between, halving
         // the step until the interpolation error at cell centres is small
@@ -227,17 +187,12 @@ impl GdalSource {
                 v
             };
             let (ci, cj) = (idx(cols), idx(rows));
-            let coarse_points: Vec<(usize, usize)> = cj
-                .iter()
-                .flat_map(|&j| ci.iter().map(move |&i| (i, j)))
-                .collect();
+            let coarse_points: Vec<(usize, usize)> = cj.iter().flat_map(|&j| ci.iter().map(move |&i| (i, j))).collect();
             let coarse = to_pixels(&coarse_points)?;
             let centres: Vec<(usize, usize)> = cj
                 .windows(2)
                 .flat_map(|wj| {
-                    ci.windows(2).map(move |wi| {
-                        (usize::midpoint(wi[0], wi[1]), usize::midpoint(wj[0], wj[1]))
-                    })
+                    ci.windows(2).map(move |wi| (usize::midpoint(wi[0], wi[1]), usize::midpoint(wj[0], wj[1])))
                 })
                 .collect();
             let exact = to_pixels(&centres)?;
@@ -249,8 +204,7 @@ impl GdalSource {
                 let p = |x: usize, y: usize| coarse[y * ci.len() + x];
                 let (p00, p10, p01, p11) = (p(a, b), p(a + 1, b), p(a, b + 1), p(a + 1, b + 1));
                 let lerp = |s: f64, t: f64, k: fn((f64, f64)) -> f64| {
-                    (1.0 - t) * ((1.0 - s) * k(p00) + s * k(p10))
-                        + t * ((1.0 - s) * k(p01) + s * k(p11))
+                    (1.0 - t) * ((1.0 - s) * k(p00) + s * k(p10)) + t * ((1.0 - s) * k(p01) + s * k(p11))
                 };
                 (lerp(fx, fy, |p| p.0), lerp(fx, fy, |p| p.1))
             };
@@ -261,10 +215,7 @@ impl GdalSource {
                     let (u, v) = interp(i, j);
                     (u - e.0).hypot(v - e.1)
                 })
-                .fold(
-                    0.0f64,
-                    |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) },
-                );
+                .fold(0.0f64, |m, d| if d.is_nan() { f64::INFINITY } else { m.max(d) });
             if worst <= max_error_px {
                 for j in 0..rows {
                     for i in 0..cols {
@@ -277,9 +228,7 @@ impl GdalSource {
             }
             step /= 2;
         }
-        let all: Vec<(usize, usize)> = (0..rows)
-            .flat_map(|j| (0..cols).map(move |i| (i, j)))
-            .collect();
+        let all: Vec<(usize, usize)> = (0..rows).flat_map(|j| (0..cols).map(move |i| (i, j))).collect();
         for (u, v) in to_pixels(&all)? {
             us.push(u);
             vs.push(v);
@@ -292,37 +241,22 @@ impl GdalSource {
     /// centre, and the kernel taps there. A north-up raster in the grid's
     /// CRS maps columns to columns and rows to rows, so its taps are found
     /// once per column and row; any other needs them per sample.
-    fn sampler(
-        &self,
-        placed: &Placed,
-        lattice: &Lattice,
-        quality: &Quality,
-    ) -> Result<Sampler, SourceError> {
+    fn sampler(&self, placed: &Placed, lattice: &Lattice, quality: &Quality) -> Result<Sampler, SourceError> {
         let r = &placed.raster;
         let (cols, rows) = (lattice.cols, lattice.rows);
         let kernel = quality.resampling;
         let mip_for = |dx: f64, dy: f64| {
             let ratio = dx.abs().max(dy.abs());
-            if !ratio.is_finite() || ratio < 2.0 {
-                0
-            } else {
-                (ratio.log2().floor() as usize).min(r.levels.len() - 1)
-            }
+            if !ratio.is_finite() || ratio < 2.0 { 0 } else { (ratio.log2().floor() as usize).min(r.levels.len() - 1) }
         };
         let taps_of = |coords: &[f64], size: usize, scale: f64, wrap: bool| -> Vec<Option<Taps>> {
-            coords
-                .iter()
-                .map(|c| axis_taps(c / scale, size, kernel, wrap))
-                .collect()
+            coords.iter().map(|c| axis_taps(c / scale, size, kernel, wrap)).collect()
         };
         if placed.same_crs && r.geo[2] == 0.0 && r.geo[4] == 0.0 {
             // North-up: the inverse has no cross terms, so u depends on x alone.
             let us: Vec<f64> = (0..cols).map(|i| r.pixel_of(lattice.x(i), 0.0).0).collect();
             let vs: Vec<f64> = (0..rows).map(|j| r.pixel_of(0.0, lattice.y(j)).1).collect();
-            let mip = mip_for(
-                us[cols / 2 + 1] - us[cols / 2],
-                vs[rows / 2 + 1] - vs[rows / 2],
-            );
+            let mip = mip_for(us[cols / 2 + 1] - us[cols / 2], vs[rows / 2 + 1] - vs[rows / 2]);
             let level = &r.levels[mip];
             return Ok(Sampler {
                 mip,
@@ -333,10 +267,8 @@ impl GdalSource {
         }
         let (us, vs) = self.pixel_coords(placed, lattice, quality.reprojection_error_px)?;
         let c = (rows / 2) * cols + cols / 2;
-        let (dx, dy) = (
-            (us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]),
-            (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]),
-        );
+        let (dx, dy) =
+            ((us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]), (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]));
         let mip = mip_for(dx, dy);
         let level = &r.levels[mip];
         Ok(Sampler {
@@ -347,12 +279,7 @@ impl GdalSource {
         })
     }
 
-    fn generate_into(
-        &self,
-        key: TileKey,
-        grid: &TileGrid,
-        quality: &Quality,
-    ) -> Result<Payload, SourceError> {
+    fn generate_into(&self, key: TileKey, grid: &TileGrid, quality: &Quality) -> Result<Payload, SourceError> {
         let sample_kind = match self.kind {
             RasterKind::Height => SampleKind::Corner,
             RasterKind::Color => SampleKind::TexelWithBorder,
@@ -360,14 +287,7 @@ impl GdalSource {
         let lattice = grid.lattice(key, sample_kind);
         let n = lattice.cols * lattice.rows;
         let reach = grid.tile_extent(key).dilate(lattice.step_x, lattice.step_y);
-        let mut heights = vec![
-            f32::NAN;
-            if self.kind == RasterKind::Height {
-                n
-            } else {
-                0
-            }
-        ];
+        let mut heights = vec![f32::NAN; if self.kind == RasterKind::Height { n } else { 0 }];
         let mut colors = vec![[0.0f32; 4]; if self.kind == RasterKind::Color { n } else { 0 }];
         for placed in &self.rasters {
             if !placed.extent_in_grid.is_some_and(|e| e.touches(&reach)) {
@@ -378,8 +298,7 @@ impl GdalSource {
             match self.kind {
                 RasterKind::Height => sampler.each(lattice.cols, lattice.rows, |n, taps| {
                     if heights[n].is_nan() {
-                        heights[n] =
-                            taps.map_or(f32::NAN, |(tx, ty)| height_from_taps(level, tx, ty));
+                        heights[n] = taps.map_or(f32::NAN, |(tx, ty)| height_from_taps(level, tx, ty));
                     }
                 }),
                 RasterKind::Color => sampler.each(lattice.cols, lattice.rows, |n, taps| {
@@ -401,70 +320,43 @@ impl GdalSource {
             for (row, north) in [(0, true), (lattice.rows - 1, false)] {
                 let lat = lattice.y(row);
                 if lat.abs() == 90.0
-                    && let Some(h) = self
-                        .rasters
-                        .iter()
-                        .find_map(|p| p.raster.pole_height(north))
+                    && let Some(h) = self.rasters.iter().find_map(|p| p.raster.pole_height(north))
                 {
                     heights[row * lattice.cols..(row + 1) * lattice.cols].fill(h);
                 }
             }
         }
         Ok(match self.kind {
-            RasterKind::Height => Payload::Height(HeightTile {
-                size: lattice.cols,
-                heights,
-            }),
+            RasterKind::Height => Payload::Height(HeightTile { size: lattice.cols, heights }),
             RasterKind::Color => {
                 let mut rgba = Vec::with_capacity(n * 4);
                 for c in colors {
                     let a = c[3];
                     let un = |v: f32| {
-                        if a > 0.0 {
-                            (v / a * 255.0).round().clamp(0.0, 255.0) as u8
-                        } else {
-                            0
-                        }
+                        if a > 0.0 { (v / a * 255.0).round().clamp(0.0, 255.0) as u8 } else { 0 }
                     };
                     rgba.extend([un(c[0]), un(c[1]), un(c[2]), (a * 255.0).round() as u8]);
                 }
-                Payload::Color(ColorTile {
-                    size: lattice.cols,
-                    rgba,
-                })
+                Payload::Color(ColorTile { size: lattice.cols, rgba })
             }
         })
     }
 }
 
-fn place(
-    raster: Raster,
-    grid: &TileGrid,
-    grid_srs: &gdal::spatial_ref::SpatialRef,
-) -> Result<Placed, SourceError> {
+fn place(raster: Raster, grid: &TileGrid, grid_srs: &gdal::spatial_ref::SpatialRef) -> Result<Placed, SourceError> {
     let srs = crs::spatial_ref(&raster.crs_wkt, Some(&raster.path))?;
     let same_crs = srs == *grid_srs;
     let bounds = raster.bounds();
-    let extent_in_grid = if same_crs {
-        Some(bounds)
-    } else {
-        crs::transform_bounds(&raster.crs_wkt, grid.crs(), bounds)
-    }
-    .map(|[a, b, c, d]| Extent::new(a, b, c, d));
+    let extent_in_grid =
+        if same_crs { Some(bounds) } else { crs::transform_bounds(&raster.crs_wkt, grid.crs(), bounds) }
+            .map(|[a, b, c, d]| Extent::new(a, b, c, d));
     if extent_in_grid.is_none() {
         return Err(SourceError::format(
-            format!(
-                "raster extent cannot be placed in the scene grid ({})",
-                grid.crs()
-            ),
+            format!("raster extent cannot be placed in the scene grid ({})", grid.crs()),
             &raster.path,
         ));
     }
-    Ok(Placed {
-        raster: Arc::new(raster),
-        same_crs,
-        extent_in_grid,
-    })
+    Ok(Placed { raster: Arc::new(raster), same_crs, extent_in_grid })
 }
 
 impl Source for GdalSource {
@@ -485,11 +377,7 @@ impl Source for GdalSource {
 
     fn info(&self) -> SourceInfo {
         let first = &self.rasters[0].raster;
-        let extent = self
-            .rasters
-            .iter()
-            .filter_map(|p| p.extent_in_grid)
-            .reduce(|a, b| a.union(&b));
+        let extent = self.rasters.iter().filter_map(|p| p.extent_in_grid).reduce(|a, b| a.union(&b));
         let mut details = first.details.clone();
         if self.rasters.len() > 1 {
             details.insert("mosaic".into(), format!("{} rasters", self.rasters.len()));
@@ -498,11 +386,7 @@ impl Source for GdalSource {
             files: self.rasters.iter().map(|p| p.raster.path.clone()).collect(),
             extent,
             crs: first.crs_name.clone(),
-            vertical_datum: if self.kind == RasterKind::Height {
-                self.vertical_datum.clone()
-            } else {
-                String::new()
-            },
+            vertical_datum: if self.kind == RasterKind::Height { self.vertical_datum.clone() } else { String::new() },
             vertical_units: if self.kind == RasterKind::Height {
                 format!("m (file: {})", first.units.name())
             } else {
@@ -525,47 +409,30 @@ impl Source for GdalSource {
         let mut rasters = Vec::with_capacity(self.rasters.len());
         for placed in &self.rasters {
             let raster = &placed.raster;
-            if Fingerprint::of(&raster.path)? == raster.fingerprint {
-                rasters.push(Placed {
-                    raster: Arc::clone(raster),
-                    ..*placed
-                });
+            if Fingerprint::of(&raster.path, "raster")? == raster.fingerprint {
+                rasters.push(Placed { raster: Arc::clone(raster), ..*placed });
                 continue;
             }
             replaced = true;
             match raster.reload(&self.read)? {
-                Reloaded::Same(same) => rasters.push(Placed {
-                    raster: Arc::new(same),
-                    ..*placed
-                }),
+                Reloaded::Same(same) => rasters.push(Placed { raster: Arc::new(same), ..*placed }),
                 Reloaded::Pixels(new, rects) => {
                     let extents = rects.iter().filter_map(|rect| {
                         let b = new.rect_bounds(rect);
-                        let b = if placed.same_crs {
-                            Some(b)
-                        } else {
-                            crs::transform_bounds(&new.crs_wkt, grid.crs(), b)
-                        };
+                        let b =
+                            if placed.same_crs { Some(b) } else { crs::transform_bounds(&new.crs_wkt, grid.crs(), b) };
                         b.map(|[a, b, c, d]| Extent::new(a, b, c, d))
                     });
                     dirty = dirty.union(
-                        &DirtySet::from_extents(extents.collect::<Vec<_>>())
-                            .dilate_samples(DIRTY_MARGIN_SAMPLES),
+                        &DirtySet::from_extents(extents.collect::<Vec<_>>()).dilate_samples(DIRTY_MARGIN_SAMPLES),
                     );
-                    rasters.push(Placed {
-                        raster: Arc::new(new),
-                        ..*placed
-                    });
+                    rasters.push(Placed { raster: Arc::new(new), ..*placed });
                 }
                 Reloaded::Everything(new) => {
                     let grid_srs = crs::spatial_ref(grid.crs(), None)?;
                     let new = place(new, grid, &grid_srs)?;
-                    let extents = [placed.extent_in_grid, new.extent_in_grid]
-                        .into_iter()
-                        .flatten();
-                    dirty = dirty.union(
-                        &DirtySet::from_extents(extents).dilate_samples(DIRTY_MARGIN_SAMPLES),
-                    );
+                    let extents = [placed.extent_in_grid, new.extent_in_grid].into_iter().flatten();
+                    dirty = dirty.union(&DirtySet::from_extents(extents).dilate_samples(DIRTY_MARGIN_SAMPLES));
                     rasters.push(new);
                 }
             }
@@ -587,15 +454,9 @@ impl Source for GdalSource {
         })
     }
 
-    fn sample_heights(
-        &self,
-        points: &[GeodeticPoint],
-        quality: &Quality,
-    ) -> Result<Vec<Option<f64>>, SourceError> {
+    fn sample_heights(&self, points: &[GeodeticPoint], quality: &Quality) -> Result<Vec<Option<f64>>, SourceError> {
         if self.kind != RasterKind::Height {
-            return Err(SourceError::Unsupported(
-                "sampling elevations of a colour raster",
-            ));
+            return Err(SourceError::Unsupported("sampling elevations of a colour raster"));
         }
         let mut out: Vec<Option<f64>> = vec![None; points.len()];
         for placed in &self.rasters {
@@ -615,9 +476,7 @@ impl Source for GdalSource {
                         None
                     };
                     let (u, v) = r.pixel_of(*x, *y);
-                    let h = pole.unwrap_or_else(|| {
-                        height_at(&r.levels[0], u, v, quality.resampling, r.wraps_x)
-                    });
+                    let h = pole.unwrap_or_else(|| height_at(&r.levels[0], u, v, quality.resampling, r.wraps_x));
                     *slot = (!h.is_nan()).then_some(f64::from(h));
                 }
             }

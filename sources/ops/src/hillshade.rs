@@ -1,8 +1,8 @@
 //! `hillshade`: a grey shaded-relief colour layer from a height source.
 
 use relief_source::{
-    ColorTile, DirtySet, GenerateContext, GridKind, Payload, PayloadKind, SampleKind, Source,
-    SourceError, SourceInfo, SourceSpec, TileKey, geodesy,
+    ColorTile, DirtySet, GenerateContext, GridKind, Payload, PayloadKind, SampleKind, Source, SourceError, SourceInfo,
+    SourceSpec, TileKey, geodesy,
 };
 
 use crate::window::HeightWindow;
@@ -26,24 +26,15 @@ impl Hillshade {
         if spec.inputs.len() != 1 {
             return Err(SourceError::option(
                 "inputs",
-                format!(
-                    "hillshade takes one height input, got {}",
-                    spec.inputs.len()
-                ),
+                format!("hillshade takes one height input, got {}", spec.inputs.len()),
             ));
         }
         if !spec.paths.is_empty() {
-            return Err(SourceError::option(
-                "path",
-                "hillshade reads no files: give it 'inputs'",
-            ));
+            return Err(SourceError::option("path", "hillshade reads no files: give it 'inputs'"));
         }
         let altitude_deg = spec.number("altitude_deg")?.unwrap_or(45.0);
         if !(0.0..=90.0).contains(&altitude_deg) {
-            return Err(SourceError::option(
-                "altitude_deg",
-                format!("{altitude_deg} is not between 0 and 90"),
-            ));
+            return Err(SourceError::option("altitude_deg", format!("{altitude_deg} is not between 0 and 90")));
         }
         Ok(Self {
             id: spec.id.clone(),
@@ -74,12 +65,9 @@ impl Source for Hillshade {
 
     fn info(&self) -> SourceInfo {
         let mut info = SourceInfo::default();
-        info.details
-            .insert("azimuth_deg".into(), self.azimuth_deg.to_string());
-        info.details
-            .insert("altitude_deg".into(), self.altitude_deg.to_string());
-        info.details
-            .insert("z_factor".into(), self.z_factor.to_string());
+        info.details.insert("azimuth_deg".into(), self.azimuth_deg.to_string());
+        info.details.insert("altitude_deg".into(), self.altitude_deg.to_string());
+        info.details.insert("z_factor".into(), self.z_factor.to_string());
         info
     }
 
@@ -90,10 +78,7 @@ impl Source for Hillshade {
         let lattice = grid.lattice(key, SampleKind::TexelWithBorder);
         let mut window = HeightWindow::new(ctx, 0, key.level);
         let (x0, y0) = (i64::from(key.x) * n, i64::from(key.y) * n);
-        let (az, alt) = (
-            self.azimuth_deg.to_radians(),
-            self.altitude_deg.to_radians(),
-        );
+        let (az, alt) = (self.azimuth_deg.to_radians(), self.altitude_deg.to_radians());
         let light = [az.sin() * alt.cos(), az.cos() * alt.cos(), alt.sin()];
         let (step_x_m, step_y_m) = match grid.kind {
             GridKind::Geodetic => {
@@ -128,17 +113,12 @@ impl Source for Hillshade {
                 let dzdy = (nw + ne - sw - se) / (2.0 * step_y_m) * self.z_factor;
                 let normal = [-dzdx, -dzdy, 1.0];
                 let len = (normal[0] * normal[0] + normal[1] * normal[1] + 1.0).sqrt();
-                let shade = ((normal[0] * light[0] + normal[1] * light[1] + normal[2] * light[2])
-                    / len)
-                    .max(0.0);
+                let shade = ((normal[0] * light[0] + normal[1] * light[1] + normal[2] * light[2]) / len).max(0.0);
                 let v = (shade * 255.0).round() as u8;
                 rgba.extend([v, v, v, 255]);
             }
         }
-        Ok(Payload::Color(ColorTile {
-            size: lattice.cols,
-            rgba,
-        }))
+        Ok(Payload::Color(ColorTile { size: lattice.cols, rgba }))
     }
 
     /// A texel reads the samples at its corners, and the border texel one

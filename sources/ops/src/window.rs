@@ -18,12 +18,7 @@ pub struct HeightWindow<'a, 'c> {
 
 impl<'a, 'c> HeightWindow<'a, 'c> {
     pub fn new(ctx: &'a GenerateContext<'c>, input: usize, level: u8) -> Self {
-        Self {
-            ctx,
-            input,
-            level,
-            tiles: HashMap::new(),
-        }
+        Self { ctx, input, level, tiles: HashMap::new() }
     }
 
     /// The height at global sample (X, Y); NaN for nodata. On the geodetic
