@@ -230,6 +230,9 @@ fn write_tile(tile: &pb::GetTileResponse, path: &Path) -> anyhow::Result<()> {
             band.write((0, 0), (w, h), &mut buffer)?;
             Ok(())
         }
+        Some(pb::get_tile_response::Payload::FeaturesGeojson(json)) => {
+            std::fs::write(path, json).with_context(|| format!("cannot write {}", path.display()))
+        }
         Some(pb::get_tile_response::Payload::MaskU8(_)) => {
             bail!("mask tiles cannot be written yet")
         }

@@ -62,9 +62,10 @@ impl TileService for TileApi {
             ),
             Payload::Color(c) => (c.size, get_tile_response::Payload::ColorPng(png(&c.rgba, c.size)?)),
             Payload::Mask(m) => (m.size, get_tile_response::Payload::MaskU8(m.coverage.clone())),
-            other => {
-                return Err(Status::unimplemented(format!("{} tiles cannot be fetched yet", other.kind())));
+            Payload::Features(f) => {
+                (f.features.len(), get_tile_response::Payload::FeaturesGeojson(convert::geojson(f)))
             }
+            Payload::Instances(_) => return Err(Status::unimplemented("instance tiles cannot be fetched yet")),
         };
         Ok(Response::new(GetTileResponse {
             source_id: r.source_id,

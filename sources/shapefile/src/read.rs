@@ -93,6 +93,22 @@ fn shape_type(shape: &Shape) -> &'static str {
     }
 }
 
+/// A dBase value as text; None for an empty (null) value.
+fn text(value: shapefile::dbase::FieldValue) -> Option<String> {
+    use shapefile::dbase::FieldValue as V;
+    match value {
+        V::Character(s) => s.map(|s| s.trim().to_owned()),
+        V::Memo(s) => Some(s),
+        V::Numeric(n) => n.map(|n| n.to_string()),
+        V::Float(n) => n.map(|n| n.to_string()),
+        V::Integer(n) => Some(n.to_string()),
+        V::Double(n) | V::Currency(n) => Some(n.to_string()),
+        V::Logical(b) => b.map(|b| b.to_string()),
+        V::Date(d) => d.map(|d| format!("{:04}-{:02}-{:02}", d.year(), d.month(), d.day())),
+        V::DateTime(dt) => Some(format!("{dt:?}")),
+    }
+}
+
 /// Reads every shape and record. Attributes are decoded per the .cpg.
 pub(crate) fn read(shp: &Path) -> Result<Read, SourceError> {
     let err = |e: shapefile::Error| SourceError::format(format!("cannot read shapefile: {e}"), shp);
@@ -115,7 +131,7 @@ pub(crate) fn read(shp: &Path) -> Result<Read, SourceError> {
             null_shapes += 1;
             continue;
         };
-        let properties = record.into_iter().map(|(name, value)| (name, value.to_string().trim().to_owned())).collect();
+        let properties = record.into_iter().filter_map(|(name, value)| text(value).map(|v| (name, v))).collect();
         features.push(Feature { id: index as u64, geometry, properties });
     }
     Ok(Read { features, null_shapes, shape_types })

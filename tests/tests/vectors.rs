@@ -1,0 +1,181 @@
+//! Vector sources against a real reliefd: feature counts as GDAL/OGR reads
+//! them, feature tiles, and the shapefile states a save can leave behind.
+
+#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use gdal::vector::LayerAccess;
+
+use relief_proto::v1 as pb;
+use relief_proto::v1::scene_service_client::SceneServiceClient;
+use relief_proto::v1::tile_service_client::TileServiceClient;
+use relief_tests::daemon::{Reliefd, check};
+use relief_tests::fixtures;
+
+/// Three parcels (one with a hole, one split at the antimeridian) and a
+/// null geometry, written as a shapefile by ogr2ogr; and two trees, one on
+/// a corner of four tiles.
+const PARCELS: &str = r#"{"type": "FeatureCollection", "features": [
+  {"type": "Feature", "properties": {"name": "Été", "height": 12.5}, "geometry": {"type": "Polygon", "coordinates": [[[10.0, 45.0], [10.2, 45.0], [10.2, 45.2], [10.0, 45.2], [10.0, 45.0]], [[10.05, 45.05], [10.1, 45.05], [10.1, 45.1], [10.05, 45.1], [10.05, 45.05]]]}},
+  {"type": "Feature", "properties": {"name": "B", "height": 30}, "geometry": {"type": "Polygon", "coordinates": [[[11.0, 45.0], [11.3, 45.0], [11.3, 45.3], [11.0, 45.0]]]}},
+  {"type": "Feature", "properties": {"name": "C", "height": 8}, "geometry": {"type": "MultiPolygon", "coordinates": [[[[179.5, -17.0], [180.0, -17.0], [180.0, -16.5], [179.5, -17.0]]], [[[-180.0, -17.0], [-179.5, -17.0], [-180.0, -16.5], [-180.0, -17.0]]]]}},
+  {"type": "Feature", "properties": {"name": "none", "height": 0}, "geometry": null}
+]}"#;
+
+const TREES: &str = r#"{"type": "FeatureCollection", "features": [
+  {"type": "Feature", "properties": {"name": "tree"}, "geometry": {"type": "Point", "coordinates": [22.5, 45.0]}},
+  {"type": "Feature", "properties": {"name": "tree"}, "geometry": {"type": "Point", "coordinates": [10.1, 45.1]}}
+]}"#;
+
+fn shapefile(dir: &Path, name: &str, geojson: &str) -> PathBuf {
+    let src = dir.join(format!("{name}.geojson"));
+    std::fs::write(&src, geojson).unwrap();
+    let shp = dir.join(format!("{name}.shp"));
+    let out = Command::new("ogr2ogr")
+        .args(["-q", "-f", "ESRI Shapefile", "-lco", "ENCODING=UTF-8"])
+        .arg(&shp)
+        .arg(&src)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::remove_file(&src).unwrap();
+    shp
+}
+
+fn ogr_count(path: &Path) -> u64 {
+    let ds = gdal::Dataset::open(path).unwrap();
+    (0..ds.layer_count()).map(|i| ds.layer(i).unwrap().feature_count()).sum()
+}
+
+fn manifest(dir: &Path, sources: &[(&str, &Path)]) -> PathBuf {
+    let mut text = String::from("[scene]\nname = \"vectors\"\n");
+    for (id, path) in sources {
+        let _ = write!(text, "\n[[source]]\nid = \"{id}\"\nkind = \"shapefile\"\npath = \"{}\"\n", path.display());
+    }
+    fixtures::write_manifest(dir, &text).unwrap()
+}
+
+async fn details(daemon: &Reliefd, id: &str) -> std::collections::HashMap<String, String> {
+    let state = SceneServiceClient::new(daemon.channel().await.unwrap())
+        .get_state(pb::GetStateRequest {})
+        .await
+        .unwrap()
+        .into_inner();
+    state.sources.into_iter().find(|s| s.id == id).unwrap().details
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shared_shapefiles_load_with_the_counts_ogr_reports() {
+    let Some(data) = relief_tests::shared_data("shared_shapefiles_load_with_the_counts_ogr_reports") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let countries = data.join("shp/naturalearth_lowres.shp");
+    let cities = data.join("shp/naturalearth_cities.shp");
+    let daemon = Reliefd::start(&manifest(dir.path(), &[("countries", &countries), ("cities", &cities)]), &[]).unwrap();
+    for (id, path) in [("countries", &countries), ("cities", &cities)] {
+        let d = details(&daemon, id).await;
+        let read: u64 = d["features"].parse::<u64>().unwrap() + d["null_shapes"].parse::<u64>().unwrap();
+        assert_eq!(read, ogr_count(path), "{id}: {d:?}");
+    }
+    daemon.stop(&[]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn feature_tiles_hold_what_reaches_them_and_points_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let shp = shapefile(dir.path(), "parcels", PARCELS);
+    let trees = shapefile(dir.path(), "trees", TREES);
+    let daemon = Reliefd::start(&manifest(dir.path(), &[("parcels", &shp), ("trees", &trees)]), &[]).unwrap();
+    let d = details(&daemon, "parcels").await;
+    assert_eq!((d["features"].as_str(), d["null_shapes"].as_str()), ("3", "1"), "{d:?}");
+    assert_eq!(d["features"].parse::<u64>().unwrap() + 1, ogr_count(&shp));
+    let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
+    let mut get = async |source: &str, level: u32, x: u32, y: u32| -> serde_json::Value {
+        let t = tiles
+            .get_tile(pb::GetTileRequest {
+                source_id: source.into(),
+                key: Some(pb::TileKey { level, x, y }),
+                quality: None,
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        match t.payload {
+            Some(pb::get_tile_response::Payload::FeaturesGeojson(json)) => serde_json::from_slice(&json).unwrap(),
+            other => panic!("features expected, got {other:?}"),
+        }
+    };
+    let names = |fc: &serde_json::Value| -> Vec<String> {
+        fc["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["properties"]["name"].as_str().unwrap().to_owned())
+            .collect()
+    };
+    // Level 3 tiles are 22.5 degrees: (22.5, 45.0) is a corner of four of
+    // them, and the grid's half-open rule gives it to one.
+    let mut owners = 0;
+    for (x, y) in [(8, 1), (9, 1), (8, 2), (9, 2)] {
+        let fc = get("trees", 3, x, y).await;
+        owners += fc["features"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter(|f| f["geometry"]["coordinates"] == serde_json::json!([22.5, 45.0]))
+            .count();
+    }
+    assert_eq!(owners, 1, "a point belongs to exactly one tile");
+    // The first parcel's attributes came through, accents decoded per the .cpg.
+    let fc = get("parcels", 3, 8, 1).await;
+    let ete = fc["features"].as_array().unwrap().iter().find(|f| f["properties"]["name"] == "Été").unwrap();
+    assert_eq!(ete["geometry"]["type"], "MultiPolygon");
+    assert_eq!(ete["geometry"]["coordinates"][0].as_array().unwrap().len(), 2, "outer ring and its hole");
+    // The parcel split at the antimeridian is in the tiles at both ends,
+    // not in every tile between them.
+    let (west, east, middle) =
+        (get("parcels", 3, 0, 4).await, get("parcels", 3, 15, 4).await, get("parcels", 3, 8, 4).await);
+    assert!(names(&west).contains(&"C".to_owned()) && names(&east).contains(&"C".to_owned()));
+    assert!(!names(&middle).contains(&"C".to_owned()));
+    daemon.stop(&[]).unwrap();
+}
+
+fn assert_rejected(manifest: &Path, expected: &[&str]) {
+    let (code, stderr) = check(manifest).unwrap();
+    assert_eq!(code, 2, "{stderr}");
+    for text in expected {
+        assert!(stderr.contains(text), "error should mention {text:?}:\n{stderr}");
+    }
+}
+
+#[test]
+fn torn_shapefiles_are_rejected_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let shp = shapefile(dir.path(), "parcels", PARCELS);
+    let m = manifest(dir.path(), &[("parcels", &shp)]);
+    let (shx, dbf) = (shp.with_extension("shx"), shp.with_extension("dbf"));
+    let (shp_bytes, shx_bytes, dbf_bytes) =
+        (std::fs::read(&shp).unwrap(), std::fs::read(&shx).unwrap(), std::fs::read(&dbf).unwrap());
+
+    std::fs::write(&shp, &shp_bytes[..shp_bytes.len() - 40]).unwrap();
+    assert_rejected(&m, &["source 'parcels'", "truncated or torn .shp", shp.to_str().unwrap()]);
+    std::fs::write(&shp, &shp_bytes).unwrap();
+
+    std::fs::remove_file(&shx).unwrap();
+    assert_rejected(&m, &["source 'parcels'", "missing .shx index", shx.to_str().unwrap()]);
+    std::fs::write(&shx, &shx_bytes).unwrap();
+
+    let mut wrong = dbf_bytes.clone();
+    wrong[4..8].copy_from_slice(&12u32.to_le_bytes());
+    std::fs::write(&dbf, &wrong).unwrap();
+    assert_rejected(
+        &m,
+        &["source 'parcels'", "invalid record count 12 in the .dbf (the .shx indexes 4)", dbf.to_str().unwrap()],
+    );
+    std::fs::write(&dbf, &dbf_bytes).unwrap();
+
+    let (code, stderr) = check(&m).unwrap();
+    assert_eq!(code, 0, "restored: {stderr}");
+}
