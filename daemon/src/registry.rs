@@ -41,6 +41,15 @@ impl Registry {
                     output: Some(PayloadKind::Features),
                 },
                 Kind {
+                    name: relief_source_kml::KIND,
+                    open: |spec, grid| {
+                        let crs = Arc::new(relief_source_gdal::OsrTransform);
+                        Ok(Arc::new(relief_source_kml::KmlSource::open(spec, grid, crs)?))
+                    },
+                    inputs: &[],
+                    output: Some(PayloadKind::Features),
+                },
+                Kind {
                     name: relief_source_ops::HILLSHADE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Hillshade::open(spec)?)),
                     inputs: relief_source_ops::HILLSHADE_INPUTS,

@@ -53,7 +53,13 @@ fn an_unknown_kind_is_rejected() {
     .unwrap();
     assert_rejected(
         &m,
-        &["unknown kind 'geotiff'", "source 'dem'", "field 'kind'", "known: gdal, shapefile, hillshade", "scene.toml"],
+        &[
+            "unknown kind 'geotiff'",
+            "source 'dem'",
+            "field 'kind'",
+            "known: gdal, shapefile, kml, hillshade",
+            "scene.toml",
+        ],
     );
 }
 

@@ -179,3 +179,117 @@ fn torn_shapefiles_are_rejected_naming_the_file() {
     let (code, stderr) = check(&m).unwrap();
     assert_eq!(code, 0, "restored: {stderr}");
 }
+
+fn kml_manifest(dir: &Path, sources: &[(&str, &Path)]) -> PathBuf {
+    let mut text = String::from("[scene]\nname = \"kml\"\n");
+    for (id, path) in sources {
+        let _ = write!(text, "\n[[source]]\nid = \"{id}\"\nkind = \"kml\"\npath = \"{}\"\n", path.display());
+    }
+    fixtures::write_manifest(dir, &text).unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shared_kml_files_load_with_the_counts_ogr_reports() {
+    let Some(data) = relief_tests::shared_data("shared_kml_files_load_with_the_counts_ogr_reports") else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let files = [
+        ("samples", data.join("kml/kmlsamples.kml")),
+        ("modes", data.join("kml/all-altitudemodes.kml")),
+        ("gnis", data.join("kml/gnis-ak-first-101.kml")),
+    ];
+    let sources: Vec<(&str, &Path)> = files.iter().map(|(id, p)| (*id, p.as_path())).collect();
+    let daemon = Reliefd::start(&kml_manifest(dir.path(), &sources), &[]).unwrap();
+    for (id, path) in &files {
+        let d = details(&daemon, id).await;
+        assert_eq!(d["features"].parse::<u64>().unwrap(), ogr_count(path), "{id}: {d:?}");
+    }
+    let modes = details(&daemon, "modes").await;
+    assert!(modes.contains_key("network_links_not_followed"), "{modes:?}");
+    // Altitude modes and extrude come through as properties.
+    let t = TileServiceClient::new(daemon.channel().await.unwrap())
+        .get_tile(pb::GetTileRequest {
+            source_id: "samples".into(),
+            key: Some(pb::TileKey { level: 0, x: 0, y: 0 }),
+            quality: None,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let Some(pb::get_tile_response::Payload::FeaturesGeojson(json)) = t.payload else { panic!("features expected") };
+    let fc: serde_json::Value = serde_json::from_slice(&json).unwrap();
+    let modes: Vec<&str> =
+        fc["features"].as_array().unwrap().iter().filter_map(|f| f["properties"]["altitude_mode"].as_str()).collect();
+    for m in ["clampToGround", "relativeToGround", "absolute"] {
+        assert!(modes.contains(&m), "{m} missing from {modes:?}");
+    }
+    let holed = fc["features"].as_array().unwrap().iter().find(|f| f["properties"]["name"] == "The Pentagon").unwrap();
+    assert_eq!(holed["geometry"]["coordinates"][0].as_array().unwrap().len(), 2, "outer ring and one hole");
+    assert_eq!(holed["properties"]["extrude"], "true");
+    daemon.stop(&[]).unwrap();
+}
+
+fn kmz(path: &Path, entries: &[(&str, &[u8])]) {
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(path).unwrap());
+    for (name, bytes) in entries {
+        zip.start_file(
+            *name,
+            zip::write::SimpleFileOptions::default().compression_method(zip::CompressionMethod::Deflated),
+        )
+        .unwrap();
+        std::io::Write::write_all(&mut zip, bytes).unwrap();
+    }
+    zip.finish().unwrap();
+}
+
+const ONE_PLACEMARK: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<kml xmlns="http://www.opengis.net/kml/2.2"><Document><Placemark><name>here</name><Point><coordinates>10.5,45.5,0</coordinates></Point></Placemark></Document></kml>"#;
+
+#[test]
+fn kmz_archives_are_read_and_hostile_kml_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.kmz");
+    kmz(&good, &[("doc.kml", ONE_PLACEMARK.as_bytes()), ("files/icon.png", b"png")]);
+    let (code, stderr) = check(&kml_manifest(dir.path(), &[("kmz", &good)])).unwrap();
+    assert_eq!(code, 0, "{stderr}");
+
+    type Case<'a> = (&'a str, Box<dyn Fn(&Path)>, &'a str);
+    let cases: Vec<Case> = vec![
+        (
+            "broken.kml",
+            Box::new(|p: &Path| std::fs::write(p, "<kml><Document><Placemark><name>x</Placemark></kml>").unwrap()),
+            "malformed KML",
+        ),
+        (
+            "empty.kmz",
+            Box::new(|p: &Path| kmz(p, &[("files/readme.txt", b"no kml here")])),
+            "KMZ holds no .kml document",
+        ),
+        ("bomb.kmz", Box::new(|p: &Path| kmz(p, &[("doc.kml", &vec![b' '; 20 << 20])])), "refused as a zip bomb"),
+        (
+            "laughs.kml",
+            Box::new(|p: &Path| {
+                let mut lol = String::from("<?xml version=\"1.0\"?>\n<!DOCTYPE kml [\n<!ENTITY lol \"lol\">\n");
+                for i in 1..10 {
+                    let _ = writeln!(
+                        lol,
+                        "<!ENTITY lol{i} \"{}\">",
+                        format!("&lol{};", if i == 1 { String::new() } else { (i - 1).to_string() }).repeat(10)
+                    );
+                }
+                lol += "]>\n<kml><Document><name>&lol9;</name></Document></kml>\n";
+                std::fs::write(p, lol).unwrap();
+            }),
+            "refused, they are how entity-expansion attacks work",
+        ),
+        ("notzip.kmz", Box::new(|p: &Path| std::fs::write(p, "plain text").unwrap()), "not a KMZ (zip) archive"),
+    ];
+    for (name, make, expected) in cases {
+        let path = dir.path().join(name);
+        make(&path);
+        let (code, stderr) = check(&kml_manifest(dir.path(), &[("bad", &path)])).unwrap();
+        assert_eq!(code, 2, "{name}: {stderr}");
+        for text in ["source 'bad'", "field 'path'", expected, path.to_str().unwrap()] {
+            assert!(stderr.contains(text), "{name}: {text:?} missing from {stderr}");
+        }
+    }
+}

@@ -10,6 +10,7 @@
 mod crs;
 mod dirty;
 mod error;
+mod features;
 pub mod files;
 pub mod geodesy;
 mod grid;
@@ -20,6 +21,7 @@ mod source;
 pub use crs::CrsTransform;
 pub use dirty::DirtySet;
 pub use error::SourceError;
+pub use features::FeatureIndex;
 pub use grid::{
     Direction, Extent, GridKind, Lattice, MAX_LEVEL, Neighbour, ProjectedGrid, SampleKind, TileGrid, TileKey,
 };

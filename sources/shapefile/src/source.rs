@@ -6,8 +6,8 @@ use std::sync::Arc;
 
 use relief_source::files::Fingerprint;
 use relief_source::{
-    CrsTransform, DirtySet, Extent, Feature, FeatureTile, GenerateContext, Geometry, Payload, PayloadKind, Refresh,
-    Source, SourceError, SourceInfo, SourceSpec, TileGrid, TileKey,
+    CrsTransform, FeatureIndex, GenerateContext, Payload, PayloadKind, Refresh, Source, SourceError, SourceInfo,
+    SourceSpec, TileGrid, TileKey,
 };
 
 use crate::check::{check, sibling};
@@ -21,14 +21,11 @@ pub struct ShapefileSource {
     spec: SourceSpec,
     path: PathBuf,
     crs: Arc<dyn CrsTransform>,
-    grid_crs: String,
     /// The CRS as the .prj states it (or the manifest overrides it).
     file_crs: String,
     crs_note: String,
     fingerprint: Fingerprint,
-    features: Arc<Vec<Feature>>,
-    /// Per feature, the bounding box of each part.
-    extents: Arc<Vec<Vec<Extent>>>,
+    index: FeatureIndex,
     null_shapes: usize,
     shape_types: BTreeMap<String, usize>,
 }
@@ -44,7 +41,7 @@ impl ShapefileSource {
         }
         let fingerprint = Fingerprint::of(path, "shapefile")?;
         let records = check(path)?;
-        let mut read = read(path)?;
+        let read = read(path)?;
         if Fingerprint::of(path, "shapefile")? != fingerprint {
             return Err(SourceError::Changing { path: path.clone() });
         }
@@ -54,62 +51,24 @@ impl ShapefileSource {
             (None, Ok(wkt)) if !wkt.trim().is_empty() => (wkt.trim().to_owned(), "from the .prj".to_owned()),
             _ => ("EPSG:4326".to_owned(), "no .prj: WGS84 longitude/latitude assumed".to_owned()),
         };
-        to_grid(&mut read.features, &file_crs, grid.crs(), crs.as_ref(), path)?;
-        let extents = read.features.iter().map(|f| f.geometry.part_extents()).collect();
+        let index = FeatureIndex::new(read.features, &file_crs, grid, crs.as_ref()).map_err(|e| match e {
+            SourceError::Crs { crs, message, .. } => {
+                SourceError::Crs { crs, message, path: Some(sibling(path, "prj")) }
+            }
+            other => other,
+        })?;
         Ok(Self {
             spec: spec.clone(),
             path: path.clone(),
             crs,
-            grid_crs: grid.crs().to_owned(),
             file_crs,
             crs_note,
             fingerprint,
-            features: Arc::new(read.features),
-            extents: Arc::new(extents),
+            index,
             null_shapes: read.null_shapes,
             shape_types: read.shape_types,
         })
     }
-
-    pub fn feature_count(&self) -> usize {
-        self.features.len()
-    }
-}
-
-/// Every coordinate of `features` from `from` to `to`, in one PROJ call.
-fn to_grid(
-    features: &mut [Feature],
-    from: &str,
-    to: &str,
-    crs: &dyn CrsTransform,
-    path: &std::path::Path,
-) -> Result<(), SourceError> {
-    fn each(g: &mut Geometry, f: &mut impl FnMut(&mut [f64; 3])) {
-        match g {
-            Geometry::Points(ps) => ps.iter_mut().for_each(f),
-            Geometry::Lines(ls) => ls.iter_mut().flatten().for_each(f),
-            Geometry::Polygons(polys) => polys.iter_mut().flatten().flatten().for_each(f),
-        }
-    }
-    let (mut xs, mut ys) = (Vec::new(), Vec::new());
-    for feature in features.iter_mut() {
-        each(&mut feature.geometry, &mut |p| {
-            xs.push(p[0]);
-            ys.push(p[1]);
-        });
-    }
-    crs.transform(from, to, &mut xs, &mut ys).map_err(|e| match e {
-        SourceError::Crs { crs, message, .. } => SourceError::Crs { crs, message, path: Some(sibling(path, "prj")) },
-        other => other,
-    })?;
-    let mut n = 0;
-    for feature in features.iter_mut() {
-        each(&mut feature.geometry, &mut |p| {
-            (p[0], p[1]) = (xs[n], ys[n]);
-            n += 1;
-        });
-    }
-    Ok(())
 }
 
 impl Source for ShapefileSource {
@@ -127,7 +86,7 @@ impl Source for ShapefileSource {
 
     fn info(&self) -> SourceInfo {
         let mut details = BTreeMap::new();
-        details.insert("features".into(), self.features.len().to_string());
+        details.insert("features".into(), self.index.len().to_string());
         details.insert("null_shapes".into(), self.null_shapes.to_string());
         for (kind, count) in &self.shape_types {
             details.insert(format!("shapes.{kind}"), count.to_string());
@@ -136,31 +95,17 @@ impl Source for ShapefileSource {
         if let Ok(cpg) = std::fs::read_to_string(sibling(&self.path, "cpg")) {
             details.insert("encoding".into(), cpg.trim().to_owned());
         }
-        let extent = self.extents.iter().flatten().copied().reduce(|a, b| a.union(&b));
         SourceInfo {
             files: relief_source::files::dataset_files(&self.path),
-            extent,
+            extent: self.index.extent(),
             crs: self.file_crs.lines().next().unwrap_or_default().chars().take(80).collect(),
             details,
             ..SourceInfo::default()
         }
     }
 
-    /// The features that reach into the tile: a part's box touching it,
-    /// and a point only in the one tile that owns it.
     fn generate(&self, key: TileKey, ctx: &GenerateContext<'_>) -> Result<Payload, SourceError> {
-        let tile = ctx.grid.tile_extent(key);
-        let features = self
-            .features
-            .iter()
-            .zip(self.extents.iter())
-            .filter(|(f, parts)| match &f.geometry {
-                Geometry::Points(ps) => ps.iter().any(|p| ctx.grid.key_at(key.level, p[0], p[1]) == Some(key)),
-                _ => parts.iter().any(|e| e.touches(&tile)),
-            })
-            .map(|(f, _)| f.clone())
-            .collect();
-        Ok(Payload::Features(FeatureTile { features }))
+        Ok(Payload::Features(self.index.tile(ctx.grid, key)))
     }
 
     /// Reads the dataset again when any of its files changed; the dirt is
@@ -170,21 +115,7 @@ impl Source for ShapefileSource {
             return Ok(Refresh::Unchanged);
         }
         let new = Self::open(&self.spec, grid, Arc::clone(&self.crs))?;
-        let old_by_id: BTreeMap<u64, usize> = self.features.iter().enumerate().map(|(i, f)| (f.id, i)).collect();
-        let new_by_id: BTreeMap<u64, usize> = new.features.iter().enumerate().map(|(i, f)| (f.id, i)).collect();
-        let mut dirt = Vec::new();
-        for id in old_by_id.keys().chain(new_by_id.keys()) {
-            let (old, fresh) = (old_by_id.get(id), new_by_id.get(id));
-            let same = match (old, fresh) {
-                (Some(&o), Some(&n)) => self.features[o] == new.features[n],
-                _ => false,
-            };
-            if !same {
-                dirt.extend(old.map(|&o| self.extents[o].clone()).unwrap_or_default());
-                dirt.extend(fresh.map(|&n| new.extents[n].clone()).unwrap_or_default());
-            }
-        }
-        debug_assert_eq!(new.grid_crs, self.grid_crs);
-        Ok(Refresh::Changed { source: Arc::new(new), dirty: DirtySet::from_extents(dirt) })
+        let dirty = new.index.dirt_since(&self.index);
+        Ok(Refresh::Changed { source: Arc::new(new), dirty })
     }
 }
