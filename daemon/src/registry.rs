@@ -50,6 +50,12 @@ impl Registry {
                     output: Some(PayloadKind::Features),
                 },
                 Kind {
+                    name: relief_source_ops::RASTERIZE_KIND,
+                    open: |spec, _grid| Ok(Arc::new(relief_source_ops::Rasterize::open(spec)?)),
+                    inputs: relief_source_ops::RASTERIZE_INPUTS,
+                    output: Some(PayloadKind::Color),
+                },
+                Kind {
                     name: relief_source_ops::HILLSHADE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Hillshade::open(spec)?)),
                     inputs: relief_source_ops::HILLSHADE_INPUTS,

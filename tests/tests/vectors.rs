@@ -293,3 +293,78 @@ fn kmz_archives_are_read_and_hostile_kml_is_refused() {
         }
     }
 }
+
+/// WGS84 area of the cell between latitudes `lat0` and `lat1` and `dlon`
+/// degrees wide (the authalic zone formula).
+fn cell_area_m2(lat0: f64, lat1: f64, dlon: f64) -> f64 {
+    let (a, f): (f64, f64) = (6_378_137.0, 1.0 / 298.257_223_563);
+    let e2 = f * (2.0 - f);
+    let (e, b2) = (e2.sqrt(), a * a * (1.0 - e2));
+    let zone = |lat: f64| {
+        let s = lat.to_radians().sin();
+        s / (1.0 - e2 * s * s) + (e * s).atanh() / e
+    };
+    b2 * dlon.to_radians() / 2.0 * (zone(lat1) - zone(lat0)).abs()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rasterized_area_matches_the_geodesic_area_within_one_percent() {
+    use geo::{GeodesicArea, Orient};
+    // An irregular parcel with a hole, at 45 N.
+    let outer = [(10.02, 45.01), (10.41, 45.03), (10.47, 45.38), (10.2, 45.46), (10.05, 45.3), (10.02, 45.01)];
+    let hole = [(10.2, 45.15), (10.3, 45.15), (10.3, 45.25), (10.2, 45.25), (10.2, 45.15)];
+    let ring = |r: &[(f64, f64)]| r.iter().map(|(x, y)| format!("[{x}, {y}]")).collect::<Vec<_>>().join(", ");
+    let geojson = format!(
+        r#"{{"type": "FeatureCollection", "features": [{{"type": "Feature", "properties": {{"name": "p"}}, "geometry": {{"type": "Polygon", "coordinates": [[{}], [{}]]}}}}]}}"#,
+        ring(&outer),
+        ring(&hole)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let shp = shapefile(dir.path(), "parcel", &geojson);
+    let manifest = fixtures::write_manifest(
+        dir.path(),
+        &format!(
+            "[scene]\nname = \"area\"\n\n[[source]]\nid = \"parcel\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"parcel\"]\nfill = \"#ff0000ff\"\nstroke = \"none\"\n\n[layers]\ncolor = \"drawn\"\n",
+            shp.display()
+        ),
+    )
+    .unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
+    let level = 10u32;
+    let span = 180.0 / f64::from(1u32 << level);
+    let texel = span / 256.0;
+    let mut area = 0.0;
+    for y in ((90.0 - 45.5) / span) as u32..=((90.0 - 45.0) / span) as u32 {
+        for x in ((10.0 + 180.0) / span) as u32..=((10.5 + 180.0) / span) as u32 {
+            let t = tiles
+                .get_tile(pb::GetTileRequest {
+                    source_id: "drawn".into(),
+                    key: Some(pb::TileKey { level, x, y }),
+                    quality: None,
+                })
+                .await
+                .unwrap()
+                .into_inner();
+            let Some(pb::get_tile_response::Payload::ColorPng(png)) = t.payload else { panic!("png expected") };
+            let img = image::load_from_memory(&png).unwrap().to_rgba8();
+            let north = 90.0 - f64::from(y) * span;
+            for j in 1..257u32 {
+                let lat1 = north - f64::from(j - 1) * texel;
+                let cell = cell_area_m2(lat1 - texel, lat1, texel);
+                for i in 1..257u32 {
+                    area += f64::from(img.get_pixel(i, j)[3]) / 255.0 * cell;
+                }
+            }
+        }
+    }
+    // Exterior anticlockwise, hole clockwise, as geodesic areas expect.
+    let polygon = geo::Polygon::new(geo::LineString::from(outer.to_vec()), vec![geo::LineString::from(hole.to_vec())])
+        .orient(geo::orient::Direction::Default);
+    let truth = polygon.geodesic_area_unsigned();
+    assert!(truth > 1e8 && truth < 1e10, "{truth}");
+    let error = (area - truth).abs() / truth;
+    eprintln!("rasterized {area:.0} m2, geodesic {truth:.0} m2, error {:.4}%", error * 100.0);
+    assert!(error < 0.01, "rasterized {area:.0} m2 vs geodesic {truth:.0} m2: {:.3}%", error * 100.0);
+    daemon.stop(&[]).unwrap();
+}

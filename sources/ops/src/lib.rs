@@ -4,7 +4,9 @@
 //! `GenerateContext::inputs`, so they depend on `relief-source` only.
 
 mod hillshade;
+mod rasterize;
 mod window;
 
 pub use hillshade::{HILLSHADE_INPUTS, HILLSHADE_KIND, Hillshade};
+pub use rasterize::{RASTERIZE_INPUTS, RASTERIZE_KIND, Rasterize, Style, Width, render};
 pub use window::HeightWindow;

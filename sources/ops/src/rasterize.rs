@@ -1,0 +1,482 @@
+//! `rasterize`: features drawn into a colour layer, antialiased, anchored
+//! in map space so edges meet across tiles.
+
+use std::collections::{BTreeMap, HashSet};
+
+use relief_source::{
+    ColorTile, DirtySet, Feature, GenerateContext, Geometry, GridKind, Lattice, Payload, PayloadKind, SampleKind,
+    Source, SourceError, SourceInfo, SourceSpec, TileKey, geodesy,
+};
+
+pub const RASTERIZE_KIND: &str = "rasterize";
+/// The payloads of a rasterizer's inputs, in order.
+pub const RASTERIZE_INPUTS: &[PayloadKind] = &[PayloadKind::Features];
+
+/// A line width, in texels of the level drawn or in metres on the ground.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Width {
+    Texels(f64),
+    Metres(f64),
+}
+
+/// How features are drawn. Colours are straight (not premultiplied) RGBA
+/// in 0..1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Style {
+    pub fill: Option<[f64; 4]>,
+    pub stroke: Option<[f64; 4]>,
+    pub width: Width,
+    /// Colour polygons by this attribute (a fixed palette, by value).
+    pub color_by: Option<String>,
+    /// Sub-samples per texel side (the `antialias` knob): 1 is aliased,
+    /// 4 gives 16 coverage levels.
+    pub antialias: u32,
+}
+
+impl Default for Style {
+    fn default() -> Self {
+        Self {
+            fill: Some([0.85, 0.45, 0.2, 0.7]),
+            stroke: Some([0.2, 0.2, 0.2, 1.0]),
+            width: Width::Texels(1.0),
+            color_by: None,
+            antialias: 4,
+        }
+    }
+}
+
+/// "#rrggbb" or "#rrggbbaa".
+fn parse_color(field: &str, text: &str) -> Result<[f64; 4], SourceError> {
+    let hex = text.trim_start_matches('#');
+    let byte = |i: usize| u8::from_str_radix(&hex[i..i + 2], 16);
+    let bad = || SourceError::option(field, format!("'{text}' is not #rrggbb or #rrggbbaa"));
+    if !(hex.len() == 6 || hex.len() == 8) || !hex.is_ascii() {
+        return Err(bad());
+    }
+    let mut c = [0.0, 0.0, 0.0, 1.0];
+    for (k, slot) in c.iter_mut().enumerate().take(hex.len() / 2) {
+        *slot = f64::from(byte(2 * k).map_err(|_| bad())?) / 255.0;
+    }
+    Ok(c)
+}
+
+/// KML's aabbggrr colours, as styles in KML files give them.
+fn kml_color(text: &str) -> Option<[f64; 4]> {
+    let v = u32::from_str_radix(text.trim(), 16).ok()?;
+    let c = |shift: u32| f64::from((v >> shift) & 0xff) / 255.0;
+    Some([c(0), c(8), c(16), c(24)])
+}
+
+const PALETTE: [[f64; 3]; 8] = [
+    [0.89, 0.10, 0.11],
+    [0.22, 0.49, 0.72],
+    [0.30, 0.69, 0.29],
+    [0.60, 0.31, 0.64],
+    [1.00, 0.50, 0.00],
+    [0.65, 0.34, 0.16],
+    [0.97, 0.51, 0.75],
+    [0.40, 0.76, 0.65],
+];
+
+#[derive(Debug)]
+pub struct Rasterize {
+    id: String,
+    inputs: Vec<String>,
+    style: Style,
+}
+
+impl Rasterize {
+    pub fn open(spec: &SourceSpec) -> Result<Self, SourceError> {
+        spec.only_options(&["fill", "stroke", "stroke_width_px", "stroke_width_m", "color_by", "antialias"])?;
+        if spec.inputs.len() != 1 {
+            return Err(SourceError::option("inputs", "rasterize takes one features input"));
+        }
+        let mut style = Style::default();
+        if let Some(f) = spec.text("fill")? {
+            style.fill = if f == "none" { None } else { Some(parse_color("fill", f)?) };
+        }
+        if let Some(s) = spec.text("stroke")? {
+            style.stroke = if s == "none" { None } else { Some(parse_color("stroke", s)?) };
+        }
+        match (spec.number("stroke_width_px")?, spec.number("stroke_width_m")?) {
+            (Some(_), Some(_)) => {
+                return Err(SourceError::option("stroke_width_m", "give stroke_width_px or stroke_width_m, not both"));
+            }
+            (Some(px), None) if px >= 0.0 => style.width = Width::Texels(px),
+            (None, Some(m)) if m >= 0.0 => style.width = Width::Metres(m),
+            (None, None) => {}
+            _ => return Err(SourceError::option("stroke_width_px", "widths are not negative")),
+        }
+        style.color_by = spec.text("color_by")?.map(str::to_owned);
+        if let Some(a) = spec.number("antialias")? {
+            if !(1.0..=16.0).contains(&a) || a.fract() != 0.0 {
+                return Err(SourceError::option("antialias", format!("{a} is not a whole number from 1 to 16")));
+            }
+            style.antialias = a as u32;
+        }
+        Ok(Self { id: spec.id.clone(), inputs: spec.inputs.clone(), style })
+    }
+}
+
+/// A polygon's rings, or a line, ready to draw, in grid coordinates.
+enum Shape<'a> {
+    Rings(Vec<Vec<[f64; 2]>>, [f64; 4]),
+    Line(Vec<[f64; 2]>, &'a Feature),
+}
+
+/// On the geodetic grid a ring that jumps across the antimeridian is drawn
+/// twice, unwrapped east and west, rather than smeared round the planet.
+fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Vec<Vec<[f64; 2]>>> {
+    let flat: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| r.iter().map(|p| [p[0], p[1]]).collect()).collect();
+    let crosses = geodetic && flat.iter().any(|r| r.windows(2).any(|w| (w[1][0] - w[0][0]).abs() > 180.0));
+    if !crosses {
+        return vec![flat];
+    }
+    let east: Vec<Vec<[f64; 2]>> =
+        flat.iter().map(|r| r.iter().map(|p| [if p[0] < 0.0 { p[0] + 360.0 } else { p[0] }, p[1]]).collect()).collect();
+    let west = east.iter().map(|r| r.iter().map(|p| [p[0] - 360.0, p[1]]).collect()).collect();
+    vec![east, west]
+}
+
+/// Draws `features` on `lattice` (texel centres, border included): RGBA8.
+pub fn render(features: &[Feature], lattice: &Lattice, geodetic: bool, style: &Style) -> Vec<u8> {
+    let (cols, rows) = (lattice.cols, lattice.rows);
+    let ss = style.antialias.max(1) as usize;
+    let off: Vec<f64> = (0..ss).map(|s| (s as f64 + 0.5) / ss as f64 - 0.5).collect();
+    let mut premul = vec![[0.0f64; 4]; cols * rows];
+    let fill_of = |f: &Feature| -> Option<[f64; 4]> {
+        if let Some(attr) = &style.color_by {
+            let value = f.properties.get(attr)?;
+            let h = value.bytes().fold(0u64, |h, b| h.wrapping_mul(31).wrapping_add(u64::from(b)));
+            let c = PALETTE[(h % PALETTE.len() as u64) as usize];
+            return Some([c[0], c[1], c[2], 0.7]);
+        }
+        f.properties.get("fill_color").and_then(|c| kml_color(c)).or(style.fill)
+    };
+    let mut shapes = Vec::new();
+    for f in features {
+        match &f.geometry {
+            Geometry::Polygons(polys) => {
+                if let Some(color) = fill_of(f) {
+                    for rings in polys {
+                        for version in unwrapped(rings, geodetic) {
+                            shapes.push(Shape::Rings(version, color));
+                        }
+                    }
+                }
+                for rings in polys {
+                    for ring in rings {
+                        shapes.push(Shape::Line(ring.iter().map(|p| [p[0], p[1]]).collect(), f));
+                    }
+                }
+            }
+            Geometry::Lines(lines) => {
+                for l in lines {
+                    shapes.push(Shape::Line(l.iter().map(|p| [p[0], p[1]]).collect(), f));
+                }
+            }
+            Geometry::Points(_) => {}
+        }
+    }
+    let over = |dst: &mut [f64; 4], color: [f64; 4], coverage: f64| {
+        let a = color[3] * coverage;
+        for k in 0..3 {
+            dst[k] = color[k] * a + dst[k] * (1.0 - a);
+        }
+        dst[3] = a + dst[3] * (1.0 - a);
+    };
+    // Fills: even-odd crossings along each sub-row.
+    for shape in &shapes {
+        let Shape::Rings(rings, color) = shape else { continue };
+        let (min_y, max_y) =
+            rings.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
+        let mut coverage = vec![0u32; cols * rows];
+        for j in 0..rows {
+            for oy in &off {
+                let y = lattice.y(j) - oy * lattice.step_y;
+                if y < min_y || y > max_y {
+                    continue;
+                }
+                let mut xs: Vec<f64> = Vec::new();
+                for ring in rings {
+                    for w in ring.windows(2) {
+                        let ([x0, y0], [x1, y1]) = (w[0], w[1]);
+                        if (y0 <= y) != (y1 <= y) {
+                            xs.push(x0 + (y - y0) / (y1 - y0) * (x1 - x0));
+                        }
+                    }
+                }
+                xs.sort_by(f64::total_cmp);
+                for i in 0..cols {
+                    for ox in &off {
+                        let x = lattice.x(i) + ox * lattice.step_x;
+                        if xs.partition_point(|&c| c <= x) % 2 == 1 {
+                            coverage[j * cols + i] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        let full = (ss * ss) as f64;
+        for (dst, c) in premul.iter_mut().zip(&coverage) {
+            if *c > 0 {
+                over(dst, *color, f64::from(*c) / full);
+            }
+        }
+    }
+    // Strokes: sub-samples within half the width of a segment.
+    if let Some(stroke) = style.stroke {
+        for shape in &shapes {
+            let Shape::Line(line, f) = shape else { continue };
+            let color = f.properties.get("line_color").and_then(|c| kml_color(c)).unwrap_or(stroke);
+            let width = f.properties.get("line_width").and_then(|w| w.parse().ok()).map_or(style.width, Width::Texels);
+            // Distances measured in texels (or metres) along each axis.
+            let scale = |lat: f64| match width {
+                Width::Texels(w) => (1.0 / lattice.step_x, 1.0 / lattice.step_y, w / 2.0),
+                Width::Metres(w) if geodetic => {
+                    let m = geodesy::MEAN_RADIUS_M.to_radians();
+                    (m * lat.to_radians().cos().abs(), m, w / 2.0)
+                }
+                Width::Metres(w) => (1.0, 1.0, w / 2.0),
+            };
+            let mut coverage = vec![0u32; cols * rows];
+            for seg in line.windows(2) {
+                let ([x0, y0], [x1, y1]) = (seg[0], seg[1]);
+                if geodetic && (x1 - x0).abs() > 180.0 {
+                    continue;
+                }
+                let (sx, sy, half) = scale(f64::midpoint(y0, y1));
+                let (rx, ry) = (half / sx, half / sy);
+                let (lo_x, hi_x) = (x0.min(x1) - rx, x0.max(x1) + rx);
+                let (lo_y, hi_y) = (y0.min(y1) - ry, y0.max(y1) + ry);
+                let i0 = ((lo_x - lattice.x(0)) / lattice.step_x).floor().max(0.0) as usize;
+                let i1 = (((hi_x - lattice.x(0)) / lattice.step_x).ceil().max(0.0) as usize + 1).min(cols);
+                let j0 = ((lattice.y(0) - hi_y) / lattice.step_y).floor().max(0.0) as usize;
+                let j1 = (((lattice.y(0) - lo_y) / lattice.step_y).ceil().max(0.0) as usize + 1).min(rows);
+                let (dx, dy) = ((x1 - x0) * sx, (y1 - y0) * sy);
+                let len2 = dx * dx + dy * dy;
+                for j in j0..j1 {
+                    for i in i0..i1 {
+                        let mut n = 0;
+                        for oy in &off {
+                            for ox in &off {
+                                let (px, py) = (
+                                    (lattice.x(i) + ox * lattice.step_x - x0) * sx,
+                                    (lattice.y(j) - oy * lattice.step_y - y0) * sy,
+                                );
+                                let t = if len2 > 0.0 { ((px * dx + py * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+                                let (ex, ey) = (px - t * dx, py - t * dy);
+                                if ex * ex + ey * ey <= half * half {
+                                    n += 1;
+                                }
+                            }
+                        }
+                        let c = &mut coverage[j * cols + i];
+                        *c = (*c).max(n);
+                    }
+                }
+            }
+            let full = (ss * ss) as f64;
+            for (dst, c) in premul.iter_mut().zip(&coverage) {
+                if *c > 0 {
+                    over(dst, color, f64::from(*c) / full);
+                }
+            }
+        }
+    }
+    let mut rgba = Vec::with_capacity(cols * rows * 4);
+    for p in premul {
+        let a = p[3];
+        let un = |v: f64| if a > 0.0 { (v / a * 255.0).round().clamp(0.0, 255.0) as u8 } else { 0 };
+        rgba.extend([un(p[0]), un(p[1]), un(p[2]), (a * 255.0).round() as u8]);
+    }
+    rgba
+}
+
+impl Source for Rasterize {
+    fn id(&self) -> &str {
+        &self.id
+    }
+
+    fn kind(&self) -> &'static str {
+        RASTERIZE_KIND
+    }
+
+    fn output(&self) -> PayloadKind {
+        PayloadKind::Color
+    }
+
+    fn inputs(&self) -> &[String] {
+        &self.inputs
+    }
+
+    fn info(&self) -> SourceInfo {
+        let mut details = BTreeMap::new();
+        details.insert("antialias".into(), self.style.antialias.to_string());
+        details.insert("stroke_width".into(), format!("{:?}", self.style.width));
+        SourceInfo { details, ..SourceInfo::default() }
+    }
+
+    /// The features of this tile and its neighbours (a stroke or a border
+    /// texel can reach across the edge), drawn on the tile's texels.
+    fn generate(&self, key: TileKey, ctx: &GenerateContext<'_>) -> Result<Payload, SourceError> {
+        let grid = ctx.grid;
+        let lattice = grid.lattice(key, SampleKind::TexelWithBorder);
+        let margin = match self.style.width {
+            Width::Texels(w) => (w / 2.0 + 2.0) * lattice.step_x.max(lattice.step_y),
+            Width::Metres(w) => w / 2.0 / 30_000.0 + 2.0 * lattice.step_x.max(lattice.step_y),
+        };
+        let reach = grid.tile_extent(key).dilate(margin, margin);
+        let mut seen = HashSet::new();
+        let mut features = Vec::new();
+        for k in grid.keys_overlapping(key.level, &reach) {
+            let Payload::Features(tile) = ctx.inputs.tile(0, k)?.as_ref().clone() else {
+                return Err(SourceError::Input {
+                    input: self.inputs[0].clone(),
+                    message: "expected feature tiles".into(),
+                });
+            };
+            for f in tile.features {
+                let part = std::mem::discriminant(&f.geometry);
+                if seen.insert((f.id, format!("{part:?}"))) {
+                    features.push(f);
+                }
+            }
+        }
+        let geodetic = matches!(grid.kind, GridKind::Geodetic);
+        Ok(Payload::Color(ColorTile { size: lattice.cols, rgba: render(&features, &lattice, geodetic, &self.style) }))
+    }
+
+    /// A texel reads features up to a stroke's half width away, and the
+    /// border texel one texel past the tile.
+    fn dirty_from_input(&self, _input: usize, dirt: &DirtySet) -> DirtySet {
+        let texels = match self.style.width {
+            Width::Texels(w) => (w / 2.0).ceil() as u32 + 2,
+            Width::Metres(_) => 8,
+        };
+        dirt.dilate_samples(texels)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use relief_source::{TileGrid, TileKey};
+
+    use super::*;
+
+    fn square(id: u64, x0: f64, y0: f64, x1: f64, y1: f64) -> Feature {
+        let ring = vec![[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0], [x0, y0, 0.0]];
+        Feature { id, geometry: Geometry::Polygons(vec![vec![ring]]), properties: BTreeMap::new() }
+    }
+
+    fn line(id: u64, points: &[[f64; 2]]) -> Feature {
+        Feature {
+            id,
+            geometry: Geometry::Lines(vec![points.iter().map(|p| [p[0], p[1], 0.0]).collect()]),
+            properties: BTreeMap::new(),
+        }
+    }
+
+    #[test]
+    fn tiles_meet_at_their_seams_exactly() {
+        // A polygon and a diagonal line across the corner of four tiles.
+        let grid = TileGrid::geodetic(64).unwrap();
+        let corner = grid.tile_extent(TileKey::new(6, 100, 20));
+        let (cx, cy) = (corner.max_x, corner.min_y);
+        let features = vec![
+            square(1, cx - 0.7, cy - 0.5, cx + 0.4, cy + 0.9),
+            line(2, &[[cx - 1.0, cy - 1.1], [cx + 1.2, cy + 0.8]]),
+        ];
+        let style = Style::default();
+        let draw =
+            |x, y| render(&features, &grid.lattice(TileKey::new(6, x, y), SampleKind::TexelWithBorder), true, &style);
+        let (nw, ne, sw) = (draw(100, 20), draw(101, 20), draw(100, 21));
+        let px = |t: &[u8], i: usize, j: usize| t[(j * 66 + i) * 4..(j * 66 + i) * 4 + 4].to_vec();
+        for j in 0..66 {
+            // East border of nw == first core column of ne, and back.
+            assert_eq!(px(&nw, 65, j), px(&ne, 1, j), "row {j}");
+            assert_eq!(px(&nw, 64, j), px(&ne, 0, j), "row {j}");
+        }
+        for i in 0..66 {
+            assert_eq!(px(&nw, i, 65), px(&sw, i, 1), "column {i}");
+        }
+        // The seam is really crossed: something drawn on both sides.
+        assert!((0..66).any(|j| px(&nw, 64, j)[3] > 0) && (0..66).any(|j| px(&ne, 1, j)[3] > 0));
+        // The four tiles stitched equal one raster of the whole extent: the
+        // level above with tiles twice as wide has the very same texels.
+        let whole_grid = TileGrid::geodetic(128).unwrap();
+        let whole =
+            render(&features, &whole_grid.lattice(TileKey::new(5, 50, 10), SampleKind::TexelWithBorder), true, &style);
+        let se = draw(101, 21);
+        for (tile, (ox, oy)) in [(&nw, (0, 0)), (&ne, (64, 0)), (&sw, (0, 64)), (&se, (64, 64))] {
+            for j in 1..65 {
+                for i in 1..65 {
+                    assert_eq!(
+                        px(tile, i, j),
+                        whole[((oy + j) * 130 + ox + i) * 4..((oy + j) * 130 + ox + i) * 4 + 4].to_vec(),
+                        "texel {i},{j} of the tile at +{ox},+{oy}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_ring_across_the_antimeridian_is_not_smeared_round_the_planet() {
+        let grid = TileGrid::geodetic(64).unwrap();
+        let ring = vec![
+            [179.0, -17.0, 0.0],
+            [-179.0, -17.0, 0.0],
+            [-179.0, -16.0, 0.0],
+            [179.0, -16.0, 0.0],
+            [179.0, -17.0, 0.0],
+        ];
+        let f = Feature { id: 1, geometry: Geometry::Polygons(vec![vec![ring]]), properties: BTreeMap::new() };
+        let style = Style { stroke: None, ..Style::default() };
+        let level = 3;
+        let (cols, _) = grid.tiles_at(level);
+        let row = grid.key_at(level, 0.0, -16.5).unwrap().y;
+        let covered = |x: u32| {
+            render(
+                std::slice::from_ref(&f),
+                &grid.lattice(TileKey::new(level, x, row), SampleKind::TexelWithBorder),
+                true,
+                &style,
+            )
+            .chunks(4)
+            .any(|p| p[3] > 0)
+        };
+        assert!(covered(0) && covered(cols - 1), "both ends of the date line");
+        assert!((1..cols - 1).all(|x| !covered(x)), "nothing in between");
+    }
+
+    #[test]
+    fn holes_stay_empty_and_antialiasing_grades_edges() {
+        let grid = TileGrid::geodetic(64).unwrap();
+        let key = TileKey::new(8, 300, 60);
+        let t = grid.tile_extent(key);
+        let (w, h) = (t.width(), t.height());
+        let outer = vec![
+            [t.min_x + 0.1 * w, t.min_y + 0.1 * h, 0.0],
+            [t.max_x - 0.1 * w, t.min_y + 0.1 * h, 0.0],
+            [t.max_x - 0.1 * w, t.max_y - 0.1 * h, 0.0],
+            [t.min_x + 0.1 * w, t.max_y - 0.1 * h, 0.0],
+            [t.min_x + 0.1 * w, t.min_y + 0.1 * h, 0.0],
+        ];
+        let hole = vec![
+            [t.min_x + 0.4 * w, t.min_y + 0.4 * h, 0.0],
+            [t.min_x + 0.6 * w, t.min_y + 0.4 * h, 0.0],
+            [t.min_x + 0.6 * w, t.min_y + 0.6 * h, 0.0],
+            [t.min_x + 0.4 * w, t.min_y + 0.6 * h, 0.0],
+            [t.min_x + 0.4 * w, t.min_y + 0.4 * h, 0.0],
+        ];
+        let f = Feature { id: 1, geometry: Geometry::Polygons(vec![vec![outer, hole]]), properties: BTreeMap::new() };
+        let style = Style { stroke: None, fill: Some([1.0, 0.0, 0.0, 1.0]), ..Style::default() };
+        let rgba = render(&[f], &grid.lattice(key, SampleKind::TexelWithBorder), true, &style);
+        let alpha = |i: usize, j: usize| rgba[(j * 66 + i) * 4 + 3];
+        assert_eq!(alpha(33, 33), 0, "the hole");
+        assert_eq!(alpha(15, 15), 255, "inside");
+        assert_eq!(alpha(2, 2), 0, "outside");
+        assert!((0..66).any(|i| (1..255).contains(&alpha(i, 33))), "graded edge texels");
+    }
+}
