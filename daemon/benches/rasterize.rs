@@ -59,7 +59,8 @@ fn gdal(countries: &Path, keys: &[TileKey]) -> f64 {
     for key in keys {
         let l = grid.lattice(*key, SampleKind::TexelWithBorder);
         let mut ds = driver.create_with_band_type::<u8, _>("", l.cols, l.rows, 1).unwrap();
-        ds.set_geo_transform(&[l.x(0) - l.step_x / 2.0, l.step_x, 0.0, l.y(0) + l.step_y / 2.0, 0.0, -l.step_y]).unwrap();
+        ds.set_geo_transform(&[l.x(0) - l.step_x / 2.0, l.step_x, 0.0, l.y(0) + l.step_y / 2.0, 0.0, -l.step_y])
+            .unwrap();
         gdal::raster::rasterize(&mut ds, &[1], &geometries, &burn, None).unwrap();
     }
     started.elapsed().as_secs_f64()
@@ -83,9 +84,17 @@ fn main() {
         runs.push((antialias, relief(dir.path(), &countries, antialias, &keys)));
     }
     let reference = &runs.last().unwrap().1.1;
-    println!("\n## Natural Earth countries rasterized, levels 0..={max_level} ({} tiles of 258 x 258 texels)", keys.len());
-    println!("machine: {}; relief through its tile store (2 threads), GDAL in-process, one thread", relief_tests::machine());
-    println!("| rasterizer | antialias | seconds | tiles/s | ratio to GDAL | mean coverage error vs 8x8 (alpha levels) |");
+    println!(
+        "\n## Natural Earth countries rasterized, levels 0..={max_level} ({} tiles of 258 x 258 texels)",
+        keys.len()
+    );
+    println!(
+        "machine: {}; relief through its tile store (2 threads), GDAL in-process, one thread",
+        relief_tests::machine()
+    );
+    println!(
+        "| rasterizer | antialias | seconds | tiles/s | ratio to GDAL | mean coverage error vs 8x8 (alpha levels) |"
+    );
     println!("|---|---|---|---|---|---|");
     println!("| GDAL rasterize (aliased, centre of texel) | 1 | {g:.2} | {:.0} | 1.00 | - |", keys.len() as f64 / g);
     for (antialias, (seconds, alphas)) in &runs {

@@ -139,7 +139,7 @@ fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Vec<Vec<[f64; 2]>>>
 }
 
 /// Draws `features` on `lattice` (texel centres, border included): RGBA8.
-pub fn render(features: &[Feature], lattice: &Lattice, geodetic: bool, style: &Style) -> Vec<u8> {
+pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &Style) -> Vec<u8> {
     let (cols, rows) = (lattice.cols, lattice.rows);
     let ss = style.antialias.max(1) as usize;
     let off: Vec<f64> = (0..ss).map(|s| (s as f64 + 0.5) / ss as f64 - 0.5).collect();
@@ -154,7 +154,7 @@ pub fn render(features: &[Feature], lattice: &Lattice, geodetic: bool, style: &S
         f.properties.get("fill_color").and_then(|c| kml_color(c)).or(style.fill)
     };
     let mut shapes = Vec::new();
-    for f in features {
+    for &f in features {
         match &f.geometry {
             Geometry::Polygons(polys) => {
                 if let Some(color) = fill_of(f) {
@@ -164,8 +164,8 @@ pub fn render(features: &[Feature], lattice: &Lattice, geodetic: bool, style: &S
                         }
                     }
                 }
-                for rings in polys {
-                    for ring in rings {
+                if style.stroke.is_some() {
+                    for ring in polys.iter().flatten() {
                         shapes.push(Shape::Line(ring.iter().map(|p| [p[0], p[1]]).collect(), f));
                     }
                 }
@@ -185,26 +185,37 @@ pub fn render(features: &[Feature], lattice: &Lattice, geodetic: bool, style: &S
         }
         dst[3] = a + dst[3] * (1.0 - a);
     };
-    // Fills: even-odd crossings along each sub-row.
+    // Fills: even-odd crossings along each sub-row, sweeping north to
+    // south with only the edges that span the row (an active edge list).
     for shape in &shapes {
         let Shape::Rings(rings, color) = shape else { continue };
-        let (min_y, max_y) =
-            rings.iter().flatten().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p[1]), hi.max(p[1])));
+        let mut edges: Vec<[f64; 4]> = rings
+            .iter()
+            .flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]]))
+            .filter(|e| e[1] != e[3])
+            .collect();
+        // By their northern end, northernmost first.
+        edges.sort_by(|a, b| b[1].max(b[3]).total_cmp(&a[1].max(a[3])));
+        let mut next = 0;
+        let mut active: Vec<[f64; 4]> = Vec::new();
         let mut coverage = vec![0u32; cols * rows];
+        let mut xs: Vec<f64> = Vec::new();
         for j in 0..rows {
             for oy in &off {
                 let y = lattice.y(j) - oy * lattice.step_y;
-                if y < min_y || y > max_y {
-                    continue;
+                while next < edges.len() && edges[next][1].max(edges[next][3]) >= y {
+                    active.push(edges[next]);
+                    next += 1;
                 }
-                let mut xs: Vec<f64> = Vec::new();
-                for ring in rings {
-                    for w in ring.windows(2) {
-                        let ([x0, y0], [x1, y1]) = (w[0], w[1]);
-                        if (y0 <= y) != (y1 <= y) {
-                            xs.push(x0 + (y - y0) / (y1 - y0) * (x1 - x0));
-                        }
+                active.retain(|e| e[1].min(e[3]) <= y);
+                xs.clear();
+                for &[x0, y0, x1, y1] in &active {
+                    if (y0 <= y) != (y1 <= y) {
+                        xs.push(x0 + (y - y0) / (y1 - y0) * (x1 - x0));
                     }
+                }
+                if xs.is_empty() {
+                    continue;
                 }
                 xs.sort_by(f64::total_cmp);
                 for i in 0..cols {
@@ -327,18 +338,22 @@ impl Source for Rasterize {
             Width::Metres(w) => w / 2.0 / 30_000.0 + 2.0 * lattice.step_x.max(lattice.step_y),
         };
         let reach = grid.tile_extent(key).dilate(margin, margin);
+        let tiles = grid
+            .keys_overlapping(key.level, &reach)
+            .into_iter()
+            .map(|k| ctx.inputs.tile(0, k))
+            .collect::<Result<Vec<_>, _>>()?;
         let mut seen = HashSet::new();
-        let mut features = Vec::new();
-        for k in grid.keys_overlapping(key.level, &reach) {
-            let Payload::Features(tile) = ctx.inputs.tile(0, k)?.as_ref().clone() else {
+        let mut features: Vec<&Feature> = Vec::new();
+        for tile in &tiles {
+            let Payload::Features(tile) = tile.as_ref() else {
                 return Err(SourceError::Input {
                     input: self.inputs[0].clone(),
                     message: "expected feature tiles".into(),
                 });
             };
-            for f in tile.features {
-                let part = std::mem::discriminant(&f.geometry);
-                if seen.insert((f.id, format!("{part:?}"))) {
+            for f in &tile.features {
+                if seen.insert((f.id, std::mem::discriminant(&f.geometry))) {
                     features.push(f);
                 }
             }
@@ -383,13 +398,17 @@ mod tests {
         let grid = TileGrid::geodetic(64).unwrap();
         let corner = grid.tile_extent(TileKey::new(6, 100, 20));
         let (cx, cy) = (corner.max_x, corner.min_y);
-        let features = vec![
-            square(1, cx - 0.7, cy - 0.5, cx + 0.4, cy + 0.9),
-            line(2, &[[cx - 1.0, cy - 1.1], [cx + 1.2, cy + 0.8]]),
-        ];
+        let features =
+            [square(1, cx - 0.7, cy - 0.5, cx + 0.4, cy + 0.9), line(2, &[[cx - 1.0, cy - 1.1], [cx + 1.2, cy + 0.8]])];
         let style = Style::default();
-        let draw =
-            |x, y| render(&features, &grid.lattice(TileKey::new(6, x, y), SampleKind::TexelWithBorder), true, &style);
+        let draw = |x, y| {
+            render(
+                &features.iter().collect::<Vec<_>>(),
+                &grid.lattice(TileKey::new(6, x, y), SampleKind::TexelWithBorder),
+                true,
+                &style,
+            )
+        };
         let (nw, ne, sw) = (draw(100, 20), draw(101, 20), draw(100, 21));
         let px = |t: &[u8], i: usize, j: usize| t[(j * 66 + i) * 4..(j * 66 + i) * 4 + 4].to_vec();
         for j in 0..66 {
@@ -405,8 +424,12 @@ mod tests {
         // The four tiles stitched equal one raster of the whole extent: the
         // level above with tiles twice as wide has the very same texels.
         let whole_grid = TileGrid::geodetic(128).unwrap();
-        let whole =
-            render(&features, &whole_grid.lattice(TileKey::new(5, 50, 10), SampleKind::TexelWithBorder), true, &style);
+        let whole = render(
+            &features.iter().collect::<Vec<_>>(),
+            &whole_grid.lattice(TileKey::new(5, 50, 10), SampleKind::TexelWithBorder),
+            true,
+            &style,
+        );
         let se = draw(101, 21);
         for (tile, (ox, oy)) in [(&nw, (0, 0)), (&ne, (64, 0)), (&sw, (0, 64)), (&se, (64, 64))] {
             for j in 1..65 {
@@ -437,14 +460,9 @@ mod tests {
         let (cols, _) = grid.tiles_at(level);
         let row = grid.key_at(level, 0.0, -16.5).unwrap().y;
         let covered = |x: u32| {
-            render(
-                std::slice::from_ref(&f),
-                &grid.lattice(TileKey::new(level, x, row), SampleKind::TexelWithBorder),
-                true,
-                &style,
-            )
-            .chunks(4)
-            .any(|p| p[3] > 0)
+            render(&[&f], &grid.lattice(TileKey::new(level, x, row), SampleKind::TexelWithBorder), true, &style)
+                .chunks(4)
+                .any(|p| p[3] > 0)
         };
         assert!(covered(0) && covered(cols - 1), "both ends of the date line");
         assert!((1..cols - 1).all(|x| !covered(x)), "nothing in between");
@@ -472,7 +490,7 @@ mod tests {
         ];
         let f = Feature { id: 1, geometry: Geometry::Polygons(vec![vec![outer, hole]]), properties: BTreeMap::new() };
         let style = Style { stroke: None, fill: Some([1.0, 0.0, 0.0, 1.0]), ..Style::default() };
-        let rgba = render(&[f], &grid.lattice(key, SampleKind::TexelWithBorder), true, &style);
+        let rgba = render(&[&f], &grid.lattice(key, SampleKind::TexelWithBorder), true, &style);
         let alpha = |i: usize, j: usize| rgba[(j * 66 + i) * 4 + 3];
         assert_eq!(alpha(33, 33), 0, "the hole");
         assert_eq!(alpha(15, 15), 255, "inside");
