@@ -16,3 +16,4 @@ test: setup
 bench: setup
 	cargo bench -p relief-daemon --bench pyramid
 	cargo bench -p relief-daemon --bench reload
+	cargo bench -p relief-daemon --bench rasterize

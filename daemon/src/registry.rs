@@ -56,6 +56,12 @@ impl Registry {
                     output: Some(PayloadKind::Color),
                 },
                 Kind {
+                    name: relief_source_ops::OVERLAY_KIND,
+                    open: |spec, _grid| Ok(Arc::new(relief_source_ops::Overlay::open(spec)?)),
+                    inputs: relief_source_ops::OVERLAY_INPUTS,
+                    output: Some(PayloadKind::Color),
+                },
+                Kind {
                     name: relief_source_ops::HILLSHADE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Hillshade::open(spec)?)),
                     inputs: relief_source_ops::HILLSHADE_INPUTS,

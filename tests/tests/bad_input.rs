@@ -57,7 +57,7 @@ fn an_unknown_kind_is_rejected() {
             "unknown kind 'geotiff'",
             "source 'dem'",
             "field 'kind'",
-            "known: gdal, shapefile, kml, rasterize, hillshade",
+            "known: gdal, shapefile, kml, rasterize, overlay, hillshade",
             "scene.toml",
         ],
     );
