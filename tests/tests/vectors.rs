@@ -368,3 +368,49 @@ async fn rasterized_area_matches_the_geodesic_area_within_one_percent() {
     assert!(error < 0.01, "rasterized {area:.0} m2 vs geodesic {truth:.0} m2: {:.3}%", error * 100.0);
     daemon.stop(&[]).unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn natural_earth_countries_reach_the_pole_and_do_not_smear() {
+    let Some(data) = relief_tests::shared_data("natural_earth_countries_reach_the_pole_and_do_not_smear") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = fixtures::write_manifest(
+        dir.path(),
+        &format!(
+            "[scene]\nname = \"world\"\n\n[[source]]\nid = \"countries\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"countries\"]\nfill = \"#ff0000ff\"\nstroke = \"none\"\n",
+            data.join("shp/naturalearth_lowres.shp").display()
+        ),
+    )
+    .unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
+    let mut alpha = async |level: u32, x: u32, y: u32| -> image::RgbaImage {
+        let t = tiles
+            .get_tile(pb::GetTileRequest {
+                source_id: "drawn".into(),
+                key: Some(pb::TileKey { level, x, y }),
+                quality: None,
+            })
+            .await
+            .unwrap()
+            .into_inner();
+        let Some(pb::get_tile_response::Payload::ColorPng(png)) = t.payload else { panic!("png expected") };
+        image::load_from_memory(&png).unwrap().to_rgba8()
+    };
+    // Antarctica covers the last texel row above -90 at every longitude.
+    for x in 0..8 {
+        let img = alpha(2, x, 3).await;
+        assert!((1..257).all(|i| img.get_pixel(i, 256)[3] > 0), "tile {x}: a gap at the south pole");
+    }
+    // Fiji and Russia cross the antimeridian: open Pacific tiles stay empty.
+    for (x, y) in [(1u32, 2u32), (1, 4)] {
+        let img = alpha(3, x, y).await;
+        let covered = img.pixels().filter(|p| p[3] > 0).count() as f64 / f64::from(img.width() * img.height());
+        assert!(covered < 0.005, "tile 3/{x}/{y} is {:.1}% covered: a smear", covered * 100.0);
+    }
+    // While Fiji itself shows at both ends.
+    let (west, east) = (alpha(3, 0, 4).await, alpha(3, 15, 4).await);
+    assert!(west.pixels().any(|p| p[3] > 0) && east.pixels().any(|p| p[3] > 0));
+    daemon.stop(&[]).unwrap();
+}

@@ -128,7 +128,11 @@ enum Shape<'a> {
 /// twice, unwrapped east and west, rather than smeared round the planet.
 fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Vec<Vec<[f64; 2]>>> {
     let flat: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| r.iter().map(|p| [p[0], p[1]]).collect()).collect();
-    let crosses = geodetic && flat.iter().any(|r| r.windows(2).any(|w| (w[1][0] - w[0][0]).abs() > 180.0));
+    // An edge along a pole from -180 to 180 closes a polar cap (Natural
+    // Earth's Antarctica); it is not a crossing.
+    let along_pole = |w: &[[f64; 2]]| w[0][1].abs() == 90.0 && w[1][1].abs() == 90.0;
+    let crosses =
+        geodetic && flat.iter().any(|r| r.windows(2).any(|w| (w[1][0] - w[0][0]).abs() > 180.0 && !along_pole(w)));
     if !crosses {
         return vec![flat];
     }
@@ -466,6 +470,28 @@ mod tests {
         };
         assert!(covered(0) && covered(cols - 1), "both ends of the date line");
         assert!((1..cols - 1).all(|x| !covered(x)), "nothing in between");
+    }
+
+    #[test]
+    fn a_polar_cap_closed_along_the_pole_covers_every_longitude() {
+        // Antarctica as Natural Earth draws it: the ring returns along -90.
+        let grid = TileGrid::geodetic(64).unwrap();
+        let ring = vec![
+            [-180.0, -90.0, 0.0],
+            [-180.0, -80.0, 0.0],
+            [0.0, -75.0, 0.0],
+            [180.0, -80.0, 0.0],
+            [180.0, -90.0, 0.0],
+            [-180.0, -90.0, 0.0],
+        ];
+        let f = Feature { id: 1, geometry: Geometry::Polygons(vec![vec![ring]]), properties: BTreeMap::new() };
+        let style = Style { stroke: None, ..Style::default() };
+        let (cols, rows) = grid.tiles_at(2);
+        for x in 0..cols {
+            let rgba =
+                render(&[&f], &grid.lattice(TileKey::new(2, x, rows - 1), SampleKind::TexelWithBorder), true, &style);
+            assert!((1..65).all(|i| rgba[(64 * 66 + i) * 4 + 3] > 0), "tile {x}: gap at the pole");
+        }
     }
 
     #[test]
