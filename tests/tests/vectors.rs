@@ -414,3 +414,61 @@ async fn natural_earth_countries_reach_the_pole_and_do_not_smear() {
     assert!(west.pixels().any(|p| p[3] > 0) && east.pixels().any(|p| p[3] > 0));
     daemon.stop(&[]).unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_moved_parcel_dirties_only_where_it_was_and_is() {
+    use relief_tests::edit::{self, Events};
+    let dir = tempfile::tempdir().unwrap();
+    let shp = shapefile(dir.path(), "parcels", PARCELS);
+    let manifest = fixtures::write_manifest(
+        dir.path(),
+        &format!(
+            "[scene]\nname = \"edits\"\n\n[[source]]\nid = \"parcels\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"parcels\"]\n\n[layers]\ncolor = \"drawn\"\n",
+            shp.display()
+        ),
+    )
+    .unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let events = Events::follow(channel.clone()).await.unwrap();
+    // Tiles over parcel B (11..11.3 E) and far away, over parcel C (Fiji).
+    let near = [(8u32, 271u32, 63u32), (8, 272, 63)];
+    let far = (8u32, 509u32, 152u32);
+    let mut before = Vec::new();
+    for k in near.iter().chain([&far]) {
+        before.push(edit::tile_hash(channel.clone(), "drawn", *k).await.unwrap());
+    }
+    // Parcel B moves 0.1 degrees north; the rest is rewritten unchanged, by
+    // ogr2ogr replacing the files (delete, create, stream, close).
+    let moved = PARCELS.replace(
+        "[[[11.0, 45.0], [11.3, 45.0], [11.3, 45.3], [11.0, 45.0]]]",
+        "[[[11.0, 45.1], [11.3, 45.1], [11.3, 45.4], [11.0, 45.1]]]",
+    );
+    assert_ne!(moved, PARCELS);
+    let src = dir.path().join("moved.geojson");
+    std::fs::write(&src, moved).unwrap();
+    let out = Command::new("ogr2ogr")
+        .args(["-q", "-overwrite", "-f", "ESRI Shapefile", "-lco", "ENCODING=UTF-8"])
+        .arg(&shp)
+        .arg(&src)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let g = events.generation(2).await.unwrap();
+    let parcels = g.dirty.iter().find(|d| d.source_id == "parcels").unwrap();
+    let boxes: Vec<[f64; 4]> = parcels.extents.iter().map(|e| [e.min_x, e.min_y, e.max_x, e.max_y]).collect();
+    assert_eq!(
+        boxes,
+        vec![[11.0, 45.0, 11.3, 45.3], [11.0, 45.1, 11.3, 45.4]],
+        "the moved parcel's old and new boxes, nothing else"
+    );
+    assert!(g.tiles_carried_over >= 1, "{g:?}");
+    let mut after = Vec::new();
+    for k in near.iter().chain([&far]) {
+        after.push(edit::tile_hash(channel.clone(), "drawn", *k).await.unwrap());
+    }
+    assert_eq!(after[2], before[2], "the far tile is untouched");
+    assert!(after[..2] != before[..2], "the parcel moved on the near tiles");
+    assert!(events.errors().is_empty(), "{:?}", events.errors());
+    daemon.stop(&[]).unwrap();
+}
