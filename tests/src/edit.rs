@@ -107,15 +107,7 @@ pub async fn wait_for(channel: Channel, generation: u64) -> anyhow::Result<pb::S
 
 /// The content hash of a tile.
 pub async fn tile_hash(channel: Channel, source: &str, key: (u32, u32, u32)) -> anyhow::Result<u64> {
-    Ok(TileServiceClient::new(channel)
-        .get_tile(pb::GetTileRequest {
-            source_id: source.into(),
-            key: Some(pb::TileKey { level: key.0, x: key.1, y: key.2 }),
-            quality: None,
-        })
-        .await?
-        .into_inner()
-        .content_hash)
+    Ok(crate::tiles::get(channel, source, key).await?.content_hash)
 }
 
 /// One height from the scene's height layer.

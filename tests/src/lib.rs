@@ -5,6 +5,7 @@
 pub mod daemon;
 pub mod edit;
 pub mod reference;
+pub mod tiles;
 
 /// Analytic fixtures live with the example scenes.
 pub use relief_examples as fixtures;

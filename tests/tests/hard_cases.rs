@@ -7,19 +7,11 @@ use relief_proto::v1 as pb;
 use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_tests::daemon::Reliefd;
 use relief_tests::fixtures::{self, RasterSpec};
+use relief_tests::tiles;
 
 /// Smooth on the sphere: 1000 m at both poles, +-500 m round the equator.
 fn globe(lon: f64, lat: f64) -> f64 {
     1000.0 + 500.0 * lat.to_radians().cos() * lon.to_radians().cos()
-}
-
-fn heights(t: &pb::GetTileResponse) -> Vec<f32> {
-    match &t.payload {
-        Some(pb::get_tile_response::Payload::HeightsF32Le(b)) => {
-            b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
-        }
-        other => panic!("heights expected, got {other:?}"),
-    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -59,7 +51,8 @@ async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
         for y in [0, rows / 2, rows - 1] {
             // The west edge of the first column and the east edge of the last
             // are the same meridian: the same heights, bit for bit.
-            let (west, east) = (heights(&get(level, 0, y).await), heights(&get(level, cols - 1, y).await));
+            let (west, east) =
+                (tiles::heights(&get(level, 0, y).await), tiles::heights(&get(level, cols - 1, y).await));
             for j in 0..n {
                 assert_eq!(west[j * n].to_bits(), east[j * n + n - 1].to_bits(), "level {level} row {y} sample {j}");
                 let lat = 90.0 - f64::from(y) * 180.0 / f64::from(rows) - j as f64 * 180.0 / f64::from(rows) / 64.0;
@@ -74,8 +67,8 @@ async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
         // Every sample on a pole, in every tile, is the one pole height.
         let mut pole = None;
         for x in 0..cols {
-            let top = heights(&get(level, x, 0).await);
-            let bottom = heights(&get(level, x, rows - 1).await);
+            let top = tiles::heights(&get(level, x, 0).await);
+            let bottom = tiles::heights(&get(level, x, rows - 1).await);
             for (h, south) in top[..n].iter().map(|h| (h, false)).chain(bottom[n * (n - 1)..].iter().map(|h| (h, true)))
             {
                 assert!(!h.is_nan());
@@ -113,8 +106,7 @@ async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
         .await
         .unwrap()
         .into_inner();
-    let Some(pb::get_tile_response::Payload::ColorPng(png)) = shade.payload else { panic!("png expected") };
-    let img = image::load_from_memory(&png).unwrap().to_rgba8();
+    let img = tiles::image(&shade);
     assert!(img.pixels().all(|p| p[3] == 255), "every texel shaded");
     daemon.stop(&[]).unwrap();
 }

@@ -10,15 +10,7 @@ use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_tests::daemon::{Reliefd, relief};
 use relief_tests::fixtures::{self, Lcg};
 use relief_tests::reference;
-
-fn heights(tile: &pb::GetTileResponse) -> Vec<f32> {
-    match &tile.payload {
-        Some(pb::get_tile_response::Payload::HeightsF32Le(b)) => {
-            b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
-        }
-        other => panic!("expected heights, got {other:?}"),
-    }
-}
+use relief_tests::tiles;
 
 fn hill_scene(dir: &std::path::Path, extra: &str) -> std::path::PathBuf {
     fixtures::write_dem(&dir.join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).unwrap();
@@ -64,7 +56,7 @@ async fn tile_heights_match_gdal_and_the_analytic_hill() {
     assert_eq!((t.width, t.height), (257, 257));
     assert_eq!(t.crs, "EPSG:4326");
     let e = t.extent.unwrap();
-    let got = heights(&t);
+    let got = tiles::heights(&t);
     let want = reference::gdal_lattice(
         &dir.path().join("hill.tif"),
         [e.min_x, e.min_y, e.max_x, e.max_y],
@@ -102,7 +94,7 @@ async fn tile_heights_match_gdal_and_the_analytic_hill() {
         let t = tile(&mut tiles, "dem", level, x, y).await;
         let e = t.extent.unwrap();
         let step = (e.max_x - e.min_x) / 256.0;
-        for (n, h) in heights(&t).iter().enumerate() {
+        for (n, h) in tiles::heights(&t).iter().enumerate() {
             let (lon, lat) = (e.min_x + (n % 257) as f64 * step, e.max_y - (n / 257) as f64 * step);
             let inside = (10.0 + step..10.5 - step).contains(&lon) && (45.0 + step..45.5 - step).contains(&lat);
             if inside {
@@ -170,7 +162,7 @@ async fn projected_scene_serves_utm_heights() {
     let want =
         reference::gdal_lattice(&dem, [e.min_x, e.min_y, e.max_x, e.max_y], 65, "EPSG:32612", "bilinear", dir.path())
             .unwrap();
-    for (n, (g, w)) in heights(&t).iter().zip(&want).enumerate() {
+    for (n, (g, w)) in tiles::heights(&t).iter().zip(&want).enumerate() {
         assert_eq!(g.is_nan(), w.is_nan(), "sample {n}: {g} vs {w}");
         if !g.is_nan() {
             assert!((f64::from(*g) - w).abs() < 0.01, "sample {n}: relief {g} vs GDAL {w}");
@@ -223,7 +215,7 @@ async fn nodata_is_never_interpolated_into_heights() {
         let n = 1u32 << level;
         let span = 180.0 / f64::from(n);
         let (x, y) = (((10.325 + 180.0) / span) as u32, ((90.0 - 45.225) / span) as u32);
-        for h in heights(&tile(&mut tiles, "dem", level, x, y).await) {
+        for h in tiles::heights(&tile(&mut tiles, "dem", level, x, y).await) {
             if h.is_nan() {
                 voids += 1;
             } else {
@@ -256,12 +248,8 @@ async fn hillshade_tiles_share_their_border_texels() {
     let manifest = hill_scene(dir.path(), "[effects]\nlighting = {}\n");
     let daemon = Reliefd::start(&manifest, &[]).unwrap();
     let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
-    let decode = |t: &pb::GetTileResponse| match &t.payload {
-        Some(pb::get_tile_response::Payload::ColorPng(png)) => image::load_from_memory(png).unwrap().to_rgba8(),
-        other => panic!("expected a PNG, got {other:?}"),
-    };
     let (a, b) = (tile(&mut tiles, "shade", 9, 541, 127).await, tile(&mut tiles, "shade", 9, 542, 127).await);
-    let (a, b) = (decode(&a), decode(&b));
+    let (a, b) = (tiles::image(&a), tiles::image(&b));
     assert_eq!(a.width(), 258);
     // a's east border texel is b's first core texel, and the other way round.
     for j in 0..258 {

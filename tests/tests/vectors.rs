@@ -11,9 +11,9 @@ use gdal::vector::LayerAccess;
 
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
-use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_tests::daemon::{Reliefd, check};
 use relief_tests::fixtures;
+use relief_tests::tiles;
 
 /// Three parcels (one with a hole, one split at the antimeridian) and a
 /// null geometry, written as a shapefile by ogr2ogr; and two trees, one on
@@ -91,21 +91,9 @@ async fn feature_tiles_hold_what_reaches_them_and_points_once() {
     let d = details(&daemon, "parcels").await;
     assert_eq!((d["features"].as_str(), d["null_shapes"].as_str()), ("3", "1"), "{d:?}");
     assert_eq!(d["features"].parse::<u64>().unwrap() + 1, ogr_count(&shp));
-    let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
-    let mut get = async |source: &str, level: u32, x: u32, y: u32| -> serde_json::Value {
-        let t = tiles
-            .get_tile(pb::GetTileRequest {
-                source_id: source.into(),
-                key: Some(pb::TileKey { level, x, y }),
-                quality: None,
-            })
-            .await
-            .unwrap()
-            .into_inner();
-        match t.payload {
-            Some(pb::get_tile_response::Payload::FeaturesGeojson(json)) => serde_json::from_slice(&json).unwrap(),
-            other => panic!("features expected, got {other:?}"),
-        }
+    let channel = daemon.channel().await.unwrap();
+    let get = async |source: &str, level: u32, x: u32, y: u32| {
+        tiles::geojson(&tiles::get(channel.clone(), source, (level, x, y)).await.unwrap())
     };
     let names = |fc: &serde_json::Value| -> Vec<String> {
         fc["features"]
@@ -206,17 +194,7 @@ async fn shared_kml_files_load_with_the_counts_ogr_reports() {
     let modes = details(&daemon, "modes").await;
     assert!(modes.contains_key("network_links_not_followed"), "{modes:?}");
     // Altitude modes and extrude come through as properties.
-    let t = TileServiceClient::new(daemon.channel().await.unwrap())
-        .get_tile(pb::GetTileRequest {
-            source_id: "samples".into(),
-            key: Some(pb::TileKey { level: 0, x: 0, y: 0 }),
-            quality: None,
-        })
-        .await
-        .unwrap()
-        .into_inner();
-    let Some(pb::get_tile_response::Payload::FeaturesGeojson(json)) = t.payload else { panic!("features expected") };
-    let fc: serde_json::Value = serde_json::from_slice(&json).unwrap();
+    let fc = tiles::geojson(&tiles::get(daemon.channel().await.unwrap(), "samples", (0, 0, 0)).await.unwrap());
     let modes: Vec<&str> =
         fc["features"].as_array().unwrap().iter().filter_map(|f| f["properties"]["altitude_mode"].as_str()).collect();
     for m in ["clampToGround", "relativeToGround", "absolute"] {
@@ -330,24 +308,14 @@ async fn rasterized_area_matches_the_geodesic_area_within_one_percent() {
     )
     .unwrap();
     let daemon = Reliefd::start(&manifest, &[]).unwrap();
-    let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
+    let channel = daemon.channel().await.unwrap();
     let level = 10u32;
     let span = 180.0 / f64::from(1u32 << level);
     let texel = span / 256.0;
     let mut area = 0.0;
     for y in ((90.0 - 45.5) / span) as u32..=((90.0 - 45.0) / span) as u32 {
         for x in ((10.0 + 180.0) / span) as u32..=((10.5 + 180.0) / span) as u32 {
-            let t = tiles
-                .get_tile(pb::GetTileRequest {
-                    source_id: "drawn".into(),
-                    key: Some(pb::TileKey { level, x, y }),
-                    quality: None,
-                })
-                .await
-                .unwrap()
-                .into_inner();
-            let Some(pb::get_tile_response::Payload::ColorPng(png)) = t.payload else { panic!("png expected") };
-            let img = image::load_from_memory(&png).unwrap().to_rgba8();
+            let img = tiles::image(&tiles::get(channel.clone(), "drawn", (level, x, y)).await.unwrap());
             let north = 90.0 - f64::from(y) * span;
             for j in 1..257u32 {
                 let lat1 = north - f64::from(j - 1) * texel;
@@ -384,19 +352,9 @@ async fn natural_earth_countries_reach_the_pole_and_do_not_smear() {
     )
     .unwrap();
     let daemon = Reliefd::start(&manifest, &[]).unwrap();
-    let mut tiles = TileServiceClient::new(daemon.channel().await.unwrap());
-    let mut alpha = async |level: u32, x: u32, y: u32| -> image::RgbaImage {
-        let t = tiles
-            .get_tile(pb::GetTileRequest {
-                source_id: "drawn".into(),
-                key: Some(pb::TileKey { level, x, y }),
-                quality: None,
-            })
-            .await
-            .unwrap()
-            .into_inner();
-        let Some(pb::get_tile_response::Payload::ColorPng(png)) = t.payload else { panic!("png expected") };
-        image::load_from_memory(&png).unwrap().to_rgba8()
+    let channel = daemon.channel().await.unwrap();
+    let alpha = async |level: u32, x: u32, y: u32| {
+        tiles::image(&tiles::get(channel.clone(), "drawn", (level, x, y)).await.unwrap())
     };
     // Antarctica covers the last texel row above -90 at every longitude.
     for x in 0..8 {

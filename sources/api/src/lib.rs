@@ -17,6 +17,7 @@ mod grid;
 mod payload;
 mod quality;
 mod source;
+mod vector;
 
 pub use crs::CrsTransform;
 pub use dirty::DirtySet;
@@ -32,3 +33,4 @@ pub use quality::{Quality, Resampling};
 pub use source::{
     GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source, SourceInfo, SourceSpec,
 };
+pub use vector::{VectorFormat, VectorRead, VectorSource};

@@ -13,4 +13,4 @@ mod source;
 mod walk;
 
 pub use load::Limits;
-pub use source::{KIND, KmlSource};
+pub use source::{KIND, Kml, KmlSource};

@@ -12,4 +12,4 @@ mod check;
 mod read;
 mod source;
 
-pub use source::{KIND, ShapefileSource};
+pub use source::{KIND, Shapefile, ShapefileSource};
