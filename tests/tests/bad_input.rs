@@ -31,6 +31,15 @@ fn assert_rejected(manifest: &Path, expected: &[&str]) {
 
 const HEAD: &str = "[scene]\nname = \"bad\"\n\n";
 
+/// A scene of one `gdal` source "dem" reading `file`, with `extra` lines.
+fn one_dem(dir: &Path, file: &str, extra: &str) -> std::path::PathBuf {
+    fixtures::write_manifest(
+        dir,
+        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"{file}\"\n{extra}"),
+    )
+    .unwrap()
+}
+
 #[test]
 fn a_cycle_is_rejected_naming_the_sources() {
     let dir = tempfile::tempdir().unwrap();
@@ -87,11 +96,7 @@ fn a_missing_input_and_a_type_mismatch_are_rejected() {
 #[test]
 fn a_missing_file_is_rejected_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"nowhere.tif\"\n"),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "nowhere.tif", "");
     let file = dir.path().join("nowhere.tif");
     assert_rejected(&m, &["source 'dem'", "field 'path'", "No such file", file.to_str().unwrap()]);
 }
@@ -101,11 +106,7 @@ fn a_corrupt_raster_is_rejected_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("garbage.tif");
     std::fs::write(&file, b"II*\0this is not really a tiff at all, just bytes").unwrap();
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"garbage.tif\"\n"),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "garbage.tif", "");
     assert_rejected(&m, &["source 'dem'", "field 'path'", "cannot open raster", file.to_str().unwrap()]);
 }
 
@@ -115,11 +116,7 @@ fn a_truncated_raster_is_rejected_naming_the_file() {
     let file = hill(dir.path());
     let bytes = std::fs::read(&file).unwrap();
     std::fs::write(&file, &bytes[..bytes.len() / 2]).unwrap();
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n"),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "hill.tif", "");
     assert_rejected(&m, &["source 'dem'", "field 'path'", "cannot read raster data", file.to_str().unwrap()]);
 }
 
@@ -127,11 +124,7 @@ fn a_truncated_raster_is_rejected_naming_the_file() {
 fn an_unknown_crs_is_rejected() {
     let dir = tempfile::tempdir().unwrap();
     hill(dir.path());
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\ncrs = \"EPSG:999999\"\n"),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "hill.tif", "crs = \"EPSG:999999\"\n");
     assert_rejected(&m, &["source 'dem'", "field 'crs'", "unknown or unusable CRS 'EPSG:999999'"]);
     let m = fixtures::write_manifest(
         dir.path(),
@@ -147,11 +140,7 @@ fn a_raster_without_georeferencing_is_rejected() {
     let file = dir.path().join("plain.tif");
     let driver = gdal::DriverManager::get_driver_by_name("GTiff").unwrap();
     driver.create_with_band_type::<f32, _>(&file, 8, 8, 1).unwrap();
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"plain.tif\"\n"),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "plain.tif", "");
     assert_rejected(&m, &["source 'dem'", "field 'path'", "no georeferencing", file.to_str().unwrap()]);
 }
 
@@ -159,11 +148,7 @@ fn a_raster_without_georeferencing_is_rejected() {
 fn keep_going_serves_what_loaded_and_shows_what_failed() {
     let dir = tempfile::tempdir().unwrap();
     hill(dir.path());
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[[source]]\nid = \"gone\"\nkind = \"gdal\"\npath = \"gone.tif\"\n"),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "hill.tif", "\n[[source]]\nid = \"gone\"\nkind = \"gdal\"\npath = \"gone.tif\"\n");
     let daemon = Reliefd::start(&m, &["--keep-going"]).unwrap();
     let rt = tokio::runtime::Runtime::new().unwrap();
     rt.block_on(async {
@@ -208,11 +193,7 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
     let dir = tempfile::tempdir().unwrap();
     let file = hill(dir.path());
     let good = std::fs::read(&file).unwrap();
-    let m = fixtures::write_manifest(
-        dir.path(),
-        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[layers]\nheight = \"dem\""),
-    )
-    .unwrap();
+    let m = one_dem(dir.path(), "hill.tif", "\n[layers]\nheight = \"dem\"");
     let mut daemon = Reliefd::start(&m, &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
     let (mut scene, mut tiles) = (SceneServiceClient::new(channel.clone()), TileServiceClient::new(channel));
