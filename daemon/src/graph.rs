@@ -123,11 +123,18 @@ fn order(manifest: &Manifest, registry: &Registry) -> Result<Vec<usize>, Vec<Loa
                 "kind",
                 format!("unknown kind '{}' (known: {})", spec.kind, registry.names().join(", ")),
             )),
-            Some(kind) if kind.inputs.len() != spec.inputs.len() => errors.push(err(
-                spec,
-                "inputs",
-                format!("kind '{}' takes {} input(s), got {}", spec.kind, kind.inputs.len(), spec.inputs.len()),
-            )),
+            Some(kind) if !(kind.required_inputs..=kind.inputs.len()).contains(&spec.inputs.len()) => {
+                let takes = if kind.required_inputs == kind.inputs.len() {
+                    kind.inputs.len().to_string()
+                } else {
+                    format!("{} to {}", kind.required_inputs, kind.inputs.len())
+                };
+                errors.push(err(
+                    spec,
+                    "inputs",
+                    format!("kind '{}' takes {takes} input(s), got {}", spec.kind, spec.inputs.len()),
+                ));
+            }
             Some(_) => {}
         }
         for input in &spec.inputs {
@@ -327,13 +334,8 @@ pub fn build(
         }
     }
     for (layer, id) in &manifest.layers {
-        let expected = match layer.as_str() {
-            "height" => PayloadKind::Height,
-            "color" => PayloadKind::Color,
-            "water" => PayloadKind::Mask,
-            _ => PayloadKind::Instances,
-        };
-        if let Some(slot) = slots.iter().find(|s| &s.spec.id == id)
+        if let Some(expected) = crate::manifest::layer_payload(layer)
+            && let Some(slot) = slots.iter().find(|s| &s.spec.id == id)
             && let Some(actual) = slot.output(registry)
             && actual != expected
         {

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use relief_source::{OptionValue, Quality, SourceSpec};
+use relief_source::{OptionValue, PayloadKind, Quality, SourceSpec};
 use serde::Deserialize;
 
 #[derive(Debug, thiserror::Error)]
@@ -36,7 +36,19 @@ pub const EFFECTS: &[(&str, &[&str])] = &[
 ];
 
 /// Layers the renderer reads, and the payload each must have.
-pub const LAYERS: &[&str] = &["height", "color", "water", "vegetation"];
+pub const LAYERS: &[(&str, PayloadKind)] = &[
+    ("height", PayloadKind::Height),
+    ("color", PayloadKind::Color),
+    ("water", PayloadKind::Mask),
+    ("vegetation", PayloadKind::Instances),
+    ("instances", PayloadKind::Instances),
+    ("buildings", PayloadKind::Mesh),
+];
+
+/// The payload layer `name` needs, None for an unknown layer.
+pub fn layer_payload(name: &str) -> Option<PayloadKind> {
+    LAYERS.iter().find(|(n, _)| *n == name).map(|(_, kind)| *kind)
+}
 
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -242,8 +254,9 @@ impl Manifest {
         }
 
         for (layer, id) in &raw.layers {
-            if !LAYERS.contains(&layer.as_str()) {
-                return Err(field(&format!("layers.{layer}"), format!("unknown layer (known: {})", LAYERS.join(", "))));
+            if layer_payload(layer).is_none() {
+                let known: Vec<&str> = LAYERS.iter().map(|(n, _)| *n).collect();
+                return Err(field(&format!("layers.{layer}"), format!("unknown layer (known: {})", known.join(", "))));
             }
             if !sources.iter().any(|s| &s.id == id) {
                 return Err(field(&format!("layers.{layer}"), format!("no source has id '{id}'")));

@@ -12,6 +12,8 @@ pub struct Kind {
     pub open: OpenFn,
     /// The payloads of the inputs, in order; empty for file-backed sources.
     pub inputs: &'static [PayloadKind],
+    /// How many of `inputs` must be given; the rest are optional.
+    pub required_inputs: usize,
     /// The output payload when it is known without opening the source.
     pub output: Option<PayloadKind>,
 }
@@ -29,6 +31,7 @@ impl Registry {
                     name: relief_source_gdal::KIND,
                     open: |spec, grid| Ok(Arc::new(relief_source_gdal::GdalSource::open(spec, grid)?)),
                     inputs: &[],
+                    required_inputs: 0,
                     output: None,
                 },
                 Kind {
@@ -38,6 +41,7 @@ impl Registry {
                         Ok(Arc::new(relief_source_shapefile::ShapefileSource::open(spec, grid, crs)?))
                     },
                     inputs: &[],
+                    required_inputs: 0,
                     output: Some(PayloadKind::Features),
                 },
                 Kind {
@@ -47,25 +51,43 @@ impl Registry {
                         Ok(Arc::new(relief_source_kml::KmlSource::open(spec, grid, crs)?))
                     },
                     inputs: &[],
+                    required_inputs: 0,
                     output: Some(PayloadKind::Features),
                 },
                 Kind {
                     name: relief_source_ops::RASTERIZE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Rasterize::open(spec)?)),
                     inputs: relief_source_ops::RASTERIZE_INPUTS,
+                    required_inputs: relief_source_ops::RASTERIZE_INPUTS.len(),
                     output: Some(PayloadKind::Color),
                 },
                 Kind {
                     name: relief_source_ops::OVERLAY_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Overlay::open(spec)?)),
                     inputs: relief_source_ops::OVERLAY_INPUTS,
+                    required_inputs: relief_source_ops::OVERLAY_INPUTS.len(),
                     output: Some(PayloadKind::Color),
                 },
                 Kind {
                     name: relief_source_ops::HILLSHADE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Hillshade::open(spec)?)),
                     inputs: relief_source_ops::HILLSHADE_INPUTS,
+                    required_inputs: relief_source_ops::HILLSHADE_INPUTS.len(),
                     output: Some(PayloadKind::Color),
+                },
+                Kind {
+                    name: relief_source_ops::EXTRUDE_KIND,
+                    open: |spec, _grid| Ok(Arc::new(relief_source_ops::Extrude::open(spec)?)),
+                    inputs: relief_source_ops::EXTRUDE_INPUTS,
+                    required_inputs: 1,
+                    output: Some(PayloadKind::Mesh),
+                },
+                Kind {
+                    name: relief_source_ops::INSTANCES_KIND,
+                    open: |spec, _grid| Ok(Arc::new(relief_source_ops::Instances::open(spec)?)),
+                    inputs: relief_source_ops::INSTANCES_INPUTS,
+                    required_inputs: 1,
+                    output: Some(PayloadKind::Instances),
                 },
             ],
         }

@@ -6,6 +6,7 @@ pub mod daemon;
 pub mod edit;
 pub mod reference;
 pub mod tiles;
+pub mod vectors;
 
 /// Analytic fixtures live with the example scenes.
 pub use relief_examples as fixtures;

@@ -49,3 +49,30 @@ pub fn geojson(tile: &pb::GetTileResponse) -> serde_json::Value {
         other => panic!("expected features, got {other:?}"),
     }
 }
+
+/// A mesh tile: positions (grid x, y, height m), triangle indices, and the
+/// message itself for its parts and skipped features.
+pub fn mesh(tile: &pb::GetTileResponse) -> (Vec<[f64; 3]>, Vec<u32>, &pb::Mesh) {
+    match &tile.payload {
+        Some(pb::get_tile_response::Payload::Mesh(m)) => {
+            let values: Vec<f64> = m
+                .positions_f64_le
+                .chunks_exact(8)
+                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+                .collect();
+            let positions = values.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect();
+            let indices =
+                m.indices_u32_le.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
+            (positions, indices, m)
+        }
+        other => panic!("expected a mesh, got {other:?}"),
+    }
+}
+
+/// An instance tile.
+pub fn instances(tile: &pb::GetTileResponse) -> &pb::InstanceList {
+    match &tile.payload {
+        Some(pb::get_tile_response::Payload::Instances(list)) => list,
+        other => panic!("expected instances, got {other:?}"),
+    }
+}

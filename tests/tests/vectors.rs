@@ -31,18 +31,7 @@ const TREES: &str = r#"{"type": "FeatureCollection", "features": [
 ]}"#;
 
 fn shapefile(dir: &Path, name: &str, geojson: &str) -> PathBuf {
-    let src = dir.join(format!("{name}.geojson"));
-    std::fs::write(&src, geojson).unwrap();
-    let shp = dir.join(format!("{name}.shp"));
-    let out = Command::new("ogr2ogr")
-        .args(["-q", "-f", "ESRI Shapefile", "-lco", "ENCODING=UTF-8"])
-        .arg(&shp)
-        .arg(&src)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    std::fs::remove_file(&src).unwrap();
-    shp
+    relief_tests::vectors::shapefile(dir, name, geojson).unwrap()
 }
 
 fn ogr_count(path: &Path) -> u64 {

@@ -1,5 +1,6 @@
 //! relief: the command-line client of reliefd.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -233,9 +234,57 @@ fn write_tile(tile: &pb::GetTileResponse, path: &Path) -> anyhow::Result<()> {
         Some(pb::get_tile_response::Payload::FeaturesGeojson(json)) => {
             std::fs::write(path, json).with_context(|| format!("cannot write {}", path.display()))
         }
+        Some(pb::get_tile_response::Payload::Mesh(mesh)) => write_obj(tile, mesh, path),
+        Some(pb::get_tile_response::Payload::Instances(list)) => {
+            let text = output::instances_geojson(list).to_string();
+            std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+        }
         Some(pb::get_tile_response::Payload::MaskU8(_)) => {
             bail!("mask tiles cannot be written yet")
         }
         None => bail!("reliefd sent a tile without a payload"),
     }
+}
+
+/// A mesh tile as Wavefront OBJ in metres east, north and up of the
+/// tile's south-west corner at height 0 (on a geodetic grid, exact through
+/// ECEF), one object per feature: any 3D tool opens it.
+fn write_obj(tile: &pb::GetTileResponse, mesh: &pb::Mesh, path: &Path) -> anyhow::Result<()> {
+    let values: Vec<f64> =
+        mesh.positions_f64_le.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or_default())).collect();
+    let indices: Vec<u32> =
+        mesh.indices_u32_le.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap_or_default())).collect();
+    if !values.len().is_multiple_of(3) || indices.iter().any(|&i| i as usize >= values.len() / 3) {
+        bail!("reliefd sent a mesh whose indices do not match its {} positions", values.len() / 3);
+    }
+    let e = tile.extent.context("reliefd sent a tile without an extent")?;
+    let geodetic = tile.crs == "EPSG:4326";
+    let mut out = format!(
+        "# relief mesh tile {}/{}/{} of '{}', generation {}\n# metres east, north, up of ({}, {}) in {}{}\n",
+        tile.key.map_or(0, |k| k.level),
+        tile.key.map_or(0, |k| k.x),
+        tile.key.map_or(0, |k| k.y),
+        tile.source_id,
+        tile.generation,
+        e.min_x,
+        e.min_y,
+        tile.crs,
+        if geodetic { " (local tangent frame)" } else { "" }
+    );
+    for p in values.chunks_exact(3) {
+        let v = if geodetic {
+            relief_source::geodesy::enu_from_geodetic([e.min_x, e.min_y, 0.0], [p[0], p[1], p[2]])
+        } else {
+            [p[0] - e.min_x, p[1] - e.min_y, p[2]]
+        };
+        let _ = writeln!(out, "v {:.4} {:.4} {:.4}", v[0], v[1], v[2]);
+    }
+    for part in &mesh.parts {
+        let _ = writeln!(out, "o feature_{}", part.feature_id);
+        let range = part.first_index as usize..(part.first_index + part.index_count) as usize;
+        for t in indices.get(range).unwrap_or_default().chunks_exact(3) {
+            let _ = writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+        }
+    }
+    std::fs::write(path, out).with_context(|| format!("cannot write {}", path.display()))
 }

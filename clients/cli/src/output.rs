@@ -30,6 +30,7 @@ fn payload_name(kind: i32) -> &'static str {
         Ok(pb::PayloadKind::Mask) => "mask",
         Ok(pb::PayloadKind::Features) => "features",
         Ok(pb::PayloadKind::Instances) => "instances",
+        Ok(pb::PayloadKind::Mesh) => "mesh",
         _ => "unknown",
     }
 }
@@ -171,4 +172,24 @@ pub fn event_text(e: &pb::SceneEvent) -> String {
         }
         None => format!("[{}]", e.generation),
     }
+}
+
+/// Instances as a GeoJSON FeatureCollection of points in the grid's CRS.
+pub fn instances_geojson(list: &pb::InstanceList) -> Value {
+    let kind = |k: i32| match pb::InstanceKind::try_from(k) {
+        Ok(pb::InstanceKind::Billboard) => "billboard",
+        _ => "model",
+    };
+    let features: Vec<Value> = list
+        .instances
+        .iter()
+        .map(|i| {
+            json!({"type": "Feature", "id": i.feature_id,
+                   "geometry": {"type": "Point", "coordinates": [i.x, i.y, i.z]},
+                   "properties": {"kind": kind(i.kind), "model": i.model, "scale": i.scale, "rotation_deg": i.rotation_deg}})
+        })
+        .collect();
+    let skipped: Vec<Value> =
+        list.skipped.iter().map(|s| json!({"feature_id": s.feature_id, "reason": s.reason})).collect();
+    json!({"type": "FeatureCollection", "features": features, "skipped": skipped})
 }

@@ -19,6 +19,7 @@ pub fn payload_kind(kind: PayloadKind) -> pb::PayloadKind {
         PayloadKind::Mask => pb::PayloadKind::Mask,
         PayloadKind::Features => pb::PayloadKind::Features,
         PayloadKind::Instances => pb::PayloadKind::Instances,
+        PayloadKind::Mesh => pb::PayloadKind::Mesh,
     }
 }
 
@@ -196,4 +197,42 @@ pub fn geojson(tile: &relief_source::FeatureTile) -> Vec<u8> {
         })
         .collect();
     serde_json::to_vec(&json!({"type": "FeatureCollection", "features": features})).unwrap_or_default()
+}
+
+fn skipped(list: &[relief_source::Skipped]) -> Vec<pb::SkippedFeature> {
+    list.iter().map(|s| pb::SkippedFeature { feature_id: s.feature_id, reason: s.reason.clone() }).collect()
+}
+
+pub fn mesh(m: &relief_source::MeshTile) -> pb::Mesh {
+    pb::Mesh {
+        positions_f64_le: m.positions.iter().flatten().flat_map(|v| v.to_le_bytes()).collect(),
+        indices_u32_le: m.indices.iter().flat_map(|v| v.to_le_bytes()).collect(),
+        parts: m
+            .parts
+            .iter()
+            .map(|p| pb::MeshPart { feature_id: p.feature_id, first_index: p.first_index, index_count: p.index_count })
+            .collect(),
+        skipped: skipped(&m.skipped),
+    }
+}
+
+pub fn instances(t: &relief_source::InstanceTile) -> pb::InstanceList {
+    let instances = t
+        .instances
+        .iter()
+        .map(|i| pb::Instance {
+            feature_id: i.feature_id,
+            x: i.position[0],
+            y: i.position[1],
+            z: i.position[2],
+            kind: match i.kind {
+                relief_source::InstanceKind::Model => pb::InstanceKind::Model,
+                relief_source::InstanceKind::Billboard => pb::InstanceKind::Billboard,
+            } as i32,
+            model: i.model.clone(),
+            scale: i.scale,
+            rotation_deg: i.rotation_deg,
+        })
+        .collect();
+    pb::InstanceList { instances, skipped: skipped(&t.skipped) }
 }

@@ -65,7 +65,8 @@ impl TileService for TileApi {
             Payload::Features(f) => {
                 (f.features.len(), get_tile_response::Payload::FeaturesGeojson(convert::geojson(f)))
             }
-            Payload::Instances(_) => return Err(Status::unimplemented("instance tiles cannot be fetched yet")),
+            Payload::Mesh(m) => (m.parts.len(), get_tile_response::Payload::Mesh(convert::mesh(m))),
+            Payload::Instances(i) => (i.instances.len(), get_tile_response::Payload::Instances(convert::instances(i))),
         };
         Ok(Response::new(GetTileResponse {
             source_id: r.source_id,

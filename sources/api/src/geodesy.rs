@@ -51,6 +51,27 @@ pub fn geodetic_from_ecef(p: [f64; 3]) -> (f64, f64, f64) {
     (lon.to_degrees(), lat.to_degrees(), h)
 }
 
+/// The east, north and up unit vectors of the local tangent frame at a
+/// geodetic position (ECEF components).
+pub fn enu_axes(lon_deg: f64, lat_deg: f64) -> [[f64; 3]; 3] {
+    let (sin_lon, cos_lon) = lon_deg.to_radians().sin_cos();
+    let (sin_lat, cos_lat) = lat_deg.to_radians().sin_cos();
+    [
+        [-sin_lon, cos_lon, 0.0],
+        [-sin_lat * cos_lon, -sin_lat * sin_lon, cos_lat],
+        [cos_lat * cos_lon, cos_lat * sin_lon, sin_lat],
+    ]
+}
+
+/// A geodetic position as metres east, north and up of `origin` (lon, lat,
+/// height), exact through ECEF: for meshes and cameras near the origin.
+pub fn enu_from_geodetic(origin: [f64; 3], point: [f64; 3]) -> [f64; 3] {
+    let o = ecef_from_geodetic(origin[0], origin[1], origin[2]);
+    let p = ecef_from_geodetic(point[0], point[1], point[2]);
+    let d = [p[0] - o[0], p[1] - o[1], p[2] - o[2]];
+    enu_axes(origin[0], origin[1]).map(|axis| axis[0] * d[0] + axis[1] * d[1] + axis[2] * d[2])
+}
+
 /// Great-circle distance on the mean sphere (haversine), metres. Stable for
 /// tiny distances and across the antimeridian.
 pub fn haversine_m(lon1_deg: f64, lat1_deg: f64, lon2_deg: f64, lat2_deg: f64) -> f64 {
@@ -65,6 +86,19 @@ pub fn haversine_m(lon1_deg: f64, lat1_deg: f64, lon2_deg: f64, lat2_deg: f64) -
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn enu_axes_point_east_north_up() {
+        // At (0, 0): east is +Y, north +Z, up +X in ECEF.
+        let [e, n, u] = enu_axes(0.0, 0.0);
+        assert_eq!(e, [-0.0, 1.0, 0.0]);
+        assert!((n[2] - 1.0).abs() < 1e-15 && (u[0] - 1.0).abs() < 1e-15);
+        // 100 m up is 100 m up; a point 0.001 deg north is ~110.6 m north.
+        let up = enu_from_geodetic([10.0, 45.0, 0.0], [10.0, 45.0, 100.0]);
+        assert!((up[2] - 100.0).abs() < 1e-6 && up[0].abs() < 1e-6 && up[1].abs() < 1e-6);
+        let north = enu_from_geodetic([10.0, 45.0, 0.0], [10.0, 45.001, 0.0]);
+        assert!((north[1] - 111.13).abs() < 0.05, "{north:?}");
+    }
 
     #[test]
     fn known_points() {

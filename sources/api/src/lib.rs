@@ -27,7 +27,8 @@ pub use grid::{
     Direction, Extent, GridKind, Lattice, MAX_LEVEL, Neighbour, ProjectedGrid, SampleKind, TileGrid, TileKey,
 };
 pub use payload::{
-    ColorTile, Feature, FeatureTile, Geometry, HeightTile, Instance, InstanceTile, MaskTile, Payload, PayloadKind,
+    ColorTile, Feature, FeatureTile, Geometry, HeightTile, Instance, InstanceKind, InstanceTile, MaskTile, MeshPart,
+    MeshTile, Payload, PayloadKind, Skipped,
 };
 pub use quality::{Quality, Resampling};
 pub use source::{

@@ -10,6 +10,7 @@ pub enum PayloadKind {
     Mask,
     Features,
     Instances,
+    Mesh,
 }
 
 impl PayloadKind {
@@ -20,6 +21,7 @@ impl PayloadKind {
             Self::Mask => "mask",
             Self::Features => "features",
             Self::Instances => "instances",
+            Self::Mesh => "mesh",
         }
     }
 }
@@ -98,18 +100,58 @@ pub struct FeatureTile {
     pub features: Vec<Feature>,
 }
 
-/// A placed model or billboard.
+/// A feature an op left out of its tile, and why (a bad attribute value,
+/// a degenerate footprint): the tile says so instead of failing whole.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Skipped {
+    pub feature_id: u64,
+    pub reason: String,
+}
+
+/// What an instance places: a 3D model or a camera-facing billboard.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InstanceKind {
+    Model,
+    Billboard,
+}
+
+/// A placed model or billboard. Position in the grid's CRS, height in
+/// metres; rotation clockwise from north about the vertical.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Instance {
+    pub feature_id: u64,
     pub position: [f64; 3],
+    pub kind: InstanceKind,
     pub model: String,
-    pub scale: f32,
-    pub rotation_deg: f32,
+    pub scale: f64,
+    pub rotation_deg: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct InstanceTile {
     pub instances: Vec<Instance>,
+    pub skipped: Vec<Skipped>,
+}
+
+/// The triangles of one feature in a mesh tile: `index_count` indices from
+/// `first_index`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshPart {
+    pub feature_id: u64,
+    pub first_index: u32,
+    pub index_count: u32,
+}
+
+/// Triangle meshes (extruded buildings). Positions are grid-CRS x and y
+/// with the height in metres, kept in f64: a renderer subtracts its eye
+/// position before going to f32. Triangles wind counter-clockwise seen
+/// from outside.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MeshTile {
+    pub positions: Vec<[f64; 3]>,
+    pub indices: Vec<u32>,
+    pub parts: Vec<MeshPart>,
+    pub skipped: Vec<Skipped>,
 }
 
 /// What a source generated for one tile.
@@ -120,6 +162,7 @@ pub enum Payload {
     Mask(MaskTile),
     Features(FeatureTile),
     Instances(InstanceTile),
+    Mesh(MeshTile),
 }
 
 impl Payload {
@@ -130,6 +173,7 @@ impl Payload {
             Self::Mask(_) => PayloadKind::Mask,
             Self::Features(_) => PayloadKind::Features,
             Self::Instances(_) => PayloadKind::Instances,
+            Self::Mesh(_) => PayloadKind::Mesh,
         }
     }
 
@@ -141,6 +185,7 @@ impl Payload {
             Self::Mask(t) => t.coverage.len(),
             Self::Features(t) => t.features.len() * 128,
             Self::Instances(t) => t.instances.len() * 64,
+            Self::Mesh(t) => t.positions.len() * 24 + t.indices.len() * 4 + t.parts.len() * 16,
         }
     }
 
@@ -161,6 +206,13 @@ impl Payload {
             Self::Mask(t) => h.update(&t.coverage),
             Self::Features(t) => h.update(format!("{:?}", t.features).as_bytes()),
             Self::Instances(t) => h.update(format!("{:?}", t.instances).as_bytes()),
+            Self::Mesh(t) => {
+                let positions: Vec<u8> = t.positions.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+                h.update(&positions);
+                let indices: Vec<u8> = t.indices.iter().flat_map(|v| v.to_le_bytes()).collect();
+                h.update(&indices);
+                h.update(format!("{:?}{:?}", t.parts, t.skipped).as_bytes());
+            }
         }
         h.digest()
     }

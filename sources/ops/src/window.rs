@@ -68,3 +68,24 @@ impl<'a, 'c> HeightWindow<'a, 'c> {
         Ok(h.get(i, j))
     }
 }
+
+impl HeightWindow<'_, '_> {
+    /// The height at grid-CRS point (x, y), bilinear between the four
+    /// samples round it; NaN where any of them is nodata.
+    pub fn height_at(&mut self, x: f64, y: f64) -> Result<f32, SourceError> {
+        let grid = self.ctx.grid;
+        let n = f64::from(grid.tile_size());
+        let e = grid.extent();
+        let (w, h) = grid.tile_span(self.level);
+        let gx = (x - e.min_x) / (w / n);
+        let gy = (e.max_y - y) / (h / n);
+        let (x0, y0) = (gx.floor(), gy.floor());
+        let (fx, fy) = ((gx - x0) as f32, (gy - y0) as f32);
+        let (i, j) = (x0 as i64, y0 as i64);
+        let (a, b) = (self.get(i, j)?, self.get(i + 1, j)?);
+        let (c, d) = (self.get(i, j + 1)?, self.get(i + 1, j + 1)?);
+        let top = a + (b - a) * fx;
+        let bottom = c + (d - c) * fx;
+        Ok(top + (bottom - top) * fy)
+    }
+}
