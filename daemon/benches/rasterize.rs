@@ -1,7 +1,7 @@
 //! Vector rasterizer benchmark. Prints tables; never asserts a time.
 //!
 //! Natural Earth's countries (`../shared/data/shp`) drawn into every tile
-//! of levels 0..=N (RELIEF_BENCH_MAX_LEVEL, default 4) through reliefd's
+//! of levels 0..=N (RELIEF_BENCH_MAX_LEVEL, default 6) through reliefd's
 //! tile store, and the same tiles burnt by GDAL's rasterizer (the library
 //! call behind `gdal_rasterize`, in-process, one MEM raster per tile of the
 //! same texel lattice) in the same run. Then the `antialias` knob: time
@@ -67,7 +67,7 @@ fn gdal(countries: &Path, keys: &[TileKey]) -> f64 {
 }
 
 fn main() {
-    let max_level: u8 = std::env::var("RELIEF_BENCH_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(4);
+    let max_level: u8 = std::env::var("RELIEF_BENCH_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(6);
     let data: PathBuf = std::env::var_os("RELIEF_SHARED_DATA")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));

@@ -193,17 +193,29 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
     // south with only the edges that span the row (an active edge list).
     for shape in &shapes {
         let Shape::Rings(rings, color) = shape else { continue };
+        // Only edges that span one of this tile's rows and reach its west of
+        // its east edge can change a crossing count here.
+        let (top, bottom) = (lattice.y(0) + lattice.step_y / 2.0, lattice.y(rows - 1) - lattice.step_y / 2.0);
+        let east = lattice.x(cols - 1) + lattice.step_x / 2.0;
         let mut edges: Vec<[f64; 4]> = rings
             .iter()
             .flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]]))
-            .filter(|e| e[1] != e[3])
+            .filter(|e| e[1] != e[3] && e[1].max(e[3]) >= bottom && e[1].min(e[3]) <= top && e[0].min(e[2]) <= east)
             .collect();
+        if edges.is_empty() {
+            continue;
+        }
         // By their northern end, northernmost first.
         edges.sort_by(|a, b| b[1].max(b[3]).total_cmp(&a[1].max(a[3])));
         let mut next = 0;
         let mut active: Vec<[f64; 4]> = Vec::new();
         let mut coverage = vec![0u32; cols * rows];
         let mut xs: Vec<f64> = Vec::new();
+        // Sub-sample s of a row sits at x(0) + ((s + 0.5) / ss - 0.5) * step:
+        // the first one at or east of x.
+        let first_at_or_after = |x: f64| {
+            ((((x - lattice.x(0)) / lattice.step_x + 0.5) * ss as f64 - 0.5).ceil().max(0.0) as usize).min(cols * ss)
+        };
         for j in 0..rows {
             for oy in &off {
                 let y = lattice.y(j) - oy * lattice.step_y;
@@ -218,16 +230,20 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                         xs.push(x0 + (y - y0) / (y1 - y0) * (x1 - x0));
                     }
                 }
-                if xs.is_empty() {
-                    continue;
-                }
                 xs.sort_by(f64::total_cmp);
-                for i in 0..cols {
-                    for ox in &off {
-                        let x = lattice.x(i) + ox * lattice.step_x;
-                        if xs.partition_point(|&c| c <= x) % 2 == 1 {
-                            coverage[j * cols + i] += 1;
-                        }
+                // Even-odd: sub-samples in [x_2k, x_2k+1) are inside; add
+                // whole runs of them to their texels.
+                let row = &mut coverage[j * cols..(j + 1) * cols];
+                // Edges wholly east of the tile were dropped: a run left open
+                // at the end reaches past the east edge.
+                for pair in xs.chunks(2) {
+                    let mut s = first_at_or_after(pair[0]);
+                    let end = pair.get(1).map_or(cols * ss, |&x| first_at_or_after(x));
+                    while s < end {
+                        let i = s / ss;
+                        let stop = ((i + 1) * ss).min(end);
+                        row[i] += (stop - s) as u32;
+                        s = stop;
                     }
                 }
             }
