@@ -157,14 +157,33 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
         }
         f.properties.get("fill_color").and_then(|c| kml_color(c)).or(style.fill)
     };
+    // The texels' own area: border texels included, half a texel out.
+    let bounds = relief_source::Extent::new(
+        lattice.x(0) - lattice.step_x / 2.0,
+        lattice.y(rows - 1) - lattice.step_y / 2.0,
+        lattice.x(cols - 1) + lattice.step_x / 2.0,
+        lattice.y(0) + lattice.step_y / 2.0,
+    );
     let mut shapes = Vec::new();
     for &f in features {
         match &f.geometry {
             Geometry::Polygons(polys) => {
                 if let Some(color) = fill_of(f) {
                     for rings in polys {
+                        // A polygon wholly beside the tile (west included: all
+                        // its crossings pair up west of every texel) covers nothing.
                         for version in unwrapped(rings, geodetic) {
-                            shapes.push(Shape::Rings(version, color));
+                            let exterior = version.first().map_or(&[][..], Vec::as_slice);
+                            let (lo, hi) = exterior.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+                                ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
+                            });
+                            if hi[0] >= bounds.min_x
+                                && lo[0] <= bounds.max_x
+                                && hi[1] >= bounds.min_y
+                                && lo[1] <= bounds.max_y
+                            {
+                                shapes.push(Shape::Rings(version, color));
+                            }
                         }
                     }
                 }
@@ -189,6 +208,22 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
         }
         dst[3] = a + dst[3] * (1.0 - a);
     };
+    // One coverage buffer for every shape; only the rows a shape touched
+    // are composited and cleared (a tile at level 0 holds hundreds of shapes).
+    let mut coverage = vec![0u32; cols * rows];
+    let full = (ss * ss) as f64;
+    let mut flush = |coverage: &mut [u32], rows_touched: std::ops::Range<usize>, color: [f64; 4]| {
+        if rows_touched.is_empty() {
+            return;
+        }
+        let span = rows_touched.start * cols..rows_touched.end * cols;
+        for (dst, c) in premul[span.clone()].iter_mut().zip(&mut coverage[span]) {
+            if *c > 0 {
+                over(dst, color, f64::from(*c) / full);
+                *c = 0;
+            }
+        }
+    };
     // Fills: even-odd crossings along each sub-row, sweeping north to
     // south with only the edges that span the row (an active edge list).
     for shape in &shapes {
@@ -209,8 +244,8 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
         edges.sort_by(|a, b| b[1].max(b[3]).total_cmp(&a[1].max(a[3])));
         let mut next = 0;
         let mut active: Vec<[f64; 4]> = Vec::new();
-        let mut coverage = vec![0u32; cols * rows];
         let mut xs: Vec<f64> = Vec::new();
+        let mut touched = rows..0;
         // Sub-sample s of a row sits at x(0) + ((s + 0.5) / ss - 0.5) * step:
         // the first one at or east of x.
         let first_at_or_after = |x: f64| {
@@ -224,6 +259,10 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                     next += 1;
                 }
                 active.retain(|e| e[1].min(e[3]) <= y);
+                if active.is_empty() {
+                    continue;
+                }
+                touched = touched.start.min(j)..touched.end.max(j + 1);
                 xs.clear();
                 for &[x0, y0, x1, y1] in &active {
                     if (y0 <= y) != (y1 <= y) {
@@ -248,12 +287,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                 }
             }
         }
-        let full = (ss * ss) as f64;
-        for (dst, c) in premul.iter_mut().zip(&coverage) {
-            if *c > 0 {
-                over(dst, *color, f64::from(*c) / full);
-            }
-        }
+        flush(&mut coverage, touched, *color);
     }
     // Strokes: sub-samples within half the width of a segment.
     if let Some(stroke) = style.stroke {
@@ -270,7 +304,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                 }
                 Width::Metres(w) => (1.0, 1.0, w / 2.0),
             };
-            let mut coverage = vec![0u32; cols * rows];
+            let mut touched = rows..0;
             for seg in line.windows(2) {
                 let ([x0, y0], [x1, y1]) = (seg[0], seg[1]);
                 if geodetic && (x1 - x0).abs() > 180.0 {
@@ -284,6 +318,9 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                 let i1 = (((hi_x - lattice.x(0)) / lattice.step_x).ceil().max(0.0) as usize + 1).min(cols);
                 let j0 = ((lattice.y(0) - hi_y) / lattice.step_y).floor().max(0.0) as usize;
                 let j1 = (((lattice.y(0) - lo_y) / lattice.step_y).ceil().max(0.0) as usize + 1).min(rows);
+                if j0 < j1 && i0 < i1 {
+                    touched = touched.start.min(j0)..touched.end.max(j1);
+                }
                 let (dx, dy) = ((x1 - x0) * sx, (y1 - y0) * sy);
                 let len2 = dx * dx + dy * dy;
                 for j in j0..j1 {
@@ -307,17 +344,16 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                     }
                 }
             }
-            let full = (ss * ss) as f64;
-            for (dst, c) in premul.iter_mut().zip(&coverage) {
-                if *c > 0 {
-                    over(dst, color, f64::from(*c) / full);
-                }
-            }
+            flush(&mut coverage, touched, color);
         }
     }
     let mut rgba = Vec::with_capacity(cols * rows * 4);
     for p in premul {
         let a = p[3];
+        if a == 0.0 {
+            rgba.extend([0; 4]);
+            continue;
+        }
         let un = |v: f64| if a > 0.0 { (v / a * 255.0).round().clamp(0.0, 255.0) as u8 } else { 0 };
         rgba.extend([un(p[0]), un(p[1]), un(p[2]), (a * 255.0).round() as u8]);
     }
