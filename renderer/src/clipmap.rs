@@ -1,0 +1,396 @@
+//! Geometry clipmaps (Losasso & Hoppe 2004), CPU side: L nested windows of
+//! n x n samples centred under the camera, one per tile level, each stored
+//! toroidally so a camera move rewrites only the L-shaped strip that came
+//! into view. Positions are kept relative to an anchor per level (f64 on
+//! the CPU, f32 offsets for the GPU), as in Kooima's planetary rendering.
+
+use std::collections::BTreeMap;
+use std::ops::Range;
+
+use glam::DVec3;
+use relief_source::Extent;
+
+use crate::camera::Pose;
+use crate::surface::Surface;
+
+/// Heights (metres, NaN for nodata) and colours of a block of corner samples.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SampleBlock {
+    pub heights: Vec<f32>,
+    pub colors: Vec<[u8; 4]>,
+}
+
+/// Where the renderer gets terrain: the daemon answers from its tile store.
+pub trait TerrainSamples: Sync {
+    /// Corner samples at tile `level`, columns `xs` and rows `ys` of the
+    /// level's global lattice, row-major. Indices may run past the grid:
+    /// the implementation wraps longitudes, continues over the poles and
+    /// clamps a flat grid. None when the data is not ready.
+    fn samples(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<SampleBlock>;
+
+    /// The finest tile level worth drawing (the height data's resolution).
+    fn max_level(&self) -> u8;
+}
+
+/// The clipmap's two knobs, from the manifest's `[quality]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ClipmapConfig {
+    /// Samples per level side: 2^k - 1 (63, 127, 255).
+    pub n: usize,
+    /// How many nested levels.
+    pub levels: usize,
+}
+
+impl Default for ClipmapConfig {
+    fn default() -> Self {
+        Self { n: 127, levels: 8 }
+    }
+}
+
+impl ClipmapConfig {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.n + 1).is_power_of_two() || !(15..=511).contains(&self.n) {
+            return Err(format!("clipmap_n {} is not 2^k - 1 from 15 to 511", self.n));
+        }
+        if !(1..=16).contains(&self.levels) {
+            return Err(format!("clipmap_levels {} is not from 1 to 16", self.levels));
+        }
+        Ok(())
+    }
+}
+
+/// A rectangle of global sample indices, half-open.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Rect {
+    pub x: Range<i64>,
+    pub y: Range<i64>,
+}
+
+impl Rect {
+    fn is_empty(&self) -> bool {
+        self.x.is_empty() || self.y.is_empty()
+    }
+
+    fn intersect(&self, other: &Rect) -> Rect {
+        Rect {
+            x: self.x.start.max(other.x.start)..self.x.end.min(other.x.end),
+            y: self.y.start.max(other.y.start)..self.y.end.min(other.y.end),
+        }
+    }
+}
+
+/// A rectangle of a level's toroidal storage (for partial texture uploads).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StorageRect {
+    pub x: usize,
+    pub y: usize,
+    pub width: usize,
+    pub height: usize,
+}
+
+/// The storage spans of global indices `range` (length at most n).
+fn spans(range: &Range<i64>, n: usize) -> Vec<(usize, usize)> {
+    let len = (range.end - range.start) as usize;
+    let start = range.start.rem_euclid(n as i64) as usize;
+    if start + len <= n { vec![(start, len)] } else { vec![(start, n - start), (0, start + len - n)] }
+}
+
+/// One clipmap level: the window of samples at one tile level.
+#[derive(Debug, Clone)]
+pub struct ClipLevel {
+    pub tile_level: u8,
+    pub n: usize,
+    /// Global index of the window's north-west sample; both even, so the
+    /// window's edges lie on the coarser level's samples.
+    pub origin: (i64, i64),
+    /// World position the stored positions are relative to.
+    pub anchor: DVec3,
+    anchor_sample: (i64, i64),
+    /// Toroidal n x n: xyz relative to the anchor; w is 1 where there is
+    /// terrain and 0 off a flat grid.
+    pub positions: Vec<[f32; 4]>,
+    pub colors: Vec<[u8; 4]>,
+    dirty: Vec<StorageRect>,
+    /// Samples written since the level was made (incremental work done).
+    pub samples_written: u64,
+    /// Times the whole window was rewritten after it was made.
+    pub full_refills: u32,
+}
+
+impl ClipLevel {
+    /// A level filled from scratch, or None when the data is not ready.
+    pub fn filled(
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        tile_level: u8,
+        n: usize,
+        origin: (i64, i64),
+    ) -> Option<Self> {
+        let mut level = Self {
+            tile_level,
+            n,
+            origin,
+            anchor: DVec3::ZERO,
+            anchor_sample: (0, 0),
+            positions: vec![[0.0; 4]; n * n],
+            colors: vec![[0; 4]; n * n],
+            dirty: Vec::new(),
+            samples_written: 0,
+            full_refills: 0,
+        };
+        level.refill(surface, source, origin)?;
+        level.full_refills = 0;
+        Some(level)
+    }
+
+    pub fn window(&self) -> Rect {
+        let n = self.n as i64;
+        Rect { x: self.origin.0..self.origin.0 + n, y: self.origin.1..self.origin.1 + n }
+    }
+
+    fn refill(&mut self, surface: &Surface, source: &dyn TerrainSamples, origin: (i64, i64)) -> Option<()> {
+        let half = (self.n / 2) as i64;
+        let rect = Rect { x: origin.0..origin.0 + self.n as i64, y: origin.1..origin.1 + self.n as i64 };
+        let block = source.samples(self.tile_level, rect.x.clone(), rect.y.clone())?;
+        self.origin = origin;
+        self.anchor_sample = (origin.0 + half, origin.1 + half);
+        let (ax, ay) = surface.sample_point(self.tile_level, self.anchor_sample.0, self.anchor_sample.1);
+        self.anchor = surface.world(ax, ay, 0.0);
+        self.store(surface, &rect, &block);
+        self.full_refills += 1;
+        Some(())
+    }
+
+    /// Moves the window to `origin`, fetching only the samples that came
+    /// into it. Returns false (and keeps the old window) when the data is
+    /// not ready.
+    pub fn move_to(&mut self, surface: &Surface, source: &dyn TerrainSamples, origin: (i64, i64)) -> bool {
+        let n = self.n as i64;
+        let (dx, dy) = (origin.0 - self.origin.0, origin.1 - self.origin.1);
+        if dx == 0 && dy == 0 {
+            return true;
+        }
+        let far_from_anchor =
+            (origin.0 - self.anchor_sample.0).abs() > 2 * n || (origin.1 - self.anchor_sample.1).abs() > 2 * n;
+        if dx.abs() >= n || dy.abs() >= n || far_from_anchor {
+            return self.refill(surface, source, origin).is_some();
+        }
+        let new = Rect { x: origin.0..origin.0 + n, y: origin.1..origin.1 + n };
+        // The L: whole columns that entered, then the entered rows of the
+        // remaining columns.
+        let columns = if dx > 0 { new.x.end - dx..new.x.end } else { new.x.start..new.x.start - dx };
+        let kept_columns = if dx > 0 { new.x.start..new.x.end - dx } else { new.x.start - dx..new.x.end };
+        let rows = if dy > 0 { new.y.end - dy..new.y.end } else { new.y.start..new.y.start - dy };
+        let strips = [Rect { x: columns, y: new.y.clone() }, Rect { x: kept_columns, y: rows }];
+        let mut blocks = Vec::new();
+        for strip in strips.iter().filter(|s| !s.is_empty()) {
+            match source.samples(self.tile_level, strip.x.clone(), strip.y.clone()) {
+                Some(block) => blocks.push((strip.clone(), block)),
+                None => return false,
+            }
+        }
+        self.origin = origin;
+        for (strip, block) in blocks {
+            self.store(surface, &strip, &block);
+        }
+        true
+    }
+
+    /// Fetches again the part of the window inside `area` (grid units),
+    /// after the scene rebuilt tiles there. False when not ready.
+    pub fn refresh(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> bool {
+        let (x0, y0) = surface.sample_coords(self.tile_level, area.min_x, area.max_y);
+        let (x1, y1) = surface.sample_coords(self.tile_level, area.max_x, area.min_y);
+        let touched = Rect { x: x0.floor() as i64..x1.ceil() as i64 + 1, y: y0.floor() as i64..y1.ceil() as i64 + 1 };
+        let mut rect = touched.intersect(&self.window());
+        if surface.is_planet() && rect.is_empty() {
+            // The window may hold the area one revolution east or west.
+            let total = 2 * (i64::from(surface.grid().tile_size()) << self.tile_level);
+            for shift in [-total, total] {
+                let moved = Rect { x: touched.x.start + shift..touched.x.end + shift, y: touched.y.clone() };
+                rect = moved.intersect(&self.window());
+                if !rect.is_empty() {
+                    break;
+                }
+            }
+        }
+        if rect.is_empty() {
+            return true;
+        }
+        match source.samples(self.tile_level, rect.x.clone(), rect.y.clone()) {
+            Some(block) => {
+                self.store(surface, &rect, &block);
+                true
+            }
+            None => false,
+        }
+    }
+
+    fn store(&mut self, surface: &Surface, rect: &Rect, block: &SampleBlock) {
+        let n = self.n;
+        let width = (rect.x.end - rect.x.start) as usize;
+        for (k, gy) in rect.y.clone().enumerate() {
+            let row = gy.rem_euclid(n as i64) as usize * n;
+            for (m, gx) in rect.x.clone().enumerate() {
+                let h = block.heights[k * width + m];
+                let (x, y) = surface.sample_point(self.tile_level, gx, gy);
+                let on = surface.on_grid(self.tile_level, gx, gy);
+                let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }) - self.anchor;
+                let slot = row + gx.rem_euclid(n as i64) as usize;
+                self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { 0.0 }];
+                self.colors[slot] = block.colors[k * width + m];
+            }
+        }
+        self.samples_written += (width * rect.y.clone().count()) as u64;
+        for (y, height) in spans(&rect.y, n) {
+            for (x, width) in spans(&rect.x, n) {
+                self.dirty.push(StorageRect { x, y, width, height });
+            }
+        }
+    }
+
+    /// The storage rectangles written since the last call.
+    pub fn take_dirty(&mut self) -> Vec<StorageRect> {
+        std::mem::take(&mut self.dirty)
+    }
+}
+
+/// What one update did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct UpdateStats {
+    /// Tile levels drawn this frame, coarse to fine.
+    pub active: Vec<u8>,
+    /// Samples fetched and written.
+    pub samples_written: u64,
+    /// Levels that wanted data that was not ready (not drawn).
+    pub not_ready: Vec<u8>,
+}
+
+/// The nested levels, kept by tile level so a camera that climbs and
+/// comes back finds its data still there.
+#[derive(Debug, Default)]
+pub struct Clipmap {
+    pub config: ClipmapConfig,
+    levels: BTreeMap<u8, ClipLevel>,
+    active: Vec<u8>,
+}
+
+impl Clipmap {
+    pub fn new(config: ClipmapConfig) -> Self {
+        Self { config, levels: BTreeMap::new(), active: Vec::new() }
+    }
+
+    pub fn level(&self, tile_level: u8) -> Option<&ClipLevel> {
+        self.levels.get(&tile_level)
+    }
+
+    pub fn level_mut(&mut self, tile_level: u8) -> Option<&mut ClipLevel> {
+        self.levels.get_mut(&tile_level)
+    }
+
+    /// Tile levels drawn, coarse to fine.
+    pub fn active(&self) -> &[u8] {
+        &self.active
+    }
+
+    /// The window origin of tile level `level` for a camera over (x, y):
+    /// centred, snapped to even samples. On the planet it stays within half
+    /// a revolution of `near` so the antimeridian is no jump.
+    pub fn placement(&self, surface: &Surface, level: u8, x: f64, y: f64, near: Option<(i64, i64)>) -> (i64, i64) {
+        let (fx, fy) = surface.sample_coords(level, x, y);
+        let half = (self.config.n / 2) as f64;
+        let even = |v: f64| 2 * ((v - half) / 2.0).round() as i64;
+        let (mut ox, oy) = (even(fx), even(fy));
+        if let (true, Some(near)) = (surface.is_planet(), near) {
+            let total = 2 * (i64::from(surface.grid().tile_size()) << level);
+            ox += total * ((near.0 - ox) as f64 / total as f64).round() as i64;
+        }
+        (ox, oy)
+    }
+
+    /// The finest and coarsest tile levels for a camera `height_m` above
+    /// the ground: the finest window reaches about 2.5 heights out from
+    /// under the camera (Losasso & Hoppe turn finer levels off above that).
+    pub fn level_range(&self, surface: &Surface, height_m: f64, max_level: u8) -> (u8, u8) {
+        let half = (self.config.n / 2) as f64;
+        let wanted_step = 2.5 * height_m.max(0.5) / half;
+        let mut finest = max_level.max(1);
+        while finest > 1 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
+            finest -= 1;
+        }
+        let coarsest = finest.saturating_sub(self.config.levels as u8 - 1).max(1);
+        (finest, coarsest)
+    }
+
+    /// Brings the levels to `pose`, coarse to fine. A level whose data is
+    /// not ready is not drawn, nor any finer one: every frame covers the
+    /// view at the best detail that is ready.
+    pub fn update(&mut self, surface: &Surface, source: &dyn TerrainSamples, pose: &Pose) -> UpdateStats {
+        let [x, y, h] = pose.position;
+        let max_level = source.max_level().max(1);
+        let probe = max_level.min(self.active.last().copied().unwrap_or(8));
+        let (px, py) = surface.sample_coords(probe, x, y);
+        let ground = source
+            .samples(probe, px.round() as i64..px.round() as i64 + 1, py.round() as i64..py.round() as i64 + 1)
+            .and_then(|b| b.heights.first().copied())
+            .filter(|h| h.is_finite())
+            .map_or(0.0, f64::from);
+        let (finest, coarsest) = self.level_range(surface, h - ground, max_level);
+        let mut stats = UpdateStats::default();
+        let before: u64 = self.levels.values().map(|l| l.samples_written).sum();
+        for level in coarsest..=finest {
+            let near = self.levels.get(&level).map(|l| l.origin);
+            let origin = self.placement(surface, level, x, y, near);
+            let ready = match self.levels.get_mut(&level) {
+                Some(l) => l.move_to(surface, source, origin),
+                None => match ClipLevel::filled(surface, source, level, self.config.n, origin) {
+                    Some(l) => {
+                        self.levels.insert(level, l);
+                        true
+                    }
+                    None => false,
+                },
+            };
+            if !ready {
+                stats.not_ready.push(level);
+                break;
+            }
+            stats.active.push(level);
+        }
+        // Keep a level either side of the range; drop the rest.
+        self.levels.retain(|&l, _| l + 1 >= coarsest && l <= finest + 1);
+        stats.samples_written = self.levels.values().map(|l| l.samples_written).sum::<u64>().saturating_sub(before);
+        self.active.clone_from(&stats.active);
+        stats
+    }
+
+    /// Re-fetches what the scene rebuilt in `area`, in every kept level.
+    pub fn invalidate(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
+        for level in self.levels.values_mut() {
+            if !level.refresh(surface, source, area) {
+                // Not ready: refetch it all when it is.
+                let origin = level.origin;
+                level.origin = (origin.0 + 4 * level.n as i64, origin.1);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spans_split_at_the_wrap() {
+        assert_eq!(spans(&(3..7), 10), vec![(3, 4)]);
+        assert_eq!(spans(&(8..13), 10), vec![(8, 2), (0, 3)]);
+        assert_eq!(spans(&(-2..1), 10), vec![(8, 2), (0, 1)]);
+    }
+
+    #[test]
+    fn config_is_checked() {
+        assert!(ClipmapConfig { n: 127, levels: 8 }.validate().is_ok());
+        assert!(ClipmapConfig { n: 128, levels: 8 }.validate().is_err());
+        assert!(ClipmapConfig { n: 63, levels: 0 }.validate().is_err());
+    }
+}

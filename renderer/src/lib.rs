@@ -1,0 +1,21 @@
+//! relief-renderer: the scene drawn headless with wgpu.
+//!
+//! Geometry clipmaps (Losasso & Hoppe) nested under the camera, updated
+//! coarse to fine as in Clasen's tiling chapter, on the WGS84 ellipsoid or a
+//! flat projected grid, with eye-relative f32 on the GPU (Kooima). The
+//! renderer knows tiles (through `TerrainSamples`) and cameras; never files
+//! or gRPC.
+
+mod camera;
+mod clipmap;
+mod error;
+mod gpu;
+mod renderer;
+mod surface;
+
+pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
+pub use clipmap::{ClipLevel, Clipmap, ClipmapConfig, Rect, SampleBlock, StorageRect, TerrainSamples, UpdateStats};
+pub use error::RenderError;
+pub use gpu::Gpu;
+pub use renderer::{Frame, MAX_LEVELS, RenderSettings, Renderer};
+pub use surface::Surface;

@@ -1,0 +1,647 @@
+//! Drawing a frame: the clipmap brought to the camera, level textures
+//! updated where they changed, the base and the levels drawn with
+//! reversed-Z depth, and the image and depth read back.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Instant;
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use relief_source::Extent;
+use wgpu::util::DeviceExt;
+
+use crate::camera::{Pose, View};
+use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
+use crate::error::RenderError;
+use crate::gpu::Gpu;
+use crate::surface::Surface;
+
+/// Most clipmap levels a frame draws (the shader's uniform array).
+pub const MAX_LEVELS: usize = 16;
+/// Base grid: every `BASE_STRIDE`th sample of tile level 0.
+const BASE_STRIDE: i64 = 4;
+const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct FrameUniform {
+    view_proj: [[f32; 4]; 4],
+    sun: [f32; 4],
+    light: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct LevelUniform {
+    offset: [f32; 4],
+    window: [i32; 4],
+    coarse: [i32; 4],
+    blend: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct BaseVertex {
+    position: [f32; 4],
+    normal: [f32; 4],
+    color: [f32; 4],
+}
+
+/// What a frame is drawn with besides the camera.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// The scene's `lighting` effect: sun and ambient. Off, colours are
+    /// drawn as they are.
+    pub lighting: bool,
+}
+
+/// A rendered frame.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// RGBA8, row-major from the top left.
+    pub rgba: Vec<u8>,
+    /// Reversed-Z depth per pixel: `NEAR_M / distance along the view axis`, 0 for sky.
+    pub depth: Vec<f32>,
+    /// Wall time of each pass, milliseconds.
+    pub passes: Vec<(&'static str, f64)>,
+    pub update: UpdateStats,
+    pub view: View,
+}
+
+/// The coarse grid of the whole scene under the clipmap.
+#[derive(Debug)]
+struct Base {
+    cols: i64,
+    rows: i64,
+    world: Vec<DVec3>,
+    normals: Vec<[f32; 4]>,
+    colors: Vec<[f32; 4]>,
+    valid: Vec<bool>,
+}
+
+impl Base {
+    fn fill(surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
+        let (c, r) = surface.grid().tiles_at(0);
+        let n = i64::from(surface.grid().tile_size());
+        let (total_x, total_y) = (i64::from(c) * n, i64::from(r) * n);
+        let block = source.samples(0, 0..total_x + 1, 0..total_y + 1)?;
+        let (cols, rows) = (total_x / BASE_STRIDE + 1, total_y / BASE_STRIDE + 1);
+        // Sunk a little below the levels, so where both are drawn the
+        // clipmap is on top (about 0.3% of a base cell).
+        let sink = 0.003 * surface.step(0) * BASE_STRIDE as f64 * surface.metres_per_unit();
+        let mut base =
+            Self { cols, rows, world: Vec::new(), normals: Vec::new(), colors: Vec::new(), valid: Vec::new() };
+        for j in 0..rows {
+            for i in 0..cols {
+                let (gx, gy) = (i * BASE_STRIDE, j * BASE_STRIDE);
+                let k = (gy * (total_x + 1) + gx) as usize;
+                let h = block.heights[k];
+                let (x, y) = surface.sample_point(0, gx, gy);
+                base.world.push(surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 } - sink));
+                let up = surface.enu(x, y)[2].as_vec3();
+                base.normals.push([up.x, up.y, up.z, 0.0]);
+                base.colors.push(block.colors[k].map(|v| f32::from(v) / 255.0));
+                base.valid.push(surface.on_grid(0, gx, gy));
+            }
+        }
+        Some(base)
+    }
+}
+
+pub struct Renderer {
+    gpu: Arc<Gpu>,
+    surface: Surface,
+    clipmap: Clipmap,
+    level_pipeline: wgpu::RenderPipeline,
+    base_pipeline: wgpu::RenderPipeline,
+    frame_buffer: wgpu::Buffer,
+    levels_buffer: wgpu::Buffer,
+    positions: wgpu::Texture,
+    colors: wgpu::Texture,
+    bind_group: wgpu::BindGroup,
+    /// Which tile level each texture layer holds now.
+    layer_holds: Vec<Option<u8>>,
+    /// Index buffers by the finer level's hole (in cells), or none.
+    index_cache: HashMap<Option<(i64, i64)>, (wgpu::Buffer, u32)>,
+    base: Option<Base>,
+}
+
+impl Renderer {
+    pub fn new(gpu: Arc<Gpu>, surface: Surface, config: ClipmapConfig) -> Result<Self, RenderError> {
+        config.validate().map_err(|message| RenderError::Request { field: "quality", message })?;
+        if config.levels > MAX_LEVELS {
+            return Err(RenderError::Request { field: "quality", message: format!("at most {MAX_LEVELS} levels") });
+        }
+        let device = &gpu.device;
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("terrain"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("terrain.wgsl").into()),
+        });
+        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
+        let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let uniform = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let texture = |filterable| wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("terrain"),
+            entries: &[
+                entry(0, both, uniform),
+                entry(1, wgpu::ShaderStages::VERTEX, uniform),
+                entry(2, wgpu::ShaderStages::VERTEX, texture(false)),
+                entry(3, wgpu::ShaderStages::FRAGMENT, texture(true)),
+                entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("terrain"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let base_attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4];
+        let pipeline = |label, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some(vs),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(fs),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    targets: &[Some(COLOR_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let level_pipeline = pipeline("levels", "vs_level", "fs_level", &[]);
+        let base_pipeline = pipeline(
+            "base",
+            "vs_base",
+            "fs_base",
+            &[Some(wgpu::VertexBufferLayout {
+                array_stride: size_of::<BaseVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &base_attributes,
+            })],
+        );
+        let n = config.n as u32;
+        let layers = config.levels as u32;
+        let array = |label, format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: n, height: n, depth_or_array_layers: layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        };
+        let positions = array("level positions", wgpu::TextureFormat::Rgba32Float);
+        let colors = array("level colours", wgpu::TextureFormat::Rgba8Unorm);
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame"),
+            size: size_of::<FrameUniform>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("levels"),
+            size: (size_of::<LevelUniform>() * MAX_LEVELS) as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        // Repeat: the colour textures are toroidal.
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("colours"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let array_view = |t: &wgpu::Texture| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        };
+        let (positions_view, colors_view) = (array_view(&positions), array_view(&colors));
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("terrain"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: levels_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&positions_view) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&colors_view) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&sampler) },
+            ],
+        });
+        Ok(Self {
+            gpu,
+            surface,
+            clipmap: Clipmap::new(config),
+            level_pipeline,
+            base_pipeline,
+            frame_buffer,
+            levels_buffer,
+            positions,
+            colors,
+            bind_group,
+            layer_holds: vec![None; config.levels],
+            index_cache: HashMap::new(),
+            base: None,
+        })
+    }
+
+    pub fn surface(&self) -> &Surface {
+        &self.surface
+    }
+
+    pub fn clipmap(&self) -> &Clipmap {
+        &self.clipmap
+    }
+
+    pub fn gpu(&self) -> &Gpu {
+        &self.gpu
+    }
+
+    /// The scene rebuilt tiles in `area`: refresh those samples only.
+    pub fn invalidate(&mut self, source: &dyn TerrainSamples, area: &Extent) {
+        self.clipmap.invalidate(&self.surface, source, area);
+        self.base = None;
+    }
+
+    /// Renders the view from `pose`.
+    pub fn render(
+        &mut self,
+        source: &dyn TerrainSamples,
+        pose: &Pose,
+        settings: &RenderSettings,
+    ) -> Result<Frame, RenderError> {
+        pose.validate(self.surface.is_planet())?;
+        let max = self.gpu.max_size();
+        for (field, v) in [("width", settings.width), ("height", settings.height)] {
+            if v == 0 || v > max {
+                return Err(RenderError::Request { field, message: format!("{v} is not from 1 to {max} pixels") });
+            }
+        }
+        let mut passes = Vec::new();
+        let started = Instant::now();
+        let update = self.clipmap.update(&self.surface, source, pose);
+        if self.base.is_none() {
+            self.base = Base::fill(&self.surface, source);
+        }
+        passes.push(("update", started.elapsed().as_secs_f64() * 1e3));
+
+        let started = Instant::now();
+        self.upload_levels(&update.active);
+        let view = self.surface.view(pose);
+        let levels = self.level_uniforms(&update.active, pose, &view);
+        let lighting = FrameUniform {
+            view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
+            sun: self.sun(pose),
+            light: [0.35, 0.75, if settings.lighting { 1.0 } else { 0.0 }, 0.0],
+        };
+        let queue = &self.gpu.queue;
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&lighting));
+        queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
+        let base = self.base_geometry(&update.active, &view);
+        let draws = self.level_draws(&update.active);
+        passes.push(("upload", started.elapsed().as_secs_f64() * 1e3));
+
+        let started = Instant::now();
+        let device = &self.gpu.device;
+        let target = |format, usage| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: None,
+                size: wgpu::Extent3d { width: settings.width, height: settings.height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: usage | wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        };
+        let color = target(COLOR_FORMAT, wgpu::TextureUsages::empty());
+        let depth = target(DEPTH_FORMAT, wgpu::TextureUsages::empty());
+        let (color_view, depth_view) = (color.create_view(&Default::default()), depth.create_view(&Default::default()));
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("terrain"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r: 0.02, g: 0.03, b: 0.07, a: 1.0 }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &depth_view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            if let Some((vertices, indices, count)) = &base {
+                pass.set_pipeline(&self.base_pipeline);
+                pass.set_vertex_buffer(0, vertices.slice(..));
+                pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..*count, 0, 0..1);
+            }
+            pass.set_pipeline(&self.level_pipeline);
+            for (slot, key) in draws.iter().enumerate() {
+                let (indices, count) = &self.index_cache[key];
+                pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..*count, 0, slot as u32..slot as u32 + 1);
+            }
+        }
+        let (rgba, depth_values) = self.read_back(encoder, &color, &depth, settings)?;
+        passes.push(("draw and read back", started.elapsed().as_secs_f64() * 1e3));
+        Ok(Frame { width: settings.width, height: settings.height, rgba, depth: depth_values, passes, update, view })
+    }
+
+    /// The sun in the camera's local sky: from the north-west, 45 degrees up.
+    fn sun(&self, pose: &Pose) -> [f32; 4] {
+        let [e, n, u] = self.surface.enu(pose.position[0], pose.position[1]);
+        let (az, el) = (315f64.to_radians(), 45f64.to_radians());
+        let d = (az.sin() * e + az.cos() * n) * el.cos() + u * el.sin();
+        [d.x as f32, d.y as f32, d.z as f32, 0.0]
+    }
+
+    /// Brings each active level's texture layer up to date: the whole
+    /// layer when it held another level, else only the rectangles written.
+    fn upload_levels(&mut self, active: &[u8]) {
+        let layers = self.clipmap.config.levels;
+        for &t in active {
+            let layer = usize::from(t) % layers;
+            let Some(level) = self.clipmap.level_mut(t) else { continue };
+            let n = level.n;
+            let rects = if self.layer_holds[layer] == Some(t) {
+                level.take_dirty()
+            } else {
+                level.take_dirty();
+                self.layer_holds[layer] = Some(t);
+                vec![crate::clipmap::StorageRect { x: 0, y: 0, width: n, height: n }]
+            };
+            for r in rects {
+                let rows = r.y..r.y + r.height;
+                let cols = r.x..r.x + r.width;
+                let positions: Vec<[f32; 4]> = rows
+                    .clone()
+                    .flat_map(|y| level.positions[y * n + cols.start..y * n + cols.end].iter().copied())
+                    .collect();
+                let colors: Vec<[u8; 4]> =
+                    rows.flat_map(|y| level.colors[y * n + cols.start..y * n + cols.end].iter().copied()).collect();
+                let write = |texture: &wgpu::Texture, bytes: &[u8], texel: u32| {
+                    self.gpu.queue.write_texture(
+                        wgpu::TexelCopyTextureInfo {
+                            texture,
+                            mip_level: 0,
+                            origin: wgpu::Origin3d { x: r.x as u32, y: r.y as u32, z: layer as u32 },
+                            aspect: wgpu::TextureAspect::All,
+                        },
+                        bytes,
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(r.width as u32 * texel),
+                            rows_per_image: Some(r.height as u32),
+                        },
+                        wgpu::Extent3d { width: r.width as u32, height: r.height as u32, depth_or_array_layers: 1 },
+                    );
+                };
+                write(&self.positions, bytemuck::cast_slice(&positions), 16);
+                write(&self.colors, bytemuck::cast_slice(&colors), 4);
+            }
+        }
+    }
+
+    fn level_uniforms(&self, active: &[u8], pose: &Pose, view: &View) -> Vec<LevelUniform> {
+        let mut out = vec![LevelUniform::zeroed(); MAX_LEVELS];
+        let layers = self.clipmap.config.levels;
+        let mut coarser: Option<[i32; 4]> = None;
+        for (slot, &t) in active.iter().enumerate() {
+            let Some(level) = self.clipmap.level(t) else { continue };
+            let layer = (usize::from(t) % layers) as i32;
+            let offset = (level.anchor - view.eye).as_vec3();
+            let (mut fx, fy) = self.surface.sample_coords(t, pose.position[0], pose.position[1]);
+            if self.surface.is_planet() {
+                let total = 2.0 * (f64::from(self.surface.grid().tile_size()) * f64::from(1u32 << t));
+                let centre = level.origin.0 as f64 + (level.n / 2) as f64;
+                fx += total * ((centre - fx) / total).round();
+            }
+            let window = [level.origin.0 as i32, level.origin.1 as i32, layer, level.n as i32];
+            out[slot] = LevelUniform {
+                offset: [offset.x, offset.y, offset.z, 0.0],
+                window,
+                coarse: coarser.map_or([0, 0, layer, 0], |c| [c[0], c[1], c[2], 1]),
+                blend: [
+                    (fx - level.origin.0 as f64) as f32,
+                    (fy - level.origin.1 as f64) as f32,
+                    (level.n as f32 / 10.0).max(2.0),
+                    0.0,
+                ],
+            };
+            coarser = Some(window);
+        }
+        out
+    }
+
+    /// The index buffer of each active level: every cell but the hole the
+    /// next finer level fills.
+    fn level_draws(&mut self, active: &[u8]) -> Vec<Option<(i64, i64)>> {
+        let n = self.clipmap.config.n;
+        let mut keys = Vec::new();
+        for (k, &t) in active.iter().enumerate() {
+            let Some(level) = self.clipmap.level(t) else { continue };
+            let hole = active.get(k + 1).and_then(|&f| self.clipmap.level(f)).map(|finer| {
+                let mut hx = finer.origin.0 / 2 - level.origin.0;
+                if self.surface.is_planet() {
+                    let total = 2 * (i64::from(self.surface.grid().tile_size()) << t);
+                    hx -= total * ((hx as f64) / total as f64).round() as i64;
+                }
+                (hx, finer.origin.1 / 2 - level.origin.1)
+            });
+            if !self.index_cache.contains_key(&hole) {
+                let indices = cell_indices(n, hole);
+                let buffer = self.gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("level cells"),
+                    contents: bytemuck::cast_slice(&indices),
+                    usage: wgpu::BufferUsages::INDEX,
+                });
+                self.index_cache.insert(hole, (buffer, indices.len() as u32));
+            }
+            keys.push(hole);
+        }
+        keys
+    }
+
+    /// The base's eye-relative vertices and the cells not under the
+    /// coarsest level.
+    fn base_geometry(&self, active: &[u8], view: &View) -> Option<(wgpu::Buffer, wgpu::Buffer, u32)> {
+        let base = self.base.as_ref()?;
+        let vertices: Vec<BaseVertex> = (0..base.world.len())
+            .map(|k| {
+                let p = (base.world[k] - view.eye).as_vec3();
+                BaseVertex {
+                    position: [p.x, p.y, p.z, if base.valid[k] { 1.0 } else { 0.0 }],
+                    normal: base.normals[k],
+                    color: base.colors[k],
+                }
+            })
+            .collect();
+        // The coarsest level's window in tile-level-0 samples.
+        let covered = active.first().and_then(|&t| self.clipmap.level(t)).map(|level| {
+            let scale = f64::from(1u32 << level.tile_level);
+            let x0 = level.origin.0 as f64 / scale;
+            let y0 = level.origin.1 as f64 / scale;
+            let side = (level.n - 1) as f64 / scale;
+            (x0, y0, side)
+        });
+        let total_x = (base.cols - 1) * BASE_STRIDE;
+        let mut indices = Vec::new();
+        for j in 0..base.rows - 1 {
+            for i in 0..base.cols - 1 {
+                let (cx, cy) = ((i * BASE_STRIDE) as f64, (j * BASE_STRIDE) as f64);
+                let inside = covered.is_some_and(|(x0, y0, side)| {
+                    let shifts: &[f64] = if self.surface.is_planet() { &[-1.0, 0.0, 1.0] } else { &[0.0] };
+                    shifts.iter().any(|s| {
+                        let x = cx + s * total_x as f64;
+                        x >= x0
+                            && x + BASE_STRIDE as f64 <= x0 + side
+                            && cy >= y0
+                            && cy + BASE_STRIDE as f64 <= y0 + side
+                    })
+                });
+                if inside {
+                    continue;
+                }
+                let a = (j * base.cols + i) as u32;
+                let (b, c, d) = (a + 1, a + base.cols as u32, a + base.cols as u32 + 1);
+                indices.extend([a, c, d, a, d, b]);
+            }
+        }
+        let device = &self.gpu.device;
+        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("base vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("base cells"),
+            contents: bytemuck::cast_slice(&indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        Some((vertex_buffer, index_buffer, indices.len() as u32))
+    }
+
+    fn read_back(
+        &self,
+        mut encoder: wgpu::CommandEncoder,
+        color: &wgpu::Texture,
+        depth: &wgpu::Texture,
+        settings: &RenderSettings,
+    ) -> Result<(Vec<u8>, Vec<f32>), RenderError> {
+        let device = &self.gpu.device;
+        let (w, h) = (settings.width, settings.height);
+        let row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: u64::from(row * h),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        let (color_buffer, depth_buffer) = (buffer("colour read-back"), buffer("depth read-back"));
+        for (texture, target, aspect) in
+            [(color, &color_buffer, wgpu::TextureAspect::All), (depth, &depth_buffer, wgpu::TextureAspect::DepthOnly)]
+        {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: target,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(row),
+                        rows_per_image: Some(h),
+                    },
+                },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+        self.gpu.queue.submit([encoder.finish()]);
+        for b in [&color_buffer, &depth_buffer] {
+            b.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        }
+        device
+            .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+            .map_err(|e| RenderError::Device(e.to_string()))?;
+        let unpad = |b: &wgpu::Buffer| -> Result<Vec<u8>, RenderError> {
+            let view = b.slice(..).get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
+            let mut out = Vec::with_capacity((w * h * 4) as usize);
+            for y in 0..h as usize {
+                out.extend_from_slice(&view[y * row as usize..y * row as usize + (w * 4) as usize]);
+            }
+            Ok(out)
+        };
+        let rgba = unpad(&color_buffer)?;
+        let depth = bytemuck::cast_slice::<u8, f32>(&unpad(&depth_buffer)?).to_vec();
+        Ok((rgba, depth))
+    }
+}
+
+/// Two triangles per cell of an n x n vertex grid (diagonal north-west to
+/// south-east, as the shader's coarse midpoints assume), leaving out the
+/// `hole` of side (n - 1) / 2 cells at cell (hx, hy).
+fn cell_indices(n: usize, hole: Option<(i64, i64)>) -> Vec<u32> {
+    let side = ((n - 1) / 2) as i64;
+    let mut out = Vec::with_capacity((n - 1) * (n - 1) * 6);
+    for j in 0..n as i64 - 1 {
+        for i in 0..n as i64 - 1 {
+            if hole.is_some_and(|(hx, hy)| (hx..hx + side).contains(&i) && (hy..hy + side).contains(&j)) {
+                continue;
+            }
+            let a = (j * n as i64 + i) as u32;
+            let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
+            out.extend([a, c, d, a, d, b]);
+        }
+    }
+    out
+}

@@ -1,0 +1,83 @@
+//! The surface the terrain lies on: the WGS84 ellipsoid for a geodetic grid
+//! (world = ECEF metres), or a plane for a projected grid (world = grid x,
+//! y and height). World positions are f64; only eye- or anchor-relative
+//! offsets go to the GPU as f32.
+
+use glam::DVec3;
+use relief_source::{TileGrid, geodesy};
+
+use crate::camera::{Pose, View};
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Surface {
+    grid: TileGrid,
+}
+
+impl Surface {
+    pub fn new(grid: TileGrid) -> Self {
+        Self { grid }
+    }
+
+    pub fn grid(&self) -> &TileGrid {
+        &self.grid
+    }
+
+    pub fn is_planet(&self) -> bool {
+        self.grid.is_geodetic()
+    }
+
+    /// The world position of grid point (x, y) at height `h` metres. On the
+    /// planet, latitudes past a pole continue over it (the ECEF formula does
+    /// that by itself), so a clipmap that reaches over a pole folds back.
+    pub fn world(&self, x: f64, y: f64, h: f64) -> DVec3 {
+        if self.is_planet() { DVec3::from(geodesy::ecef_from_geodetic(x, y, h)) } else { DVec3::new(x, y, h) }
+    }
+
+    /// East, north and up at grid point (x, y).
+    pub fn enu(&self, x: f64, y: f64) -> [DVec3; 3] {
+        if self.is_planet() {
+            geodesy::enu_axes(x, y.clamp(-90.0, 90.0)).map(DVec3::from)
+        } else {
+            [DVec3::X, DVec3::Y, DVec3::Z]
+        }
+    }
+
+    pub fn view(&self, pose: &Pose) -> View {
+        let [x, y, h] = pose.position;
+        View::new(self.world(x, y, h), self.enu(x, y), pose)
+    }
+
+    /// Corner-sample spacing at tile level `level`, in grid units.
+    pub fn step(&self, level: u8) -> f64 {
+        self.grid.tile_span(level).0 / f64::from(self.grid.tile_size())
+    }
+
+    /// Grid point of global corner sample (gx, gy) at `level`.
+    pub fn sample_point(&self, level: u8, gx: i64, gy: i64) -> (f64, f64) {
+        let e = self.grid.extent();
+        let s = self.step(level);
+        (e.min_x + gx as f64 * s, e.max_y - gy as f64 * s)
+    }
+
+    /// Continuous sample coordinates of grid point (x, y) at `level`.
+    pub fn sample_coords(&self, level: u8, x: f64, y: f64) -> (f64, f64) {
+        let e = self.grid.extent();
+        let s = self.step(level);
+        ((x - e.min_x) / s, (e.max_y - y) / s)
+    }
+
+    /// Metres per grid unit along the ground (at the equator on the planet).
+    pub fn metres_per_unit(&self) -> f64 {
+        if self.is_planet() { geodesy::WGS84_A.to_radians() } else { 1.0 }
+    }
+
+    /// Whether a sample lies on the grid; a flat scene ends at its edges.
+    pub fn on_grid(&self, level: u8, gx: i64, gy: i64) -> bool {
+        if self.is_planet() {
+            return true;
+        }
+        let (cols, rows) = self.grid.tiles_at(level);
+        let n = i64::from(self.grid.tile_size());
+        (0..=i64::from(cols) * n).contains(&gx) && (0..=i64::from(rows) * n).contains(&gy)
+    }
+}

@@ -1,0 +1,158 @@
+// Geometry clipmap terrain and the coarse base under it. Positions reach
+// the GPU as f32 offsets from a per-level anchor; the anchor's offset from
+// the eye is computed in f64 on the CPU, so nothing here is absolute ECEF.
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    // Direction towards the sun (world axes), w unused.
+    sun: vec4<f32>,
+    // x ambient, y diffuse, z 1 when the lighting effect is on.
+    light: vec4<f32>,
+}
+
+struct Level {
+    // Anchor minus eye (xyz).
+    offset: vec4<f32>,
+    // Window origin (global samples), texture layer, n.
+    window: vec4<i32>,
+    // Coarser level: window origin, layer, 1 when it exists.
+    coarse: vec4<i32>,
+    // Camera in window samples (xy), transition width, 1 when outermost.
+    blend: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+struct Levels {
+    items: array<Level, 16>,
+}
+
+@group(0) @binding(1) var<uniform> levels: Levels;
+@group(0) @binding(2) var positions: texture_2d_array<f32>;
+@group(0) @binding(3) var colors: texture_2d_array<f32>;
+@group(0) @binding(4) var linear: sampler;
+
+struct Out {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) uv: vec2<f32>,
+    @location(2) uv_coarse: vec2<f32>,
+    @location(3) alpha: f32,
+    @location(4) valid: f32,
+    @location(5) @interpolate(flat) layers: vec2<i32>,
+}
+
+fn wrap(g: i32, n: i32) -> i32 {
+    return ((g % n) + n) % n;
+}
+
+fn load(lv: Level, i: i32, j: i32) -> vec4<f32> {
+    let n = lv.window.w;
+    let ii = clamp(i, 0, n - 1);
+    let jj = clamp(j, 0, n - 1);
+    return textureLoad(positions, vec2<i32>(wrap(lv.window.x + ii, n), wrap(lv.window.y + jj, n)), lv.window.z, 0);
+}
+
+// Up from the samples round (i, j), `d` apart: cross(south, east).
+fn normal_at(lv: Level, i: i32, j: i32, d: i32) -> vec3<f32> {
+    let east = load(lv, i + d, j).xyz - load(lv, i - d, j).xyz;
+    let south = load(lv, i, j + d).xyz - load(lv, i, j - d).xyz;
+    return normalize(cross(south, east));
+}
+
+@vertex
+fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) -> Out {
+    let lv = levels.items[li];
+    let n = lv.window.w;
+    let i = i32(vi) % n;
+    let j = i32(vi) / n;
+    let here = load(lv, i, j);
+    // The coarser level's surface at this vertex: the vertex itself where
+    // both indices are even, else the midpoint of the coarse edge (or
+    // diagonal) it lies on. Window origins are even, so parity of i is
+    // parity of the global index.
+    var coarse = here.xyz;
+    let odd_i = (i & 1) == 1;
+    let odd_j = (j & 1) == 1;
+    if odd_i && odd_j {
+        coarse = 0.5 * (load(lv, i - 1, j - 1).xyz + load(lv, i + 1, j + 1).xyz);
+    } else if odd_i {
+        coarse = 0.5 * (load(lv, i - 1, j).xyz + load(lv, i + 1, j).xyz);
+    } else if odd_j {
+        coarse = 0.5 * (load(lv, i, j - 1).xyz + load(lv, i, j + 1).xyz);
+    }
+    // Transition (Losasso & Hoppe): towards the coarse surface near the
+    // window's edge, exactly on it at the outer ring, so no cracks; it
+    // follows the camera continuously, so no popping.
+    let half = f32(n - 1) * 0.5;
+    let w = lv.blend.z;
+    let d = max(abs(f32(i) - lv.blend.x), abs(f32(j) - lv.blend.y));
+    var alpha = clamp((d - (half - w - 1.0)) / w, 0.0, 1.0);
+    if i == 0 || j == 0 || i == n - 1 || j == n - 1 {
+        alpha = 1.0;
+    }
+    if lv.coarse.w == 0 {
+        alpha = 0.0;
+    }
+    let p = mix(here.xyz, coarse, alpha) + lv.offset.xyz;
+    var out: Out;
+    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
+    out.normal = normalize(mix(normal_at(lv, i, j, 1), normal_at(lv, i, j, 2), alpha));
+    let u = f32(wrap(lv.window.x, n) + i) + 0.5;
+    let v = f32(wrap(lv.window.y, n) + j) + 0.5;
+    out.uv = vec2<f32>(u, v) / f32(n);
+    // This vertex in the coarser window's samples.
+    let cu = f32(wrap(lv.coarse.x, n)) + (f32(lv.window.x + i) * 0.5 - f32(lv.coarse.x)) + 0.5;
+    let cv = f32(wrap(lv.coarse.y, n)) + (f32(lv.window.y + j) * 0.5 - f32(lv.coarse.y)) + 0.5;
+    out.uv_coarse = vec2<f32>(cu, cv) / f32(n);
+    out.alpha = alpha;
+    out.valid = here.w;
+    out.layers = vec2<i32>(lv.window.z, select(lv.window.z, lv.coarse.z, lv.coarse.w == 1));
+    return out;
+}
+
+fn shade(base: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
+    // Samples without colour are drawn light grey.
+    let albedo = select(vec3<f32>(0.78, 0.78, 0.76), base.rgb, base.a > 0.0);
+    var light = 1.0;
+    if frame.light.z > 0.5 {
+        light = frame.light.x + frame.light.y * max(dot(normalize(normal), frame.sun.xyz), 0.0);
+    }
+    return vec4<f32>(albedo * light, 1.0);
+}
+
+@fragment
+fn fs_level(in: Out) -> @location(0) vec4<f32> {
+    if in.valid < 0.5 {
+        discard;
+    }
+    let fine = textureSampleLevel(colors, linear, in.uv, in.layers.x, 0.0);
+    let coarse = textureSampleLevel(colors, linear, in.uv_coarse, in.layers.y, 0.0);
+    return shade(mix(fine, coarse, in.alpha), in.normal);
+}
+
+struct BaseOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) color: vec4<f32>,
+    @location(2) valid: f32,
+}
+
+// The base: a coarse grid of the whole scene, eye-relative positions made
+// in f64 on the CPU each frame.
+@vertex
+fn vs_base(@location(0) position: vec4<f32>, @location(1) normal: vec4<f32>, @location(2) color: vec4<f32>) -> BaseOut {
+    var out: BaseOut;
+    out.clip = frame.view_proj * vec4<f32>(position.xyz, 1.0);
+    out.normal = normal.xyz;
+    out.color = color;
+    out.valid = position.w;
+    return out;
+}
+
+@fragment
+fn fs_base(in: BaseOut) -> @location(0) vec4<f32> {
+    if in.valid < 0.5 {
+        discard;
+    }
+    return shade(in.color, in.normal);
+}
