@@ -2,8 +2,8 @@
 //! and scheduler, file watching and the gRPC service.
 //!
 //! It depends on the source crates (registered in `registry`) and on
-//! relief-proto at the gRPC edge only (`service`). It never renders: the
-//! renderer is its own crate.
+//! relief-proto at the gRPC edge only (`service`). Frames are drawn by
+//! relief-renderer; `view` feeds it the scene's tiles and owns the camera.
 
 pub mod graph;
 pub mod manifest;
@@ -11,4 +11,5 @@ pub mod registry;
 pub mod scene;
 pub mod service;
 pub mod tiles;
+pub mod view;
 pub mod watcher;

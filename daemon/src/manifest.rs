@@ -5,6 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+use relief_renderer::ClipmapConfig;
 use relief_source::{OptionValue, PayloadKind, Quality, SourceSpec};
 use serde::Deserialize;
 
@@ -66,6 +67,21 @@ struct RawManifest {
     cache: RawCache,
     #[serde(default)]
     watch: RawWatch,
+    camera: Option<RawCamera>,
+}
+
+/// The camera a scene opens with; fields left out are chosen from the
+/// height layer's extent.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RawCamera {
+    pub lon_deg: Option<f64>,
+    pub lat_deg: Option<f64>,
+    pub altitude_m: Option<f64>,
+    pub heading_deg: Option<f64>,
+    pub pitch_deg: Option<f64>,
+    pub roll_deg: Option<f64>,
+    pub vertical_fov_deg: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -114,6 +130,8 @@ struct RawSource {
 struct RawQuality {
     resampling: Option<String>,
     reprojection_error_px: Option<f64>,
+    clipmap_grid_size: Option<usize>,
+    clipmap_levels: Option<usize>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -176,6 +194,10 @@ pub struct Manifest {
     pub layers: BTreeMap<String, String>,
     pub effects: Vec<String>,
     pub quality: Quality,
+    /// The renderer's accuracy knobs: samples per clipmap level side and
+    /// how many levels.
+    pub clipmap: ClipmapConfig,
+    pub camera: RawCamera,
     pub cache_budget_bytes: u64,
     pub watch: WatchSettings,
 }
@@ -284,6 +306,12 @@ impl Manifest {
             }
             quality.reprojection_error_px = e;
         }
+        let defaults = ClipmapConfig::default();
+        let clipmap = ClipmapConfig {
+            n: raw.quality.clipmap_grid_size.unwrap_or(defaults.n),
+            levels: raw.quality.clipmap_levels.unwrap_or(defaults.levels),
+        };
+        clipmap.validate().map_err(|e| field("quality.clipmap_grid_size", e))?;
         let tile_size = raw.scene.tile_size.unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
             return Err(field("scene.tile_size", format!("{tile_size} is not a power of two from 16 to 4096")));
@@ -321,6 +349,8 @@ impl Manifest {
             layers: raw.layers,
             effects,
             quality,
+            clipmap,
+            camera: raw.camera.unwrap_or_default(),
             cache_budget_bytes: memory_mb * 1024 * 1024,
             watch,
         })

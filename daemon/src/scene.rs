@@ -2,7 +2,7 @@
 //! (and manifest edits) into new generations, the rebuild of the cached
 //! tiles a change touched, and the events that tell viewers about it.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
@@ -81,6 +81,8 @@ pub struct Scene {
     events: broadcast::Sender<SceneEvent>,
     refresh_lock: Mutex<()>,
     reads_retried: AtomicU64,
+    /// Effects the last frame computed, and what its pass cost (ms).
+    effects_ran: RwLock<BTreeMap<String, f64>>,
 }
 
 /// How many events a slow Watch subscriber may fall behind before it is
@@ -116,6 +118,7 @@ impl Scene {
                 events,
                 refresh_lock: Mutex::new(()),
                 reads_retried: AtomicU64::new(0),
+                effects_ran: RwLock::new(BTreeMap::new()),
             },
             open_errors,
         ))
@@ -137,6 +140,16 @@ impl Scene {
     /// Reads discarded so far because a writer was still at work.
     pub fn reads_retried(&self) -> u64 {
         self.reads_retried.load(Ordering::Relaxed)
+    }
+
+    /// Records the effects the last frame computed (and their cost), so
+    /// the scene state shows that nothing else was.
+    pub fn set_effects_ran(&self, ran: BTreeMap<String, f64>) {
+        *self.effects_ran.write().expect("scene lock is never poisoned") = ran;
+    }
+
+    pub fn effects_ran(&self) -> BTreeMap<String, f64> {
+        self.effects_ran.read().expect("scene lock is never poisoned").clone()
     }
 
     pub fn generations(&self) -> watch::Receiver<u64> {

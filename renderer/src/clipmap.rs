@@ -33,7 +33,7 @@ pub trait TerrainSamples: Sync {
 }
 
 /// The clipmap's two knobs, from the manifest's `[quality]`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ClipmapConfig {
     /// Samples per level side: 2^k - 1 (63, 127, 255).
     pub n: usize,
@@ -309,11 +309,11 @@ impl Clipmap {
     }
 
     /// The finest and coarsest tile levels for a camera `height_m` above
-    /// the ground: the finest window reaches about 2.5 heights out from
+    /// the ground: the finest window reaches about one height out from
     /// under the camera (Losasso & Hoppe turn finer levels off above that).
     pub fn level_range(&self, surface: &Surface, height_m: f64, max_level: u8) -> (u8, u8) {
         let half = (self.config.n / 2) as f64;
-        let wanted_step = 2.5 * height_m.max(0.5) / half;
+        let wanted_step = height_m.max(0.5) / half;
         let mut finest = max_level.max(1);
         while finest > 1 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
             finest -= 1;

@@ -16,7 +16,11 @@ impl Gpu {
     /// Opens the best adapter there is (discrete or integrated GPU before
     /// a CPU rasterizer). `WGPU_BACKEND` and friends are honoured.
     pub fn headless() -> Result<Self, RenderError> {
-        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        // Vulkan (lavapipe included), Metal or DX12; GL only when WGPU_BACKEND
+        // asks for it (probing EGL on a headless machine only logs errors).
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::PRIMARY;
+        let instance = wgpu::Instance::new(desc.with_env());
         let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
             power_preference: wgpu::PowerPreference::HighPerformance,
             ..Default::default()

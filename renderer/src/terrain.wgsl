@@ -59,30 +59,43 @@ fn normal_at(lv: Level, i: i32, j: i32, d: i32) -> vec3<f32> {
     return normalize(cross(south, east));
 }
 
+// A sample of a level by its global index (storage is toroidal: the
+// index modulo n), relative to the eye.
+fn sample_at(lv: Level, gx: i32, gy: i32) -> vec3<f32> {
+    let n = lv.window.w;
+    return textureLoad(positions, vec2<i32>(wrap(gx, n), wrap(gy, n)), lv.window.z, 0).xyz + lv.offset.xyz;
+}
+
+// The coarser level's surface under fine sample (gx, gy): its own sample
+// where both indices are even, else the midpoint of the coarse edge (or
+// the north-west to south-east diagonal) the fine sample lies on.
+fn coarse_at(c: Level, gx: i32, gy: i32) -> vec3<f32> {
+    let x0 = gx >> 1u;
+    let y0 = gy >> 1u;
+    let odd_x = (gx & 1) == 1;
+    let odd_y = (gy & 1) == 1;
+    if odd_x && odd_y {
+        return 0.5 * (sample_at(c, x0, y0) + sample_at(c, x0 + 1, y0 + 1));
+    } else if odd_x {
+        return 0.5 * (sample_at(c, x0, y0) + sample_at(c, x0 + 1, y0));
+    } else if odd_y {
+        return 0.5 * (sample_at(c, x0, y0) + sample_at(c, x0, y0 + 1));
+    }
+    return sample_at(c, x0, y0);
+}
+
 @vertex
 fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) -> Out {
     let lv = levels.items[li];
     let n = lv.window.w;
     let i = i32(vi) % n;
     let j = i32(vi) / n;
+    let gx = lv.window.x + i;
+    let gy = lv.window.y + j;
     let here = load(lv, i, j);
-    // The coarser level's surface at this vertex: the vertex itself where
-    // both indices are even, else the midpoint of the coarse edge (or
-    // diagonal) it lies on. Window origins are even, so parity of i is
-    // parity of the global index.
-    var coarse = here.xyz;
-    let odd_i = (i & 1) == 1;
-    let odd_j = (j & 1) == 1;
-    if odd_i && odd_j {
-        coarse = 0.5 * (load(lv, i - 1, j - 1).xyz + load(lv, i + 1, j + 1).xyz);
-    } else if odd_i {
-        coarse = 0.5 * (load(lv, i - 1, j).xyz + load(lv, i + 1, j).xyz);
-    } else if odd_j {
-        coarse = 0.5 * (load(lv, i, j - 1).xyz + load(lv, i, j + 1).xyz);
-    }
-    // Transition (Losasso & Hoppe): towards the coarse surface near the
-    // window's edge, exactly on it at the outer ring, so no cracks; it
-    // follows the camera continuously, so no popping.
+    // Transition (Losasso & Hoppe): towards the coarser level's own
+    // surface near the window's edge, exactly onto it at the outer ring, so
+    // no cracks; alpha follows the camera continuously, so no popping.
     let half = f32(n - 1) * 0.5;
     let w = lv.blend.z;
     let d = max(abs(f32(i) - lv.blend.x), abs(f32(j) - lv.blend.y));
@@ -90,19 +103,27 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
     if i == 0 || j == 0 || i == n - 1 || j == n - 1 {
         alpha = 1.0;
     }
-    if lv.coarse.w == 0 {
+    let fine = here.xyz + lv.offset.xyz;
+    var p = fine;
+    var normal = normal_at(lv, i, j, 1);
+    if lv.coarse.w == 1 {
+        let c = levels.items[li - 1u];
+        p = mix(fine, coarse_at(c, gx, gy), alpha);
+        let east = coarse_at(c, gx + 2, gy) - coarse_at(c, gx - 2, gy);
+        let south = coarse_at(c, gx, gy + 2) - coarse_at(c, gx, gy - 2);
+        normal = normalize(mix(normal, normalize(cross(south, east)), alpha));
+    } else {
         alpha = 0.0;
     }
-    let p = mix(here.xyz, coarse, alpha) + lv.offset.xyz;
     var out: Out;
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
-    out.normal = normalize(mix(normal_at(lv, i, j, 1), normal_at(lv, i, j, 2), alpha));
+    out.normal = normal;
     let u = f32(wrap(lv.window.x, n) + i) + 0.5;
     let v = f32(wrap(lv.window.y, n) + j) + 0.5;
     out.uv = vec2<f32>(u, v) / f32(n);
     // This vertex in the coarser window's samples.
-    let cu = f32(wrap(lv.coarse.x, n)) + (f32(lv.window.x + i) * 0.5 - f32(lv.coarse.x)) + 0.5;
-    let cv = f32(wrap(lv.coarse.y, n)) + (f32(lv.window.y + j) * 0.5 - f32(lv.coarse.y)) + 0.5;
+    let cu = f32(wrap(lv.coarse.x, n)) + (f32(gx) * 0.5 - f32(lv.coarse.x)) + 0.5;
+    let cv = f32(wrap(lv.coarse.y, n)) + (f32(gy) * 0.5 - f32(lv.coarse.y)) + 0.5;
     out.uv_coarse = vec2<f32>(cu, cv) / f32(n);
     out.alpha = alpha;
     out.valid = here.w;

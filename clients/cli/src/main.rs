@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_proto::v1::tile_service_client::TileServiceClient;
+use relief_proto::v1::view_service_client::ViewServiceClient;
 use serde_json::{Value, json};
 use tokio_stream::StreamExt;
 use tonic::transport::Channel;
@@ -66,6 +67,63 @@ enum Command {
     },
     /// Re-read source files now (all, or the named sources).
     Reload { sources: Vec<String> },
+    /// Render a view as a PNG.
+    Render {
+        /// LON,LAT,ALT,HEADING,PITCH,ROLL (degrees and metres); the current camera when left out.
+        #[arg(long, value_name = "LON,LAT,ALT,HEADING,PITCH,ROLL", allow_hyphen_values = true)]
+        camera: Option<String>,
+        /// Vertical field of view in degrees (with --camera; default 50).
+        #[arg(long)]
+        fov: Option<f64>,
+        /// Image size.
+        #[arg(long, default_value = "1280x720", value_name = "WxH")]
+        size: String,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Clipmap samples per level side (63, 127, 255, ...), for this frame only.
+        #[arg(long)]
+        grid_size: Option<u32>,
+        /// Clipmap levels, for this frame only.
+        #[arg(long)]
+        levels: Option<u32>,
+    },
+    /// The current camera.
+    #[command(subcommand)]
+    Camera(CameraCommand),
+}
+
+#[derive(Subcommand)]
+enum CameraCommand {
+    /// Print the current camera.
+    Get,
+    /// Set the current camera.
+    Set {
+        #[arg(value_name = "LON,LAT,ALT,HEADING,PITCH,ROLL", allow_hyphen_values = true)]
+        camera: String,
+        /// Vertical field of view in degrees; kept as it is when left out.
+        #[arg(long)]
+        fov: Option<f64>,
+    },
+}
+
+/// Six comma-separated numbers as a camera.
+fn parse_camera(text: &str, fov: f64) -> anyhow::Result<pb::Camera> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().with_context(|| format!("'{v}' in '{text}' is not a number")))
+        .collect::<anyhow::Result<_>>()?;
+    let [lon_deg, lat_deg, altitude_m, heading_deg, pitch_deg, roll_deg] = values[..] else {
+        bail!("'{text}' is not LON,LAT,ALT,HEADING,PITCH,ROLL (six numbers)");
+    };
+    Ok(pb::Camera { lon_deg, lat_deg, altitude_m, heading_deg, pitch_deg, roll_deg, vertical_fov_deg: fov })
+}
+
+fn parse_size(text: &str) -> anyhow::Result<(u32, u32)> {
+    let (w, h) = text.split_once(['x', 'X']).with_context(|| format!("'{text}' is not WxH"))?;
+    Ok((
+        w.trim().parse().with_context(|| format!("'{w}' is not a width"))?,
+        h.trim().parse().with_context(|| format!("'{h}' is not a height"))?,
+    ))
 }
 
 fn main() -> ExitCode {
@@ -114,6 +172,7 @@ fn parse_point(text: &str) -> anyhow::Result<pb::GeodeticPoint> {
 async fn run(args: Args) -> anyhow::Result<()> {
     let channel = connect(&args.server).await?;
     let mut scene = SceneServiceClient::new(channel.clone());
+    let mut views = ViewServiceClient::new(channel.clone()).max_decoding_message_size(256 * 1024 * 1024);
     let mut tiles = TileServiceClient::new(channel).max_decoding_message_size(256 * 1024 * 1024);
     match args.command {
         Command::State => {
@@ -192,6 +251,31 @@ async fn run(args: Args) -> anyhow::Result<()> {
                         .join("\n")
                 },
             );
+        }
+        Command::Render { camera, fov, size, output, grid_size, levels } => {
+            let (width, height) = parse_size(&size)?;
+            let camera = camera.map(|c| parse_camera(&c, fov.unwrap_or(50.0))).transpose()?;
+            let quality = (grid_size.is_some() || levels.is_some()).then(|| pb::QualityOverrides {
+                clipmap_grid_size: grid_size,
+                clipmap_levels: levels,
+                ..Default::default()
+            });
+            let frame = rpc(views
+                .render(pb::RenderRequest { camera, width, height, format: pb::ImageFormat::Png as i32, quality })
+                .await)?;
+            std::fs::write(&output, &frame.image).with_context(|| format!("cannot write {}", output.display()))?;
+            let value = output::frame_json(&frame, &output);
+            output::emit(args.json, &value, || output::frame_text(&frame, &output));
+        }
+        Command::Camera(CameraCommand::Get) => {
+            let camera = rpc(views.get_camera(pb::GetCameraRequest {}).await)?;
+            output::emit(args.json, &output::camera_json(&camera), || output::camera_text(&camera));
+        }
+        Command::Camera(CameraCommand::Set { camera, fov }) => {
+            let current = rpc(views.get_camera(pb::GetCameraRequest {}).await)?;
+            let camera = parse_camera(&camera, fov.unwrap_or(current.vertical_fov_deg))?;
+            let set = rpc(views.set_camera(pb::SetCameraRequest { camera: Some(camera) }).await)?;
+            output::emit(args.json, &output::camera_json(&set), || output::camera_text(&set));
         }
         Command::Reload { sources } => {
             let state = rpc(scene.reload(pb::ReloadRequest { source_ids: sources }).await)?;

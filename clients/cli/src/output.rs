@@ -193,3 +193,34 @@ pub fn instances_geojson(list: &pb::InstanceList) -> Value {
         list.skipped.iter().map(|s| json!({"feature_id": s.feature_id, "reason": s.reason})).collect();
     json!({"type": "FeatureCollection", "features": features, "skipped": skipped})
 }
+
+pub fn camera_json(c: &pb::Camera) -> Value {
+    json!({"lon_deg": c.lon_deg, "lat_deg": c.lat_deg, "altitude_m": c.altitude_m, "heading_deg": c.heading_deg,
+           "pitch_deg": c.pitch_deg, "roll_deg": c.roll_deg, "vertical_fov_deg": c.vertical_fov_deg})
+}
+
+pub fn camera_text(c: &pb::Camera) -> String {
+    format!(
+        "{},{},{},{},{},{} (lon, lat, altitude m, heading, pitch, roll), fov {} deg",
+        c.lon_deg, c.lat_deg, c.altitude_m, c.heading_deg, c.pitch_deg, c.roll_deg, c.vertical_fov_deg
+    )
+}
+
+pub fn frame_json(f: &pb::RenderResponse, path: &std::path::Path) -> Value {
+    let passes: serde_json::Map<String, Value> =
+        f.passes.iter().map(|p| (p.pass.clone(), json!(p.elapsed_ms))).collect();
+    json!({"path": path.display().to_string(), "generation": f.generation, "width": f.width, "height": f.height,
+           "passes_ms": passes, "camera": f.camera.as_ref().map(camera_json)})
+}
+
+pub fn frame_text(f: &pb::RenderResponse, path: &std::path::Path) -> String {
+    let passes: Vec<String> = f.passes.iter().map(|p| format!("{} {:.1} ms", p.pass, p.elapsed_ms)).collect();
+    format!(
+        "wrote {}x{} view of generation {} to {} ({})",
+        f.width,
+        f.height,
+        f.generation,
+        path.display(),
+        passes.join(", ")
+    )
+}

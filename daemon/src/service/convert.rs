@@ -102,6 +102,7 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
         })
         .collect();
     let m = &snap.manifest;
+    let ran = scene.effects_ran();
     let effects = m
         .effects
         .iter()
@@ -110,8 +111,8 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
             pb::EffectState {
                 name: name.clone(),
                 sources: layers.iter().filter_map(|l| m.layers.get(*l).cloned()).collect(),
-                ran: false,
-                last_cost_ms: 0.0,
+                ran: ran.contains_key(name),
+                last_cost_ms: ran.get(name).copied().unwrap_or(0.0),
             }
         })
         .collect();
@@ -235,4 +236,38 @@ pub fn instances(t: &relief_source::InstanceTile) -> pb::InstanceList {
         })
         .collect();
     pb::InstanceList { instances, skipped: skipped(&t.skipped) }
+}
+
+pub fn camera_from(c: &pb::Camera) -> crate::view::Camera {
+    crate::view::Camera {
+        lon_deg: c.lon_deg,
+        lat_deg: c.lat_deg,
+        altitude_m: c.altitude_m,
+        heading_deg: c.heading_deg,
+        pitch_deg: c.pitch_deg,
+        roll_deg: c.roll_deg,
+        vertical_fov_deg: c.vertical_fov_deg,
+    }
+}
+
+pub fn camera_to(c: &crate::view::Camera) -> pb::Camera {
+    pb::Camera {
+        lon_deg: c.lon_deg,
+        lat_deg: c.lat_deg,
+        altitude_m: c.altitude_m,
+        heading_deg: c.heading_deg,
+        pitch_deg: c.pitch_deg,
+        roll_deg: c.roll_deg,
+        vertical_fov_deg: c.vertical_fov_deg,
+    }
+}
+
+/// RGBA8 rows as a PNG.
+pub fn png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, tonic::Status> {
+    use image::ImageEncoder;
+    let mut out = Vec::new();
+    image::codecs::png::PngEncoder::new(std::io::Cursor::new(&mut out))
+        .write_image(rgba, width, height, image::ExtendedColorType::Rgba8)
+        .map_err(|e| tonic::Status::internal(format!("cannot encode PNG: {e}")))?;
+    Ok(out)
 }

@@ -1,9 +1,7 @@
 //! TileService: tiles of any source, and elevations at points.
 
-use std::io::Cursor;
 use std::sync::Arc;
 
-use image::ImageEncoder;
 use relief_proto::v1::{
     ElevationSample, GetTileRequest, GetTileResponse, SampleElevationRequest, SampleElevationResponse,
     get_tile_response, tile_service_server::TileService,
@@ -26,14 +24,6 @@ impl TileApi {
     pub fn new(scene: Arc<Scene>) -> Self {
         Self { scene }
     }
-}
-
-fn png(rgba: &[u8], size: usize) -> Result<Vec<u8>, Status> {
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new(Cursor::new(&mut out))
-        .write_image(rgba, size as u32, size as u32, image::ExtendedColorType::Rgba8)
-        .map_err(|e| Status::internal(format!("cannot encode tile as PNG: {e}")))?;
-    Ok(out)
 }
 
 #[tonic::async_trait]
@@ -60,7 +50,9 @@ impl TileService for TileApi {
                 h.size,
                 get_tile_response::Payload::HeightsF32Le(h.heights.iter().flat_map(|v| v.to_le_bytes()).collect()),
             ),
-            Payload::Color(c) => (c.size, get_tile_response::Payload::ColorPng(png(&c.rgba, c.size)?)),
+            Payload::Color(c) => {
+                (c.size, get_tile_response::Payload::ColorPng(convert::png(&c.rgba, c.size as u32, c.size as u32)?))
+            }
             Payload::Mask(m) => (m.size, get_tile_response::Payload::MaskU8(m.coverage.clone())),
             Payload::Features(f) => {
                 (f.features.len(), get_tile_response::Payload::FeaturesGeojson(convert::geojson(f)))

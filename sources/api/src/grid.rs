@@ -271,6 +271,36 @@ impl TileGrid {
         )
     }
 
+    /// The tile and in-tile index (i east, j south) holding global corner
+    /// sample (gx, gy) at `level`. On the geodetic grid columns wrap and rows
+    /// past a pole continue half way round the planet; a projected grid
+    /// repeats its edge samples. A sample on a tile edge is read from the
+    /// tile to its south-east unless that is past the grid.
+    pub fn corner_sample(&self, level: u8, gx: i64, gy: i64) -> (TileKey, usize, usize) {
+        let n = i64::from(self.tile_size);
+        let (cols, rows) = self.tiles_at(level);
+        let (total_x, total_y) = (i64::from(cols) * n, i64::from(rows) * n);
+        let (mut x, mut y) = (gx, gy);
+        match self.kind {
+            GridKind::Geodetic => {
+                // Fold over the poles (repeatedly, for absurd inputs).
+                y = y.rem_euclid(2 * total_y);
+                if y > total_y {
+                    y = 2 * total_y - y;
+                    x += total_x / 2;
+                }
+                x = x.rem_euclid(total_x);
+            }
+            GridKind::Projected(_) => {
+                x = x.clamp(0, total_x);
+                y = y.clamp(0, total_y);
+            }
+        }
+        let tx = (x / n).min(i64::from(cols) - 1);
+        let ty = (y / n).min(i64::from(rows) - 1);
+        (TileKey::new(level, tx as u32, ty as u32), (x - tx * n) as usize, (y - ty * n) as usize)
+    }
+
     /// The tile at `level` that owns point (x, y). Tiles own [west, east) x
     /// (south, north]; the last column and row also own their closing edge.
     /// On the geodetic grid longitudes wrap, so 180 belongs to column 0.

@@ -75,6 +75,9 @@ pub struct SourceInfo {
     pub crs: String,
     pub vertical_datum: String,
     pub vertical_units: String,
+    /// The finest sample spacing the data has, in grid units (a renderer
+    /// stops refining there).
+    pub resolution: Option<f64>,
     pub details: BTreeMap<String, String>,
 }
 

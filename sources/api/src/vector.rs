@@ -77,6 +77,7 @@ impl<F: VectorFormat> VectorSource<F> {
             crs: read.crs_name,
             vertical_datum: read.vertical_datum,
             vertical_units: String::new(),
+            resolution: None,
             details: read.details,
         };
         Ok(Self { spec: spec.clone(), path: path.clone(), crs, fingerprint, index, info, format: PhantomData })

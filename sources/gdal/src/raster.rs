@@ -82,7 +82,7 @@ pub(crate) struct Raster {
     pub fingerprint: Fingerprint,
     pub kind: RasterKind,
     /// Width and height of the base level, in pixels.
-    size: (usize, usize),
+    pub size: (usize, usize),
     /// Pixel-edge geotransform (GDAL's) and its inverse.
     pub geo: [f64; 6],
     pub inverse: [f64; 6],

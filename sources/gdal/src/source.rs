@@ -392,6 +392,11 @@ impl Source for GdalSource {
             } else {
                 String::new()
             },
+            resolution: self
+                .rasters
+                .iter()
+                .filter_map(|p| p.extent_in_grid.map(|e| e.width() / p.raster.size.0 as f64))
+                .reduce(f64::min),
             details,
         }
     }

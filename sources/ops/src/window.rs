@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use relief_source::{GenerateContext, GridKind, Payload, SourceError, TileKey};
+use relief_source::{GenerateContext, Payload, SourceError, TileKey};
 
 /// Height samples of one input at one level, addressed by global
 /// corner-sample index (column X grows east, row Y grows south). Tiles are
@@ -25,32 +25,7 @@ impl<'a, 'c> HeightWindow<'a, 'c> {
     /// grid columns wrap and rows past a pole continue half way round the
     /// planet; a projected grid repeats its edge samples.
     pub fn get(&mut self, gx: i64, gy: i64) -> Result<f32, SourceError> {
-        let grid = self.ctx.grid;
-        let n = i64::from(grid.tile_size());
-        let (cols, rows) = grid.tiles_at(self.level);
-        let (total_x, total_y) = (i64::from(cols) * n, i64::from(rows) * n);
-        let (mut x, mut y) = (gx, gy);
-        match grid.kind {
-            GridKind::Geodetic => {
-                if y < 0 {
-                    y = -y;
-                    x += total_x / 2;
-                } else if y > total_y {
-                    y = 2 * total_y - y;
-                    x += total_x / 2;
-                }
-                x = x.rem_euclid(total_x);
-            }
-            GridKind::Projected(_) => {
-                x = x.clamp(0, total_x);
-                y = y.clamp(0, total_y);
-            }
-        }
-        // Samples on a tile edge belong to both tiles; take the tile to the
-        // south-east unless that is past the grid.
-        let tx = (x / n).min(i64::from(cols) - 1);
-        let ty = (y / n).min(i64::from(rows) - 1);
-        let key = TileKey::new(self.level, tx as u32, ty as u32);
+        let (key, i, j) = self.ctx.grid.corner_sample(self.level, gx, gy);
         let tile = if let Some(t) = self.tiles.get(&key) {
             Arc::clone(t)
         } else {
@@ -64,7 +39,6 @@ impl<'a, 'c> HeightWindow<'a, 'c> {
                 message: format!("expected a height tile, got a {} tile", tile.kind()),
             });
         };
-        let (i, j) = ((x - tx * n) as usize, (y - ty * n) as usize);
         Ok(h.get(i, j))
     }
 }

@@ -1,0 +1,336 @@
+//! Rendered views of the scene: the camera, the terrain the renderer reads
+//! (answered from the tile store), and one shared GPU device behind a lock.
+
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::ops::Range;
+use std::sync::{Arc, Mutex};
+
+use relief_renderer::{
+    ClipmapConfig, Frame, Gpu, Pose, RenderError, RenderSettings, Renderer, SampleBlock, Surface, TerrainSamples,
+};
+use relief_source::{CrsTransform, Extent, Payload, Quality, TileKey};
+use tokio::sync::{Semaphore, watch};
+
+use crate::graph::SceneSnapshot;
+use crate::scene::{EventKind, Scene};
+use crate::tiles::TileStore;
+
+/// The largest image side a request may ask for.
+pub const MAX_IMAGE_SIDE: u32 = 4096;
+/// Renders running or waiting for the device at once; more are refused.
+pub const MAX_RENDERS_IN_FLIGHT: usize = 4;
+/// Generations of dirt remembered for renderers that fall behind.
+const DIRT_LOG: usize = 64;
+
+/// A camera as viewers give it: geodetic position on any scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    pub lon_deg: f64,
+    pub lat_deg: f64,
+    pub altitude_m: f64,
+    pub heading_deg: f64,
+    pub pitch_deg: f64,
+    pub roll_deg: f64,
+    pub vertical_fov_deg: f64,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    #[error(transparent)]
+    Invalid(#[from] RenderError),
+    #[error("{MAX_RENDERS_IN_FLIGHT} renders are already running or waiting; try again")]
+    Busy,
+    #[error("no renderer: {0}")]
+    NoDevice(String),
+}
+
+/// The scene's tiles as the renderer asks for them.
+pub struct SceneTerrain<'a> {
+    store: &'a TileStore,
+    snap: &'a SceneSnapshot,
+    quality: Quality,
+    height: Option<usize>,
+    color: Option<usize>,
+    max_level: u8,
+}
+
+impl<'a> SceneTerrain<'a> {
+    pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Self {
+        let layer = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
+        let height = layer("height");
+        // Refine down to the height data's own sample spacing, one level past.
+        let resolution = height
+            .and_then(|i| snap.slots[i].source.as_ref())
+            .and_then(|s| s.info().resolution)
+            .or_else(|| layer("color").and_then(|i| snap.slots[i].source.as_ref()).and_then(|s| s.info().resolution));
+        let max_level = resolution.map_or(12, |r| {
+            let mut level = 0u8;
+            while level < 20 && snap.grid.tile_span(level).0 / f64::from(snap.grid.tile_size()) > r {
+                level += 1;
+            }
+            (level + 1).min(relief_source::MAX_LEVEL)
+        });
+        Self { store, snap, quality, height, color: layer("color"), max_level }
+    }
+}
+
+impl TerrainSamples for SceneTerrain<'_> {
+    fn samples(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<SampleBlock> {
+        let grid = &self.snap.grid;
+        let n = i64::from(grid.tile_size());
+        // The tiles the block spans: its corners' tiles and every tile
+        // between, wrapped like the samples.
+        let mut keys = std::collections::BTreeSet::new();
+        let step = |r: &Range<i64>| (r.start..r.end).step_by(n as usize).chain(std::iter::once(r.end - 1));
+        for gy in step(&ys) {
+            for gx in step(&xs) {
+                keys.insert(grid.corner_sample(level, gx, gy).0);
+                keys.insert(grid.corner_sample(level, gx + 1, gy + 1).0);
+            }
+        }
+        let mut requests = Vec::new();
+        for index in [self.height, self.color].into_iter().flatten() {
+            requests.extend(keys.iter().map(|&k| (index, k)));
+        }
+        let built = self.store.build(self.snap, &requests, &self.quality);
+        let mut tiles: HashMap<(usize, TileKey), Arc<Payload>> = HashMap::new();
+        for ((index, key), tile) in requests.iter().zip(built) {
+            match tile {
+                Ok(t) => {
+                    tiles.insert((*index, *key), Arc::clone(&t.payload));
+                }
+                Err(e) => {
+                    tracing::warn!(level, error = %e, "terrain for the renderer is not ready");
+                    return None;
+                }
+            }
+        }
+        let mut block = SampleBlock::default();
+        let count = ((xs.end - xs.start) * (ys.end - ys.start)).max(0) as usize;
+        block.heights.reserve(count);
+        block.colors.reserve(count);
+        for gy in ys {
+            for gx in xs.clone() {
+                let (key, i, j) = grid.corner_sample(level, gx, gy);
+                let height = self.height.and_then(|h| match tiles.get(&(h, key)).map(AsRef::as_ref) {
+                    Some(Payload::Height(t)) => Some(t.get(i, j)),
+                    _ => None,
+                });
+                block.heights.push(height.unwrap_or(0.0));
+                // A corner sits between four texel centres (the colour tile
+                // has a one-texel border).
+                let color = self.color.and_then(|c| match tiles.get(&(c, key)).map(AsRef::as_ref) {
+                    Some(Payload::Color(t)) => {
+                        let mut sum = [0u32; 4];
+                        for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                            let o = ((j + dj) * t.size + i + di) * 4;
+                            for k in 0..4 {
+                                sum[k] += u32::from(t.rgba[o + k]);
+                            }
+                        }
+                        Some(sum.map(|v| ((v + 2) / 4) as u8))
+                    }
+                    _ => None,
+                });
+                block.colors.push(color.unwrap_or([0; 4]));
+            }
+        }
+        Some(block)
+    }
+
+    fn max_level(&self) -> u8 {
+        self.max_level
+    }
+}
+
+/// Renderers by clipmap configuration, with the generation each has seen.
+struct Renderers {
+    gpu: Option<Arc<Gpu>>,
+    by_config: HashMap<ClipmapConfig, (Renderer, u64)>,
+    /// (generation, extents it dirtied), oldest first.
+    dirt: VecDeque<(u64, Vec<Extent>)>,
+}
+
+/// A rendered frame and what it shows.
+pub struct Rendered {
+    pub frame: Frame,
+    pub generation: u64,
+    pub camera: Camera,
+}
+
+pub struct Viewer {
+    scene: Arc<Scene>,
+    renderers: Mutex<Renderers>,
+    camera: watch::Sender<Camera>,
+    permits: Semaphore,
+}
+
+impl Viewer {
+    /// A viewer over `scene`, its camera from the manifest or framing the
+    /// height layer. Keeps a log of dirty areas so renderers refresh only
+    /// what a new generation rebuilt.
+    pub fn new(scene: Arc<Scene>) -> Arc<Self> {
+        let camera = watch::Sender::new(default_camera(&scene.snapshot()));
+        let viewer = Arc::new(Self {
+            scene: Arc::clone(&scene),
+            renderers: Mutex::new(Renderers { gpu: None, by_config: HashMap::new(), dirt: VecDeque::new() }),
+            camera,
+            permits: Semaphore::new(MAX_RENDERS_IN_FLIGHT),
+        });
+        let weak = Arc::downgrade(&viewer);
+        let mut events = scene.events();
+        tokio::spawn(async move {
+            while let Ok(event) = events.recv().await {
+                let Some(viewer) = weak.upgrade() else { break };
+                if let EventKind::Generation { dirty, .. } = event.kind {
+                    let extents = dirty.into_iter().flat_map(|d| d.extents).collect();
+                    let mut r = viewer.renderers.lock().expect("renderer lock is never poisoned");
+                    r.dirt.push_back((event.generation, extents));
+                    while r.dirt.len() > DIRT_LOG {
+                        r.dirt.pop_front();
+                    }
+                }
+            }
+        });
+        viewer
+    }
+
+    pub fn camera(&self) -> Camera {
+        *self.camera.borrow()
+    }
+
+    pub fn cameras(&self) -> watch::Receiver<Camera> {
+        self.camera.subscribe()
+    }
+
+    /// Checks and sets the current camera.
+    pub fn set_camera(&self, camera: Camera) -> Result<Camera, ViewError> {
+        pose(&self.scene.snapshot(), &camera)?;
+        self.camera.send_replace(camera);
+        Ok(camera)
+    }
+
+    /// Renders from `camera` (the current one when None). Blocking: call it
+    /// from a blocking thread. One frame at a time uses the device.
+    pub fn render(
+        &self,
+        camera: Option<Camera>,
+        width: u32,
+        height: u32,
+        clipmap: Option<ClipmapConfig>,
+        quality: Option<Quality>,
+    ) -> Result<Rendered, ViewError> {
+        let _permit = self.permits.try_acquire().map_err(|_| ViewError::Busy)?;
+        for (field, v) in [("width", width), ("height", height)] {
+            if !(1..=MAX_IMAGE_SIDE).contains(&v) {
+                return Err(RenderError::Request {
+                    field,
+                    message: format!("{v} is not from 1 to {MAX_IMAGE_SIDE} pixels"),
+                }
+                .into());
+            }
+        }
+        let camera = camera.unwrap_or_else(|| self.camera());
+        let snap = self.scene.snapshot();
+        let pose = pose(&snap, &camera)?;
+        let config = clipmap.unwrap_or(snap.manifest.clipmap);
+        config.validate().map_err(|message| RenderError::Request { field: "quality.clipmap_grid_size", message })?;
+        let terrain = SceneTerrain::new(&self.scene.store, &snap, quality.unwrap_or(snap.manifest.quality));
+        let lighting = snap.manifest.effects.iter().any(|e| e == "lighting");
+        let mut guard = self.renderers.lock().expect("renderer lock is never poisoned");
+        let r = &mut *guard;
+        if r.gpu.is_none() {
+            r.gpu = Some(Arc::new(Gpu::headless().map_err(|e| ViewError::NoDevice(e.to_string()))?));
+        }
+        let gpu = Arc::clone(r.gpu.as_ref().expect("opened above"));
+        // A manifest edit may change the grid: start over then.
+        r.by_config.retain(|_, (renderer, _)| renderer.surface().grid() == &snap.grid);
+        if !r.by_config.contains_key(&config) {
+            if r.by_config.len() >= 3 {
+                r.by_config.clear();
+            }
+            let renderer = Renderer::new(gpu, Surface::new(snap.grid.clone()), config)?;
+            r.by_config.insert(config, (renderer, snap.generation));
+        }
+        let oldest = r.dirt.front().map_or(u64::MAX, |(g, _)| *g);
+        let (renderer, seen) = r.by_config.get_mut(&config).expect("inserted above");
+        if *seen < snap.generation {
+            if oldest > *seen + 1 {
+                renderer.invalidate(&terrain, &snap.grid.extent());
+            }
+            for (_, extents) in r.dirt.iter().filter(|(g, _)| *g > *seen && *g <= snap.generation) {
+                for e in extents {
+                    renderer.invalidate(&terrain, e);
+                }
+            }
+            *seen = snap.generation;
+        }
+        let frame = renderer.render(&terrain, &pose, &RenderSettings { width, height, lighting })?;
+        let mut ran = BTreeMap::new();
+        if lighting {
+            let draw = frame.passes.iter().find(|(p, _)| p.starts_with("draw")).map_or(0.0, |(_, ms)| *ms);
+            ran.insert("lighting".to_owned(), draw);
+        }
+        self.scene.set_effects_ran(ran);
+        Ok(Rendered { frame, generation: snap.generation, camera })
+    }
+
+    /// What the device is, once a frame has opened it.
+    pub fn device(&self) -> Option<String> {
+        self.renderers.lock().expect("renderer lock is never poisoned").gpu.as_ref().map(|g| g.description.clone())
+    }
+}
+
+/// The renderer's pose for a geodetic camera: longitude and latitude go to
+/// the grid's CRS on a projected scene.
+fn pose(snap: &SceneSnapshot, c: &Camera) -> Result<Pose, RenderError> {
+    let mut pose = Pose {
+        position: [c.lon_deg, c.lat_deg, c.altitude_m],
+        heading_deg: c.heading_deg,
+        pitch_deg: c.pitch_deg,
+        roll_deg: c.roll_deg,
+        vertical_fov_deg: c.vertical_fov_deg,
+    };
+    pose.validate(true)?;
+    if !snap.grid.is_geodetic() {
+        let (mut xs, mut ys) = ([c.lon_deg], [c.lat_deg]);
+        relief_source_gdal::OsrTransform.transform("EPSG:4326", snap.grid.crs(), &mut xs, &mut ys).map_err(|e| {
+            RenderError::Camera { field: "lon_deg", message: format!("cannot place it in {}: {e}", snap.grid.crs()) }
+        })?;
+        pose.position = [xs[0], ys[0], c.altitude_m];
+        pose.validate(false)?;
+    }
+    Ok(pose)
+}
+
+/// The manifest's `[camera]`, its gaps filled to frame the height layer
+/// (or the whole grid): from the south, 35 degrees down.
+fn default_camera(snap: &SceneSnapshot) -> Camera {
+    let raw = snap.manifest.camera;
+    let layer_extent = ["height", "color"]
+        .iter()
+        .filter_map(|l| snap.manifest.layers.get(*l))
+        .filter_map(|id| snap.index_of(id))
+        .find_map(|i| snap.slots[i].source.as_ref().and_then(|s| s.info().extent));
+    let extent = layer_extent.unwrap_or_else(|| snap.grid.extent());
+    let (mut lon, mut lat) = ((extent.min_x + extent.max_x) / 2.0, (extent.min_y + extent.max_y) / 2.0);
+    let mut size_m = extent.height() * if snap.grid.is_geodetic() { 111_320.0 } else { 1.0 };
+    if !snap.grid.is_geodetic() {
+        let (mut xs, mut ys) = ([lon], [lat]);
+        if relief_source_gdal::OsrTransform.transform(snap.grid.crs(), "EPSG:4326", &mut xs, &mut ys).is_ok() {
+            (lon, lat) = (xs[0], ys[0]);
+        }
+    }
+    size_m = size_m.clamp(100.0, 2.0e7);
+    let altitude = 0.5 * size_m + 2000.0;
+    let back_deg = (0.6 * size_m / 111_320.0).min(30.0);
+    Camera {
+        lon_deg: raw.lon_deg.unwrap_or(lon),
+        lat_deg: raw.lat_deg.unwrap_or((lat - back_deg).clamp(-89.0, 89.0)),
+        altitude_m: raw.altitude_m.unwrap_or(altitude),
+        heading_deg: raw.heading_deg.unwrap_or(0.0),
+        pitch_deg: raw.pitch_deg.unwrap_or(-35.0),
+        roll_deg: raw.roll_deg.unwrap_or(0.0),
+        vertical_fov_deg: raw.vertical_fov_deg.unwrap_or(50.0),
+    }
+}
