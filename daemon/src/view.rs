@@ -124,8 +124,8 @@ impl TerrainSamples for SceneTerrain<'_> {
                         let mut sum = [0u32; 4];
                         for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                             let o = ((j + dj) * t.size + i + di) * 4;
-                            for k in 0..4 {
-                                sum[k] += u32::from(t.rgba[o + k]);
+                            for (total, v) in sum.iter_mut().zip(&t.rgba[o..o + 4]) {
+                                *total += u32::from(*v);
                             }
                         }
                         Some(sum.map(|v| ((v + 2) / 4) as u8))
@@ -169,10 +169,10 @@ impl Viewer {
     /// A viewer over `scene`, its camera from the manifest or framing the
     /// height layer. Keeps a log of dirty areas so renderers refresh only
     /// what a new generation rebuilt.
-    pub fn new(scene: Arc<Scene>) -> Arc<Self> {
+    pub fn new(scene: &Arc<Scene>) -> Arc<Self> {
         let camera = watch::Sender::new(default_camera(&scene.snapshot()));
         let viewer = Arc::new(Self {
-            scene: Arc::clone(&scene),
+            scene: Arc::clone(scene),
             renderers: Mutex::new(Renderers { gpu: None, by_config: HashMap::new(), dirt: VecDeque::new() }),
             camera,
             permits: Semaphore::new(MAX_RENDERS_IN_FLIGHT),
@@ -313,7 +313,7 @@ fn default_camera(snap: &SceneSnapshot) -> Camera {
         .filter_map(|id| snap.index_of(id))
         .find_map(|i| snap.slots[i].source.as_ref().and_then(|s| s.info().extent));
     let extent = layer_extent.unwrap_or_else(|| snap.grid.extent());
-    let (mut lon, mut lat) = ((extent.min_x + extent.max_x) / 2.0, (extent.min_y + extent.max_y) / 2.0);
+    let (mut lon, mut lat) = (f64::midpoint(extent.min_x, extent.max_x), f64::midpoint(extent.min_y, extent.max_y));
     let mut size_m = extent.height() * if snap.grid.is_geodetic() { 111_320.0 } else { 1.0 };
     if !snap.grid.is_geodetic() {
         let (mut xs, mut ys) = ([lon], [lat]);

@@ -153,7 +153,7 @@ mod tests {
         let clip = view.view_projection(16.0 / 9.0) * point.as_vec3().extend(1.0);
         let ndc = clip.truncate() / clip.w;
         let (w, h) = (1600u32, 900u32);
-        let px = (f64::from(ndc.x) + 1.0) / 2.0 * f64::from(w) - 0.5;
+        let px = f64::midpoint(f64::from(ndc.x), 1.0) * f64::from(w) - 0.5;
         let py = (1.0 - f64::from(ndc.y)) / 2.0 * f64::from(h) - 0.5;
         let (dir, distance) = view.unproject(px, py, w, h, ndc.z);
         assert!((dir * distance - point).length() < 1e-3 * point.length(), "{:?}", dir * distance);

@@ -13,6 +13,11 @@ use relief_source::Extent;
 use crate::camera::Pose;
 use crate::surface::Surface;
 
+/// The validity of a sample off a flat grid: so far below the 0.5 the
+/// fragment shader keeps that a cell touching one is dropped whole
+/// (interpolation reaches 0.5 within a millionth of the cell).
+pub const OFF_GRID: f32 = -1.0e6;
+
 /// Heights (metres, NaN for nodata) and colours of a block of corner samples.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SampleBlock {
@@ -107,7 +112,7 @@ pub struct ClipLevel {
     pub anchor: DVec3,
     anchor_sample: (i64, i64),
     /// Toroidal n x n: xyz relative to the anchor; w is 1 where there is
-    /// terrain and 0 off a flat grid.
+    /// terrain and `OFF_GRID` off a flat grid.
     pub positions: Vec<[f32; 4]>,
     pub colors: Vec<[u8; 4]>,
     dirty: Vec<StorageRect>,
@@ -237,7 +242,7 @@ impl ClipLevel {
                 let on = surface.on_grid(self.tile_level, gx, gy);
                 let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }) - self.anchor;
                 let slot = row + gx.rem_euclid(n as i64) as usize;
-                self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { 0.0 }];
+                self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { OFF_GRID }];
                 self.colors[slot] = block.colors[k * width + m];
             }
         }
@@ -314,11 +319,11 @@ impl Clipmap {
     pub fn level_range(&self, surface: &Surface, height_m: f64, max_level: u8) -> (u8, u8) {
         let half = (self.config.n / 2) as f64;
         let wanted_step = height_m.max(0.5) / half;
-        let mut finest = max_level.max(1);
-        while finest > 1 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
+        let mut finest = max_level;
+        while finest > 0 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
             finest -= 1;
         }
-        let coarsest = finest.saturating_sub(self.config.levels as u8 - 1).max(1);
+        let coarsest = finest.saturating_sub(self.config.levels as u8 - 1);
         (finest, coarsest)
     }
 
@@ -327,7 +332,7 @@ impl Clipmap {
     /// view at the best detail that is ready.
     pub fn update(&mut self, surface: &Surface, source: &dyn TerrainSamples, pose: &Pose) -> UpdateStats {
         let [x, y, h] = pose.position;
-        let max_level = source.max_level().max(1);
+        let max_level = source.max_level();
         let probe = max_level.min(self.active.last().copied().unwrap_or(8));
         let (px, py) = surface.sample_coords(probe, x, y);
         let ground = source

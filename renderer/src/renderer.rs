@@ -30,6 +30,7 @@ struct FrameUniform {
     view_proj: [[f32; 4]; 4],
     sun: [f32; 4],
     light: [f32; 4],
+    centre: [f32; 4],
 }
 
 #[repr(C)]
@@ -331,6 +332,10 @@ impl Renderer {
             view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
             sun: self.sun(pose),
             light: [0.35, 0.75, if settings.lighting { 1.0 } else { 0.0 }, 0.0],
+            centre: {
+                let c = (-view.eye).as_vec3();
+                [c.x, c.y, c.z, if self.surface.is_planet() { 1.0 } else { 0.0 }]
+            },
         };
         let queue = &self.gpu.queue;
         queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&lighting));
@@ -355,7 +360,10 @@ impl Renderer {
         };
         let color = target(COLOR_FORMAT, wgpu::TextureUsages::empty());
         let depth = target(DEPTH_FORMAT, wgpu::TextureUsages::empty());
-        let (color_view, depth_view) = (color.create_view(&Default::default()), depth.create_view(&Default::default()));
+        let (color_view, depth_view) = (
+            color.create_view(&wgpu::TextureViewDescriptor::default()),
+            depth.create_view(&wgpu::TextureViewDescriptor::default()),
+        );
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("frame") });
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -520,7 +528,7 @@ impl Renderer {
             .map(|k| {
                 let p = (base.world[k] - view.eye).as_vec3();
                 BaseVertex {
-                    position: [p.x, p.y, p.z, if base.valid[k] { 1.0 } else { 0.0 }],
+                    position: [p.x, p.y, p.z, if base.valid[k] { 1.0 } else { crate::clipmap::OFF_GRID }],
                     normal: base.normals[k],
                     color: base.colors[k],
                 }

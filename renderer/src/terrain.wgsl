@@ -8,6 +8,28 @@ struct Frame {
     sun: vec4<f32>,
     // x ambient, y diffuse, z 1 when the lighting effect is on.
     light: vec4<f32>,
+    // The planet's centre from the eye (xyz; direction only, so f32 is
+    // plenty), w 1 on the planet, 0 on a flat scene (up is +z).
+    centre: vec4<f32>,
+}
+
+fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
+    let l = length(v);
+    return select(vec3<f32>(0.0), v / l, l > 1e-20);
+}
+
+// Normals face up: a window folded over a pole runs its rows backwards.
+// Where there is none (every sample of a pole row is the pole), up itself.
+fn upward(normal: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+    var up = vec3<f32>(0.0, 0.0, 1.0);
+    if frame.centre.w > 0.5 {
+        up = normalize(p - frame.centre.xyz);
+    }
+    let n = safe_normalize(normal);
+    if dot(n, n) < 0.5 {
+        return up;
+    }
+    return select(n, -n, dot(n, up) < 0.0);
 }
 
 struct Level {
@@ -56,7 +78,7 @@ fn load(lv: Level, i: i32, j: i32) -> vec4<f32> {
 fn normal_at(lv: Level, i: i32, j: i32, d: i32) -> vec3<f32> {
     let east = load(lv, i + d, j).xyz - load(lv, i - d, j).xyz;
     let south = load(lv, i, j + d).xyz - load(lv, i, j - d).xyz;
-    return normalize(cross(south, east));
+    return safe_normalize(cross(south, east));
 }
 
 // A sample of a level by its global index (storage is toroidal: the
@@ -111,13 +133,13 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
         p = mix(fine, coarse_at(c, gx, gy), alpha);
         let east = coarse_at(c, gx + 2, gy) - coarse_at(c, gx - 2, gy);
         let south = coarse_at(c, gx, gy + 2) - coarse_at(c, gx, gy - 2);
-        normal = normalize(mix(normal, normalize(cross(south, east)), alpha));
+        normal = mix(normal, safe_normalize(cross(south, east)), alpha);
     } else {
         alpha = 0.0;
     }
     var out: Out;
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
-    out.normal = normal;
+    out.normal = upward(normal, p);
     let u = f32(wrap(lv.window.x, n) + i) + 0.5;
     let v = f32(wrap(lv.window.y, n) + j) + 0.5;
     out.uv = vec2<f32>(u, v) / f32(n);
@@ -136,7 +158,7 @@ fn shade(base: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
     let albedo = select(vec3<f32>(0.78, 0.78, 0.76), base.rgb, base.a > 0.0);
     var light = 1.0;
     if frame.light.z > 0.5 {
-        light = frame.light.x + frame.light.y * max(dot(normalize(normal), frame.sun.xyz), 0.0);
+        light = frame.light.x + frame.light.y * max(dot(safe_normalize(normal), frame.sun.xyz), 0.0);
     }
     return vec4<f32>(albedo * light, 1.0);
 }
