@@ -362,3 +362,29 @@ fn bad_cameras_and_sizes_are_refused_by_name() {
     // And it still renders.
     renderer.render(&source, &pose(10.0, 45.0, 1000.0, 0.0, -30.0), &SETTINGS).unwrap();
 }
+
+/// The hill with a 300 m block raised over 10.20..10.21 E, 45.20..45.21 N.
+fn hill_with_block(lon: f64, lat: f64) -> f64 {
+    let block = (10.20..=10.21).contains(&lon) && (45.20..=45.21).contains(&lat);
+    relief_examples::hill(lon, lat) + if block { 300.0 } else { 0.0 }
+}
+
+#[test]
+fn a_rebuilt_area_refreshes_only_its_samples() {
+    let (mut renderer, before) = hill_scene(&gpu(), ClipmapConfig { n: 63, levels: 6 });
+    let view = pose(10.2, 45.2, 3000.0, 0.0, -60.0);
+    renderer.render(&before, &view, &SETTINGS).unwrap();
+    let after = Analytic { surface: before.surface.clone(), height: hill_with_block, max_level: 14 };
+    let written = |r: &Renderer| -> u64 {
+        r.clipmap().active().iter().map(|&t| r.clipmap().level(t).unwrap().samples_written).sum()
+    };
+    let start = written(&renderer);
+    renderer.invalidate(&after, &relief_source::Extent::new(10.20, 45.20, 10.21, 45.21));
+    let refreshed = written(&renderer) - start;
+    // Only the samples over the block (plus one on each side) were read
+    // again, not whole windows.
+    assert!(refreshed > 0 && refreshed < (63 * 63 * 6 / 2) as u64, "{refreshed} samples refreshed");
+    let frame = renderer.render(&after, &view, &SETTINGS).unwrap();
+    assert_eq!(frame.update.samples_written, 0, "the camera did not move");
+    assert_matches_scratch(&renderer, &after);
+}

@@ -41,7 +41,11 @@ pub async fn serve(scene: Arc<Scene>, listener: TcpListener, shutdown: Cancellat
         .add_service(reflection)
         .add_service(SceneServiceServer::new(scene::SceneApi::new(Arc::clone(&scene), shutdown.clone())))
         .add_service(TileServiceServer::new(tiles::TileApi::new(Arc::clone(&scene))))
-        .add_service(ViewServiceServer::new(view::ViewApi::new(Arc::clone(&scene), crate::view::Viewer::new(&scene))))
+        .add_service(ViewServiceServer::new(view::ViewApi::new(
+            Arc::clone(&scene),
+            crate::view::Viewer::new(&scene),
+            shutdown.clone(),
+        )))
         .serve_with_incoming_shutdown(incoming, shutdown.cancelled_owned())
         .await?;
     Ok(())

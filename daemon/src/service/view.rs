@@ -9,6 +9,7 @@ use relief_proto::v1::{
 };
 use relief_renderer::ClipmapConfig;
 use tokio_stream::wrappers::ReceiverStream;
+use tokio_util::sync::CancellationToken;
 use tonic::{Request, Response, Status};
 
 use crate::scene::Scene;
@@ -22,11 +23,13 @@ const MAX_FPS: f64 = 60.0;
 pub struct ViewApi {
     scene: Arc<Scene>,
     viewer: Arc<Viewer>,
+    /// Ends frame streams when reliefd stops.
+    shutdown: CancellationToken,
 }
 
 impl ViewApi {
-    pub fn new(scene: Arc<Scene>, viewer: Arc<Viewer>) -> Self {
-        Self { scene, viewer }
+    pub fn new(scene: Arc<Scene>, viewer: Arc<Viewer>, shutdown: CancellationToken) -> Self {
+        Self { scene, viewer, shutdown }
     }
 }
 
@@ -136,8 +139,11 @@ impl ViewService for ViewApi {
     type StreamFramesStream = ReceiverStream<Result<RenderResponse, Status>>;
 
     /// A frame now, then one whenever the generation or the camera changes,
-    /// at most `max_fps`. The channel holds one frame: a slow viewer gets
-    /// the latest state rendered when it is ready for it, never a backlog.
+    /// at most `max_fps`. A frame is rendered only once the channel has room
+    /// for it, from the state of that moment: a slow viewer gets the latest
+    /// state, never a queue of old frames. (What a viewer's own HTTP/2
+    /// window holds on top is its choice: a viewer that wants the freshest
+    /// frame keeps that window near one frame.)
     async fn stream_frames(
         &self,
         request: Request<StreamFramesRequest>,
@@ -149,18 +155,24 @@ impl ViewService for ViewApi {
             return Err(invalid_field("max_fps", format!("{fps} is not more than 0 and at most {MAX_FPS}")));
         }
         let (tx, rx) = tokio::sync::mpsc::channel(1);
-        let (viewer, scene) = (Arc::clone(&self.viewer), Arc::clone(&self.scene));
+        let (viewer, scene, shutdown) = (Arc::clone(&self.viewer), Arc::clone(&self.scene), self.shutdown.clone());
         tokio::spawn(async move {
             let mut generations = scene.generations();
             let mut cameras = viewer.cameras();
             let interval = Duration::from_secs_f64(1.0 / fps);
             loop {
+                let permit = tokio::select! {
+                    p = tx.reserve() => p,
+                    () = shutdown.cancelled() => break,
+                };
+                let Ok(permit) = permit else { break };
                 let started = Instant::now();
                 generations.mark_unchanged();
                 cameras.mark_unchanged();
                 let frame = render(&viewer, req).await;
                 let failed = frame.is_err();
-                if tx.send(frame).await.is_err() || failed {
+                permit.send(frame);
+                if failed {
                     break;
                 }
                 tokio::time::sleep(interval.saturating_sub(started.elapsed())).await;
@@ -168,6 +180,7 @@ impl ViewService for ViewApi {
                     r = generations.changed() => r.is_ok(),
                     r = cameras.changed() => r.is_ok(),
                     () = tx.closed() => false,
+                    () = shutdown.cancelled() => false,
                 };
                 if !changed {
                     break;
