@@ -314,11 +314,11 @@ impl Clipmap {
     }
 
     /// The finest and coarsest tile levels for a camera `height_m` above
-    /// the ground: the finest window reaches about one height out from
-    /// under the camera (Losasso & Hoppe turn finer levels off above that).
-    pub fn level_range(&self, surface: &Surface, height_m: f64, max_level: u8) -> (u8, u8) {
-        let half = (self.config.n / 2) as f64;
-        let wanted_step = height_m.max(0.5) / half;
+    /// the ground whose pixels each span `pixel_angle` radians: the finest
+    /// level's cells are about two pixels wide under the camera, as fine as
+    /// the data allows; each coarser level doubles them further out.
+    pub fn level_range(&self, surface: &Surface, height_m: f64, max_level: u8, pixel_angle: f64) -> (u8, u8) {
+        let wanted_step = 2.0 * height_m.max(0.01) * pixel_angle;
         let mut finest = max_level;
         while finest > 0 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
             finest -= 1;
@@ -330,7 +330,13 @@ impl Clipmap {
     /// Brings the levels to `pose`, coarse to fine. A level whose data is
     /// not ready is not drawn, nor any finer one: every frame covers the
     /// view at the best detail that is ready.
-    pub fn update(&mut self, surface: &Surface, source: &dyn TerrainSamples, pose: &Pose) -> UpdateStats {
+    pub fn update(
+        &mut self,
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        pose: &Pose,
+        pixel_angle: f64,
+    ) -> UpdateStats {
         let [x, y, h] = pose.position;
         let max_level = source.max_level();
         let probe = max_level.min(self.active.last().copied().unwrap_or(8));
@@ -340,7 +346,7 @@ impl Clipmap {
             .and_then(|b| b.heights.first().copied())
             .filter(|h| h.is_finite())
             .map_or(0.0, f64::from);
-        let (finest, coarsest) = self.level_range(surface, h - ground, max_level);
+        let (finest, coarsest) = self.level_range(surface, h - ground, max_level, pixel_angle);
         let mut stats = UpdateStats::default();
         let before: u64 = self.levels.values().map(|l| l.samples_written).sum();
         for level in coarsest..=finest {

@@ -318,7 +318,8 @@ impl Renderer {
         }
         let mut passes = Vec::new();
         let started = Instant::now();
-        let update = self.clipmap.update(&self.surface, source, pose);
+        let pixel_angle = pose.vertical_fov_deg.to_radians() / f64::from(settings.height);
+        let update = self.clipmap.update(&self.surface, source, pose, pixel_angle);
         if self.base.is_none() {
             self.base = Base::fill(&self.surface, source);
         }
@@ -637,13 +638,16 @@ impl Renderer {
 
 /// Two triangles per cell of an n x n vertex grid (diagonal north-west to
 /// south-east, as the shader's coarse midpoints assume), leaving out the
-/// `hole` of side (n - 1) / 2 cells at cell (hx, hy).
+/// `hole` of side (n - 1) / 2 cells at cell (hx, hy) but for its outer ring
+/// of cells: there the finer level has blended onto this level's surface,
+/// and the overlap covers the pinholes f32 rounding leaves at T-junctions.
 fn cell_indices(n: usize, hole: Option<(i64, i64)>) -> Vec<u32> {
     let side = ((n - 1) / 2) as i64;
     let mut out = Vec::with_capacity((n - 1) * (n - 1) * 6);
     for j in 0..n as i64 - 1 {
         for i in 0..n as i64 - 1 {
-            if hole.is_some_and(|(hx, hy)| (hx..hx + side).contains(&i) && (hy..hy + side).contains(&j)) {
+            if hole.is_some_and(|(hx, hy)| (hx + 1..hx + side - 1).contains(&i) && (hy + 1..hy + side - 1).contains(&j))
+            {
                 continue;
             }
             let a = (j * n as i64 + i) as u32;
