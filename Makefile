@@ -17,3 +17,4 @@ bench: setup
 	cargo bench -p relief-daemon --bench pyramid
 	cargo bench -p relief-daemon --bench reload
 	cargo bench -p relief-daemon --bench rasterize
+	cargo bench -p relief-daemon --bench render

@@ -7,6 +7,8 @@ cd "$(dirname "$0")/.."
 
 bin=target/release
 out=demo-out
+# Mesa's lavapipe wants a private runtime folder (it only warns without one).
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
 listen=${RELIEF_LISTEN:-127.0.0.1:50051}
 export RELIEF_SERVER="http://$listen"
 mkdir -p "$out"
@@ -33,6 +35,14 @@ step "$bin/relief" tile dem 9 530 127 -o "$out/dem-9-530-127.tif"
 step "$bin/relief" tile ortho 9 530 127 -o "$out/ortho-9-530-127.png"
 step "$bin/relief" tile shade 9 530 127 -o "$out/shade-9-530-127.png"
 step "$bin/relief" state
+# Views of the scene, rendered by reliefd (lavapipe without a GPU).
+step "$bin/relief" render -o "$out/view-range.png"
+step "$bin/relief" render --camera 6.62,45.05,4500,340,-15,0 -o "$out/view-valley.png"
+step "$bin/relief" render --camera 6.5,45.3,120000,0,-90,0 -o "$out/view-above.png"
+step "$bin/relief" render --camera 6.5,30,15000000,0,-90,0 -o "$out/view-planet.png"
+echo
+echo "views written:"
+for v in range valley above planet; do echo "  $out/view-$v.png"; done
 
 cat <<MSG
 
@@ -42,6 +52,7 @@ Try, in another terminal:
   $bin/relief watch                      # then edit or replace $out/scene/dem.tif
   $bin/relief elevation 6.5,45.3
   $bin/relief tile shade 10 1061 254 -o shade.png
+  $bin/relief camera set 6.3,45.2,3000,90,-20,0 && $bin/relief render -o view.png
   gdalinfo $out/dem-9-530-127.tif
 Press Ctrl-C to stop.
 MSG

@@ -3,6 +3,8 @@
 # the totals over all test binaries ("N passed, N failed, N ignored").
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Mesa's lavapipe wants a private runtime folder (it only warns without one).
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
 
 log=$(mktemp)
 trap 'rm -f "$log"' EXIT

@@ -160,3 +160,90 @@ pub fn write_rgb(path: &Path, spec: &RasterSpec<'_>, color: impl Fn(f64, f64) ->
     let planes = (0..3).map(|b| colors.iter().map(|c| c[b]).collect()).collect();
     write_geotiff(path, spec, planes)
 }
+
+const DEMO_MANIFEST: &str = r#"# The demo scene: written by relief-demo-scene.
+[scene]
+name = "demo-range"
+grid = "geodetic"
+
+[[source]]
+id = "dem"
+kind = "gdal"
+path = "dem.tif"
+vertical_datum = "WGS84 ellipsoid (synthetic)"
+
+[[source]]
+id = "ortho"
+kind = "gdal"
+path = "ortho.tif"
+
+[[source]]
+id = "shade"
+kind = "hillshade"
+inputs = ["dem"]
+azimuth_deg = 315
+altitude_deg = 40
+
+[layers]
+height = "dem"
+color = "ortho"
+
+[effects]
+lighting = {}
+
+[quality]
+resampling = "bilinear"
+reprojection_error_px = 0.125
+clipmap_grid_size = 127
+clipmap_levels = 8
+
+# Where `relief render` looks from unless told otherwise: south of the
+# range, looking north-north-east along it.
+[camera]
+lon_deg = 6.45
+lat_deg = 44.95
+altitude_m = 9000
+heading_deg = 15
+pitch_deg = -25
+"#;
+
+/// Writes the demo scene into `out`: a synthetic mountain range (DEM with a
+/// small nodata void), an "orthophoto" tinted by height, and the manifest.
+/// Returns the manifest's path.
+pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let dem = RasterSpec {
+        width: 1000,
+        height: 600,
+        origin_x: 6.0,
+        origin_y: 45.6,
+        pixel: 0.001,
+        crs: "EPSG:4326",
+        nodata: Some(-9999.0),
+    };
+    // A small void (a lake the survey missed) so nodata handling shows.
+    write_dem(&out.join("dem.tif"), &dem, |lon, lat| {
+        if in_demo_void(lon, lat) { -9999.0 } else { demo_terrain(lon, lat) }
+    })?;
+    let ortho = RasterSpec {
+        width: 500,
+        height: 300,
+        origin_x: 6.0,
+        origin_y: 45.6,
+        pixel: 0.002,
+        crs: "EPSG:4326",
+        nodata: None,
+    };
+    write_rgb(&out.join("ortho.tif"), &ortho, |lon, lat| demo_color(demo_terrain(lon, lat)))?;
+    write_manifest(out, DEMO_MANIFEST)
+}
+
+/// The demo DEM's extent (west, south, east, north) and its nodata void
+/// (centre lon, lat and radius in degrees).
+pub const DEMO_EXTENT: [f64; 4] = [6.0, 45.0, 7.0, 45.6];
+pub const DEMO_VOID: [f64; 3] = [6.2, 45.45, 0.01];
+
+/// Whether (lon, lat) is in the demo DEM's nodata void.
+pub fn in_demo_void(lon: f64, lat: f64) -> bool {
+    (lon - DEMO_VOID[0]).powi(2) + (lat - DEMO_VOID[1]).powi(2) < DEMO_VOID[2].powi(2)
+}

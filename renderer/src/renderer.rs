@@ -329,7 +329,20 @@ impl Renderer {
         self.upload_levels(&update.active);
         let view = self.surface.view(pose);
         let levels = self.level_uniforms(&update.active, pose, &view);
-        let lighting = FrameUniform {
+        self.write_frame_uniform(pose, &view, settings);
+        self.gpu.queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
+        let base = self.base_geometry(&update.active, &view);
+        let draws = self.level_draws(&update.active);
+        passes.push(("upload", started.elapsed().as_secs_f64() * 1e3));
+
+        let started = Instant::now();
+        let (rgba, depth) = self.draw(settings, base.as_ref(), &draws)?;
+        passes.push(("draw and read back", started.elapsed().as_secs_f64() * 1e3));
+        Ok(Frame { width: settings.width, height: settings.height, rgba, depth, passes, update, view })
+    }
+
+    fn write_frame_uniform(&self, pose: &Pose, view: &View, settings: &RenderSettings) {
+        let frame = FrameUniform {
             view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
             sun: self.sun(pose),
             light: [0.35, 0.75, if settings.lighting { 1.0 } else { 0.0 }, 0.0],
@@ -338,14 +351,17 @@ impl Renderer {
                 [c.x, c.y, c.z, if self.surface.is_planet() { 1.0 } else { 0.0 }]
             },
         };
-        let queue = &self.gpu.queue;
-        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&lighting));
-        queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
-        let base = self.base_geometry(&update.active, &view);
-        let draws = self.level_draws(&update.active);
-        passes.push(("upload", started.elapsed().as_secs_f64() * 1e3));
+        self.gpu.queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+    }
 
-        let started = Instant::now();
+    /// One pass: the mesh (base or reference) and the clipmap levels, then
+    /// colour and depth read back.
+    fn draw(
+        &self,
+        settings: &RenderSettings,
+        base: Option<&(wgpu::Buffer, wgpu::Buffer, u32)>,
+        draws: &[Option<(i64, i64)>],
+    ) -> Result<(Vec<u8>, Vec<f32>), RenderError> {
         let device = &self.gpu.device;
         let target = |format, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -388,7 +404,7 @@ impl Renderer {
                 multiview_mask: None,
             });
             pass.set_bind_group(0, &self.bind_group, &[]);
-            if let Some((vertices, indices, count)) = &base {
+            if let Some((vertices, indices, count)) = base {
                 pass.set_pipeline(&self.base_pipeline);
                 pass.set_vertex_buffer(0, vertices.slice(..));
                 pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -401,9 +417,82 @@ impl Renderer {
                 pass.draw_indexed(0..*count, 0, slot as u32..slot as u32 + 1);
             }
         }
-        let (rgba, depth_values) = self.read_back(encoder, &color, &depth, settings)?;
+        self.read_back(encoder, &color, &depth, settings)
+    }
+
+    /// The brute-force reference: every sample of `area` (grid units) at
+    /// tile level `level` as one mesh, f64 positions made eye-relative on
+    /// the CPU, drawn without the clipmap. For benchmarks and accuracy
+    /// comparisons; None when the data is not ready.
+    pub fn render_full_mesh(
+        &self,
+        source: &dyn TerrainSamples,
+        level: u8,
+        area: &Extent,
+        pose: &Pose,
+        settings: &RenderSettings,
+    ) -> Result<Option<Frame>, RenderError> {
+        pose.validate(self.surface.is_planet())?;
+        let mut passes = Vec::new();
+        let started = Instant::now();
+        let (x0, y0) = self.surface.sample_coords(level, area.min_x, area.max_y);
+        let (x1, y1) = self.surface.sample_coords(level, area.max_x, area.min_y);
+        let (xs, ys) = (x0.floor() as i64..x1.ceil() as i64 + 1, y0.floor() as i64..y1.ceil() as i64 + 1);
+        let Some(block) = source.samples(level, xs.clone(), ys.clone()) else { return Ok(None) };
+        let view = self.surface.view(pose);
+        let (cols, rows) = ((xs.end - xs.start) as usize, (ys.end - ys.start) as usize);
+        let mut world = Vec::with_capacity(cols * rows);
+        for (j, gy) in ys.clone().enumerate() {
+            for (i, gx) in xs.clone().enumerate() {
+                let (x, y) = self.surface.sample_point(level, gx, gy);
+                let h = block.heights[j * cols + i];
+                world.push(self.surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }));
+            }
+        }
+        let at = |i: usize, j: usize| world[j.min(rows - 1) * cols + i.min(cols - 1)];
+        let vertices: Vec<BaseVertex> = (0..rows * cols)
+            .map(|k| {
+                let (i, j) = (k % cols, k / cols);
+                let east = at(i + 1, j) - at(i.saturating_sub(1), j);
+                let south = at(i, j + 1) - at(i, j.saturating_sub(1));
+                let n = south.cross(east).normalize_or_zero().as_vec3();
+                let p = (world[k] - view.eye).as_vec3();
+                BaseVertex {
+                    position: [p.x, p.y, p.z, 1.0],
+                    normal: [n.x, n.y, n.z, 0.0],
+                    color: block.colors[k].map(|v| f32::from(v) / 255.0),
+                }
+            })
+            .collect();
+        let mut indices = Vec::with_capacity((cols - 1) * (rows - 1) * 6);
+        for j in 0..rows - 1 {
+            for i in 0..cols - 1 {
+                let a = (j * cols + i) as u32;
+                let (b, c, d) = (a + 1, a + cols as u32, a + cols as u32 + 1);
+                indices.extend([a, c, d, a, d, b]);
+            }
+        }
+        let device = &self.gpu.device;
+        let mesh = (
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("full mesh vertices"),
+                contents: bytemuck::cast_slice(&vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            }),
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("full mesh cells"),
+                contents: bytemuck::cast_slice(&indices),
+                usage: wgpu::BufferUsages::INDEX,
+            }),
+            indices.len() as u32,
+        );
+        self.write_frame_uniform(pose, &view, settings);
+        passes.push(("mesh", started.elapsed().as_secs_f64() * 1e3));
+        let started = Instant::now();
+        let (rgba, depth) = self.draw(settings, Some(&mesh), &[])?;
         passes.push(("draw and read back", started.elapsed().as_secs_f64() * 1e3));
-        Ok(Frame { width: settings.width, height: settings.height, rgba, depth: depth_values, passes, update, view })
+        let update = UpdateStats::default();
+        Ok(Some(Frame { width: settings.width, height: settings.height, rgba, depth, passes, update, view }))
     }
 
     /// The sun in the camera's local sky: from the north-west, 45 degrees up.

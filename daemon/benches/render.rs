@@ -1,0 +1,134 @@
+//! Renderer benchmark. Prints tables; never asserts a time.
+//!
+//! The demo scene (a synthetic range whose heights are a formula) rendered
+//! at 1280 x 720 through reliefd's tile store, for the clipmap knobs n
+//! (samples per level side) and L (levels): the time of a frame while the
+//! camera flies (level updates included) and of a frame from a still camera,
+//! against the surface error reconstructed from the depth buffer. In the
+//! same run, the brute-force reference: every sample of the DEM's finest
+//! level as one mesh.
+
+#![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
+#![expect(clippy::unwrap_used, reason = "a bench that cannot set up has nothing to report")]
+
+use std::sync::Arc;
+
+use glam::DVec3;
+use relief_daemon::scene::Scene;
+use relief_daemon::view::SceneTerrain;
+use relief_renderer::{ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, Surface, TerrainSamples};
+use relief_source::{Extent, geodesy};
+
+const SETTINGS: RenderSettings = RenderSettings { width: 1280, height: 720, lighting: true };
+
+fn pose(step: usize) -> Pose {
+    // The demo's camera, flying 25 m north per frame.
+    Pose {
+        position: [6.45, 44.95 + step as f64 * 25.0 / 111_320.0, 9000.0],
+        heading_deg: 15.0,
+        pitch_deg: -25.0,
+        roll_deg: 0.0,
+        vertical_fov_deg: 50.0,
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn total_ms(frame: &Frame) -> f64 {
+    frame.passes.iter().map(|(_, ms)| ms).sum()
+}
+
+/// RMS and max of (rendered - formula) over every 4th pixel that shows
+/// the DEM (not its void), in metres.
+fn surface_error(frame: &Frame) -> (f64, f64) {
+    let [w0, s0, e0, n0] = relief_examples::DEMO_EXTENT;
+    let (mut sum, mut max, mut n) = (0.0, 0.0f64, 0usize);
+    for py in (0..frame.height).step_by(4) {
+        for px in (0..frame.width).step_by(4) {
+            let depth = frame.depth[(py * frame.width + px) as usize];
+            if depth <= 0.0 {
+                continue;
+            }
+            let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), frame.width, frame.height, depth);
+            let p: DVec3 = frame.view.eye + dir * distance;
+            let (lon, lat, h) = geodesy::geodetic_from_ecef(p.to_array());
+            if !(w0 + 0.01..e0 - 0.01).contains(&lon) || !(s0 + 0.01..n0 - 0.01).contains(&lat) || relief_examples::in_demo_void(lon, lat) {
+                continue;
+            }
+            let e = h - relief_examples::demo_terrain(lon, lat);
+            sum += e * e;
+            max = max.max(e.abs());
+            n += 1;
+        }
+    }
+    ((sum / n.max(1) as f64).sqrt(), max)
+}
+
+fn main() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = relief_examples::write_demo_scene(dir.path()).unwrap();
+    let (scene, _) = Scene::load(&manifest, false, 2).unwrap();
+    let snap = scene.snapshot();
+    let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
+    let gpu = Arc::new(Gpu::headless().unwrap());
+    println!("\n## Frame time at 1280 x 720, demo scene, against surface error");
+    println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
+    println!("camera: 9000 m, 25 degrees down, flying 25 m a frame; error from the depth buffer against the terrain formula");
+    println!("| n | L | triangles drawn (about) | flying frame ms (median of 10) | still frame ms (median of 5) | RMS error m | max error m |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut default_still = 0.0;
+    for n in [63usize, 127, 255] {
+        for levels in [4usize, 6, 8] {
+            let config = ClipmapConfig { n, levels };
+            let mut renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), config).unwrap();
+            // The first frame fills every level and builds tiles: not timed.
+            renderer.render(&terrain, &pose(0), &SETTINGS).unwrap();
+            let flying: Vec<f64> =
+                (1..=10).map(|k| total_ms(&renderer.render(&terrain, &pose(k), &SETTINGS).unwrap())).collect();
+            let mut still = Vec::new();
+            let mut last = None;
+            for _ in 0..5 {
+                let frame = renderer.render(&terrain, &pose(10), &SETTINGS).unwrap();
+                still.push(total_ms(&frame));
+                last = Some(frame);
+            }
+            let frame = last.unwrap();
+            let (rms, max) = surface_error(&frame);
+            let triangles = frame.update.active.len() * (n - 1) * (n - 1) * 2;
+            let still = median(still);
+            if config == ClipmapConfig::default() {
+                default_still = still;
+            }
+            println!(
+                "| {n} | {levels} | {triangles} | {:.1} | {still:.1} | {rms:.2} | {max:.1} |",
+                median(flying)
+            );
+        }
+    }
+    // The brute-force reference: the DEM's finest level, every sample.
+    let renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default()).unwrap();
+    let [w, s, e, n] = relief_examples::DEMO_EXTENT;
+    let level = terrain.max_level() - 1;
+    let area = Extent::new(w, s, e, n);
+    let mut times = Vec::new();
+    let mut mesh_ms = 0.0;
+    let mut last = None;
+    for _ in 0..3 {
+        let frame = renderer.render_full_mesh(&terrain, level, &area, &pose(10), &SETTINGS).unwrap().unwrap();
+        mesh_ms = frame.passes[0].1;
+        times.push(frame.passes[1].1);
+        last = Some(frame);
+    }
+    let frame = last.unwrap();
+    let (rms, max) = surface_error(&frame);
+    let step = snap.grid.tile_span(level).0 / f64::from(snap.grid.tile_size());
+    let samples = ((e - w) / step).ceil() * ((n - s) / step).ceil();
+    let brute = median(times);
+    println!("\n### Brute force: the whole DEM at tile level {level} as one mesh ({:.0} triangles)", 2.0 * samples);
+    println!("| renderer | frame ms (draw and read back, median of 3) | mesh build ms (CPU, once) | RMS error m | max error m | clipmap default (n 127, L 8) still frame / brute force |");
+    println!("|---|---|---|---|---|---|");
+    println!("| full-resolution mesh | {brute:.1} | {mesh_ms:.0} | {rms:.2} | {max:.1} | {:.2}x |", default_still / brute);
+}
