@@ -55,7 +55,10 @@ fn surface_error(frame: &Frame) -> (f64, f64) {
             let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), frame.width, frame.height, depth);
             let p: DVec3 = frame.view.eye + dir * distance;
             let (lon, lat, h) = geodesy::geodetic_from_ecef(p.to_array());
-            if !(w0 + 0.01..e0 - 0.01).contains(&lon) || !(s0 + 0.01..n0 - 0.01).contains(&lat) || relief_examples::in_demo_void(lon, lat) {
+            if !(w0 + 0.01..e0 - 0.01).contains(&lon)
+                || !(s0 + 0.01..n0 - 0.01).contains(&lat)
+                || relief_examples::in_demo_void(lon, lat)
+            {
                 continue;
             }
             let e = h - relief_examples::demo_terrain(lon, lat);
@@ -76,8 +79,12 @@ fn main() {
     let gpu = Arc::new(Gpu::headless().unwrap());
     println!("\n## Frame time at 1280 x 720, demo scene, against surface error");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
-    println!("camera: 9000 m, 25 degrees down, flying 25 m a frame; error from the depth buffer against the terrain formula");
-    println!("| n | L | triangles drawn (about) | flying frame ms (median of 10) | still frame ms (median of 5) | RMS error m | max error m |");
+    println!(
+        "camera: 9000 m, 25 degrees down, flying 25 m a frame; error from the depth buffer against the terrain formula"
+    );
+    println!(
+        "| n | L | triangles drawn (about) | flying frame ms (median of 10) | still frame ms (median of 5) | RMS error m | max error m |"
+    );
     println!("|---|---|---|---|---|---|---|");
     let mut default_still = 0.0;
     for n in [63usize, 127, 255] {
@@ -102,10 +109,7 @@ fn main() {
             if config == ClipmapConfig::default() {
                 default_still = still;
             }
-            println!(
-                "| {n} | {levels} | {triangles} | {:.1} | {still:.1} | {rms:.2} | {max:.1} |",
-                median(flying)
-            );
+            println!("| {n} | {levels} | {triangles} | {:.1} | {still:.1} | {rms:.2} | {max:.1} |", median(flying));
         }
     }
     // The brute-force reference: the DEM's finest level, every sample.
@@ -128,7 +132,12 @@ fn main() {
     let samples = ((e - w) / step).ceil() * ((n - s) / step).ceil();
     let brute = median(times);
     println!("\n### Brute force: the whole DEM at tile level {level} as one mesh ({:.0} triangles)", 2.0 * samples);
-    println!("| renderer | frame ms (draw and read back, median of 3) | mesh build ms (CPU, once) | RMS error m | max error m | clipmap default (n 127, L 8) still frame / brute force |");
+    println!(
+        "| renderer | frame ms (draw and read back, median of 3) | mesh build ms (CPU, once) | RMS error m | max error m | clipmap default (n 127, L 8) still frame / brute force |"
+    );
     println!("|---|---|---|---|---|---|");
-    println!("| full-resolution mesh | {brute:.1} | {mesh_ms:.0} | {rms:.2} | {max:.1} | {:.2}x |", default_still / brute);
+    println!(
+        "| full-resolution mesh | {brute:.1} | {mesh_ms:.0} | {rms:.2} | {max:.1} | {:.2}x |",
+        default_still / brute
+    );
 }

@@ -222,9 +222,13 @@ pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
         nodata: Some(-9999.0),
     };
     // A small void (a lake the survey missed) so nodata handling shows.
-    write_dem(&out.join("dem.tif"), &dem, |lon, lat| {
-        if in_demo_void(lon, lat) { -9999.0 } else { demo_terrain(lon, lat) }
-    })?;
+    write_dem(
+        &out.join("dem.tif"),
+        &dem,
+        |lon, lat| {
+            if in_demo_void(lon, lat) { -9999.0 } else { demo_terrain(lon, lat) }
+        },
+    )?;
     let ortho = RasterSpec {
         width: 500,
         height: 300,
