@@ -17,10 +17,15 @@ struct Analytic {
     surface: Surface,
     height: fn(f64, f64) -> f64,
     max_level: u8,
+    /// Levels above this one answer "not ready", as tiles still building.
+    ready_up_to: u8,
 }
 
 impl TerrainSamples for Analytic {
     fn samples(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<SampleBlock> {
+        if level > self.ready_up_to {
+            return None;
+        }
         let mut block = SampleBlock::default();
         for gy in ys {
             for gx in xs.clone() {
@@ -52,8 +57,27 @@ fn gpu() -> Arc<Gpu> {
 
 fn hill_scene(gpu: &Arc<Gpu>, config: ClipmapConfig) -> (Renderer, Analytic) {
     let surface = Surface::new(TileGrid::geodetic(256).unwrap());
-    let source = Analytic { surface: surface.clone(), height: relief_examples::hill, max_level: 14 };
+    let source =
+        Analytic { surface: surface.clone(), height: relief_examples::hill, max_level: 14, ready_up_to: u8::MAX };
     (Renderer::new(Arc::clone(gpu), surface, config).unwrap(), source)
+}
+
+/// A local scene: 20 km of UTM 12N round the analytic `utm_surface`.
+fn utm_scene(config: ClipmapConfig) -> (Renderer, Analytic) {
+    let grid = TileGrid::new(
+        GridKind::Projected(ProjectedGrid {
+            crs: "EPSG:32612".into(),
+            min_x: 290_000.0,
+            min_y: 5_090_000.0,
+            size: 20_000.0,
+        }),
+        256,
+    )
+    .unwrap();
+    let surface = Surface::new(grid);
+    let source =
+        Analytic { surface: surface.clone(), height: relief_examples::utm_surface, max_level: 8, ready_up_to: u8::MAX };
+    (Renderer::new(gpu(), surface, config).unwrap(), source)
 }
 
 fn pose(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> Pose {
@@ -143,19 +167,7 @@ fn depth_reconstructs_the_analytic_hill_and_leaves_no_holes() {
 
 #[test]
 fn a_flat_projected_scene_reconstructs_its_surface() {
-    let grid = TileGrid::new(
-        GridKind::Projected(ProjectedGrid {
-            crs: "EPSG:32612".into(),
-            min_x: 290_000.0,
-            min_y: 5_090_000.0,
-            size: 20_000.0,
-        }),
-        256,
-    )
-    .unwrap();
-    let surface = Surface::new(grid);
-    let source = Analytic { surface: surface.clone(), height: relief_examples::utm_surface, max_level: 8 };
-    let mut renderer = Renderer::new(gpu(), surface, ClipmapConfig::default()).unwrap();
+    let (mut renderer, source) = utm_scene(ClipmapConfig::default());
     let frame = renderer.render(&source, &pose(300_000.0, 5_095_000.0, 4000.0, 20.0, -30.0), &SETTINGS).unwrap();
     save(&frame, "utm.png");
     let (worst, checked) = surface_error(&frame, |p| (p.x, p.y, p.z), relief_examples::utm_surface);
@@ -212,19 +224,7 @@ fn incremental_updates_equal_a_fill_from_scratch_across_the_antimeridian() {
 
 #[test]
 fn incremental_updates_cover_negative_indices_off_a_flat_grid() {
-    let grid = TileGrid::new(
-        GridKind::Projected(ProjectedGrid {
-            crs: "EPSG:32612".into(),
-            min_x: 290_000.0,
-            min_y: 5_090_000.0,
-            size: 20_000.0,
-        }),
-        256,
-    )
-    .unwrap();
-    let surface = Surface::new(grid);
-    let source = Analytic { surface: surface.clone(), height: relief_examples::utm_surface, max_level: 8 };
-    let mut renderer = Renderer::new(gpu(), surface, ClipmapConfig { n: 63, levels: 4 }).unwrap();
+    let (mut renderer, source) = utm_scene(ClipmapConfig { n: 63, levels: 4 });
     // Along the grid's north-west corner, so windows start at negative indices.
     let (mut negative_x, mut negative_y) = (false, false);
     for k in 0..10 {
@@ -374,7 +374,8 @@ fn a_rebuilt_area_refreshes_only_its_samples() {
     let (mut renderer, before) = hill_scene(&gpu(), ClipmapConfig { n: 63, levels: 6 });
     let view = pose(10.2, 45.2, 3000.0, 0.0, -60.0);
     renderer.render(&before, &view, &SETTINGS).unwrap();
-    let after = Analytic { surface: before.surface.clone(), height: hill_with_block, max_level: 14 };
+    let after =
+        Analytic { surface: before.surface.clone(), height: hill_with_block, max_level: 14, ready_up_to: u8::MAX };
     let written = |r: &Renderer| -> u64 {
         r.clipmap().active().iter().map(|&t| r.clipmap().level(t).unwrap().samples_written).sum()
     };
@@ -387,4 +388,19 @@ fn a_rebuilt_area_refreshes_only_its_samples() {
     let frame = renderer.render(&after, &view, &SETTINGS).unwrap();
     assert_eq!(frame.update.samples_written, 0, "the camera did not move");
     assert_matches_scratch(&renderer, &after);
+}
+
+#[test]
+fn levels_whose_data_is_not_ready_are_not_drawn_and_the_view_stays_whole() {
+    let (mut renderer, mut source) = hill_scene(&gpu(), ClipmapConfig::default());
+    source.ready_up_to = 9;
+    let view = pose(10.1, 45.1, 4000.0, 45.0, -25.0);
+    let frame = renderer.render(&source, &view, &SETTINGS).unwrap();
+    assert!(frame.update.active.iter().all(|&t| t <= 9), "{:?}", frame.update);
+    assert_eq!(frame.update.not_ready, [10], "the first level not ready stops the finer ones");
+    assert_eq!(holes(&frame, 500.0 - BASE_SINK_M), 0, "coarser levels cover the view");
+    // Once the data is there, the finer levels come in.
+    source.ready_up_to = u8::MAX;
+    let frame = renderer.render(&source, &view, &SETTINGS).unwrap();
+    assert!(frame.update.active.iter().any(|&t| t > 9) && frame.update.not_ready.is_empty(), "{:?}", frame.update);
 }
