@@ -162,6 +162,26 @@ async fn bad_requests_get_invalid_argument_and_the_daemon_keeps_serving() {
         .unwrap_err();
     assert_eq!(status.code(), tonic::Code::InvalidArgument);
     assert!(status.message().contains("clipmap_grid_size"), "{}", status.message());
+    // Twelve large frames at once: four run or wait for the device, the
+    // rest are told the daemon is busy, by name.
+    let burst: Vec<_> = (0..12)
+        .map(|_| {
+            let channel = channel.clone();
+            tokio::spawn(async move { render(&channel, Some(good), (1600, 1200)).await })
+        })
+        .collect();
+    let (mut done, mut busy) = (0, 0);
+    for r in burst {
+        match r.await.unwrap() {
+            Ok(_) => done += 1,
+            Err(s) => {
+                assert_eq!(s.code(), tonic::Code::ResourceExhausted, "{s:?}");
+                assert!(s.message().contains("renders are already running"), "{}", s.message());
+                busy += 1;
+            }
+        }
+    }
+    assert!(done >= 4 && busy >= 1, "{done} rendered, {busy} refused");
     // Still serving: the camera was not changed, and a good frame renders.
     let current = views.get_camera(pb::GetCameraRequest {}).await.unwrap().into_inner();
     assert_eq!(current.lat_deg, 45.1);
