@@ -58,11 +58,14 @@ impl<'a> SceneTerrain<'a> {
     pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Self {
         let layer = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
         let height = layer("height");
-        // Refine down to the height data's own sample spacing, one level past.
-        let resolution = height
-            .and_then(|i| snap.slots[i].source.as_ref())
-            .and_then(|s| s.info().resolution)
-            .or_else(|| layer("color").and_then(|i| snap.slots[i].source.as_ref()).and_then(|s| s.info().resolution));
+        // Refine down to the finest data's own sample spacing (heights or
+        // imagery: colour is stored per vertex, so a fine orthophoto over a
+        // coarse DEM needs the finer levels too), one level past.
+        let resolution = [height, layer("color")]
+            .into_iter()
+            .flatten()
+            .filter_map(|i| snap.slots[i].source.as_ref().and_then(|s| s.info().resolution))
+            .reduce(f64::min);
         let max_level = resolution.map_or(12, |r| {
             let mut level = 0u8;
             while level < 20 && snap.grid.tile_span(level).0 / f64::from(snap.grid.tile_size()) > r {
