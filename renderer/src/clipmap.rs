@@ -349,9 +349,17 @@ impl Clipmap {
         let (finest, coarsest) = self.level_range(surface, h - ground, max_level, pixel_angle);
         let mut stats = UpdateStats::default();
         let before: u64 = self.levels.values().map(|l| l.samples_written).sum();
+        let mut coarser: Option<(i64, i64)> = None;
         for level in coarsest..=finest {
-            let near = self.levels.get(&level).map(|l| l.origin);
+            // On the planet a window may sit a revolution east or west: the
+            // coarsest stays where it was, each finer one nests in the
+            // coarser one (same revolution), or blending and holes break.
+            let near = match coarser {
+                Some(c) => Some((2 * c.0 + (self.config.n / 2) as i64, 2 * c.1)),
+                None => self.levels.get(&level).map(|l| l.origin),
+            };
             let origin = self.placement(surface, level, x, y, near);
+            coarser = Some(origin);
             let ready = match self.levels.get_mut(&level) {
                 Some(l) => l.move_to(surface, source, origin),
                 None => match ClipLevel::filled(surface, source, level, self.config.n, origin) {

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
-use relief_source::Extent;
+use relief_source::{Extent, geodesy};
 use wgpu::util::DeviceExt;
 
 use crate::camera::{Pose, View};
@@ -19,8 +19,6 @@ use crate::surface::Surface;
 
 /// Most clipmap levels a frame draws (the shader's uniform array).
 pub const MAX_LEVELS: usize = 16;
-/// Base grid: every `BASE_STRIDE`th sample of tile level 0.
-const BASE_STRIDE: i64 = 4;
 const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -31,6 +29,10 @@ struct FrameUniform {
     sun: [f32; 4],
     light: [f32; 4],
     centre: [f32; 4],
+    /// The eye in double-single parts (for the base); w of `eye_low` is how
+    /// far the base is sunk below the levels, in metres.
+    eye_high: [f32; 4],
+    eye_low: [f32; 4],
 }
 
 #[repr(C)]
@@ -42,12 +44,24 @@ struct LevelUniform {
     blend: [f32; 4],
 }
 
+/// A vertex of the base or of a reference mesh: its position split into
+/// two f32s (high and low parts, "double-single"), so the shader subtracts
+/// the eye in two steps and keeps centimetres on a planet; w of `high` is
+/// the validity.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 struct BaseVertex {
-    position: [f32; 4],
+    high: [f32; 4],
+    low: [f32; 4],
     normal: [f32; 4],
     color: [f32; 4],
+}
+
+/// `v` as an f32 high part and the f32 remainder.
+fn split(v: DVec3) -> ([f32; 3], [f32; 3]) {
+    let high = v.as_vec3();
+    let low = (v - high.as_dvec3()).as_vec3();
+    (high.to_array(), low.to_array())
 }
 
 /// What a frame is drawn with besides the camera.
@@ -75,43 +89,51 @@ pub struct Frame {
     pub view: View,
 }
 
-/// The coarse grid of the whole scene under the clipmap.
+/// The coarse grid of the whole scene under the clipmap: every sample of
+/// tile level 0, uploaded once; each frame draws every 1st, 2nd or 4th of
+/// them, as the view needs, short of the horizon.
 #[derive(Debug)]
 struct Base {
     cols: i64,
     rows: i64,
     world: Vec<DVec3>,
-    normals: Vec<[f32; 4]>,
-    colors: Vec<[f32; 4]>,
-    valid: Vec<bool>,
+    vertices: wgpu::Buffer,
+    /// Ground size of one cell, metres (at the equator on the planet).
+    cell_m: f64,
 }
 
 impl Base {
-    fn fill(surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
+    fn fill(device: &wgpu::Device, surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
         let (c, r) = surface.grid().tiles_at(0);
         let n = i64::from(surface.grid().tile_size());
-        let (total_x, total_y) = (i64::from(c) * n, i64::from(r) * n);
-        let block = source.samples(0, 0..total_x + 1, 0..total_y + 1)?;
-        let (cols, rows) = (total_x / BASE_STRIDE + 1, total_y / BASE_STRIDE + 1);
-        // Sunk a little below the levels, so where both are drawn the
-        // clipmap is on top (about 0.3% of a base cell).
-        let sink = 0.003 * surface.step(0) * BASE_STRIDE as f64 * surface.metres_per_unit();
-        let mut base =
-            Self { cols, rows, world: Vec::new(), normals: Vec::new(), colors: Vec::new(), valid: Vec::new() };
-        for j in 0..rows {
-            for i in 0..cols {
-                let (gx, gy) = (i * BASE_STRIDE, j * BASE_STRIDE);
-                let k = (gy * (total_x + 1) + gx) as usize;
+        let (cols, rows) = (i64::from(c) * n + 1, i64::from(r) * n + 1);
+        let block = source.samples(0, 0..cols, 0..rows)?;
+        let mut world = Vec::with_capacity((cols * rows) as usize);
+        let mut vertices = Vec::with_capacity((cols * rows) as usize);
+        for gy in 0..rows {
+            for gx in 0..cols {
+                let k = (gy * cols + gx) as usize;
                 let h = block.heights[k];
                 let (x, y) = surface.sample_point(0, gx, gy);
-                base.world.push(surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 } - sink));
+                let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 });
                 let up = surface.enu(x, y)[2].as_vec3();
-                base.normals.push([up.x, up.y, up.z, 0.0]);
-                base.colors.push(block.colors[k].map(|v| f32::from(v) / 255.0));
-                base.valid.push(surface.on_grid(0, gx, gy));
+                let (high, low) = split(p);
+                let valid = if surface.on_grid(0, gx, gy) { 1.0 } else { crate::clipmap::OFF_GRID };
+                vertices.push(BaseVertex {
+                    high: [high[0], high[1], high[2], valid],
+                    low: [low[0], low[1], low[2], 0.0],
+                    normal: [up.x, up.y, up.z, 0.0],
+                    color: block.colors[k].map(|v| f32::from(v) / 255.0),
+                });
+                world.push(p);
             }
         }
-        Some(base)
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("base vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        Some(Self { cols, rows, world, vertices, cell_m: surface.step(0) * surface.metres_per_unit() })
     }
 }
 
@@ -171,7 +193,7 @@ impl Renderer {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let base_attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4];
+        let base_attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
         let pipeline = |label, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
@@ -321,7 +343,7 @@ impl Renderer {
         let pixel_angle = pose.vertical_fov_deg.to_radians() / f64::from(settings.height);
         let update = self.clipmap.update(&self.surface, source, pose, pixel_angle);
         if self.base.is_none() {
-            self.base = Base::fill(&self.surface, source);
+            self.base = Base::fill(&self.gpu.device, &self.surface, source);
         }
         passes.push(("update", started.elapsed().as_secs_f64() * 1e3));
 
@@ -329,9 +351,9 @@ impl Renderer {
         self.upload_levels(&update.active);
         let view = self.surface.view(pose);
         let levels = self.level_uniforms(&update.active, pose, &view);
-        self.write_frame_uniform(pose, &view, settings);
         self.gpu.queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels));
-        let base = self.base_geometry(&update.active, &view);
+        let (base, sink) = self.base_cells(&update.active, &view, pose, pixel_angle).unzip();
+        self.write_frame_uniform(pose, &view, settings, Some(sink.unwrap_or(0.0)));
         let draws = self.level_draws(&update.active);
         passes.push(("upload", started.elapsed().as_secs_f64() * 1e3));
 
@@ -341,7 +363,11 @@ impl Renderer {
         Ok(Frame { width: settings.width, height: settings.height, rgba, depth, passes, update, view })
     }
 
-    fn write_frame_uniform(&self, pose: &Pose, view: &View, settings: &RenderSettings) {
+    /// `base_sink`: Some(metres the base is sunk) when the base is drawn
+    /// from its double-single positions; None for a mesh already relative
+    /// to the eye.
+    fn write_frame_uniform(&self, pose: &Pose, view: &View, settings: &RenderSettings, base_sink: Option<f64>) {
+        let (eye_high, eye_low) = if base_sink.is_some() { split(view.eye) } else { ([0.0; 3], [0.0; 3]) };
         let frame = FrameUniform {
             view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
             sun: self.sun(pose),
@@ -350,6 +376,8 @@ impl Renderer {
                 let c = (-view.eye).as_vec3();
                 [c.x, c.y, c.z, if self.surface.is_planet() { 1.0 } else { 0.0 }]
             },
+            eye_high: [eye_high[0], eye_high[1], eye_high[2], 0.0],
+            eye_low: [eye_low[0], eye_low[1], eye_low[2], base_sink.unwrap_or(0.0) as f32],
         };
         self.gpu.queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
     }
@@ -458,7 +486,8 @@ impl Renderer {
                 let n = south.cross(east).normalize_or_zero().as_vec3();
                 let p = (world[k] - view.eye).as_vec3();
                 BaseVertex {
-                    position: [p.x, p.y, p.z, 1.0],
+                    high: [p.x, p.y, p.z, 1.0],
+                    low: [0.0; 4],
                     normal: [n.x, n.y, n.z, 0.0],
                     color: block.colors[k].map(|v| f32::from(v) / 255.0),
                 }
@@ -486,7 +515,7 @@ impl Renderer {
             }),
             indices.len() as u32,
         );
-        self.write_frame_uniform(pose, &view, settings);
+        self.write_frame_uniform(pose, &view, settings, None);
         passes.push(("mesh", started.elapsed().as_secs_f64() * 1e3));
         let started = Instant::now();
         let (rgba, depth) = self.draw(settings, Some(&mesh), &[])?;
@@ -610,63 +639,79 @@ impl Renderer {
         keys
     }
 
-    /// The base's eye-relative vertices and the cells not under the
-    /// coarsest level.
-    fn base_geometry(&self, active: &[u8], view: &View) -> Option<(wgpu::Buffer, wgpu::Buffer, u32)> {
+    /// The base's cells for this frame, and how far it is sunk. On the
+    /// planet the stride is the coarsest whose flat cells sag (chord below
+    /// the arc) less than a pixel at the horizon, and cells past the horizon
+    /// are left out; cells under the coarsest level are left out too.
+    fn base_cells(
+        &self,
+        active: &[u8],
+        view: &View,
+        pose: &Pose,
+        pixel_angle: f64,
+    ) -> Option<((wgpu::Buffer, wgpu::Buffer, u32), f64)> {
         let base = self.base.as_ref()?;
-        let vertices: Vec<BaseVertex> = (0..base.world.len())
-            .map(|k| {
-                let p = (base.world[k] - view.eye).as_vec3();
-                BaseVertex {
-                    position: [p.x, p.y, p.z, if base.valid[k] { 1.0 } else { crate::clipmap::OFF_GRID }],
-                    normal: base.normals[k],
-                    color: base.colors[k],
-                }
-            })
-            .collect();
+        let planet = self.surface.is_planet();
+        let radius = geodesy::WGS84_A;
+        let height = pose.position[2].max(1.0);
+        let horizon = (2.0 * radius * height + height * height).sqrt();
+        // The nearest base cell is about where the coarsest level ends.
+        let nearest = active.first().and_then(|&t| self.clipmap.level(t)).map_or(height, |level| {
+            let reach = (level.n / 2) as f64 * self.surface.step(level.tile_level) * self.surface.metres_per_unit();
+            reach.hypot(height)
+        });
+        let stride: i64 = if planet {
+            [4, 2, 1]
+                .into_iter()
+                .find(|&s| (s as f64 * base.cell_m).powi(2) / (8.0 * radius) / nearest < pixel_angle)
+                .unwrap_or(1)
+        } else {
+            4
+        };
+        let cell = stride as f64 * base.cell_m;
         // The coarsest level's window in tile-level-0 samples.
         let covered = active.first().and_then(|&t| self.clipmap.level(t)).map(|level| {
             let scale = f64::from(1u32 << level.tile_level);
-            let x0 = level.origin.0 as f64 / scale;
-            let y0 = level.origin.1 as f64 / scale;
-            let side = (level.n - 1) as f64 / scale;
-            (x0, y0, side)
+            (level.origin.0 as f64 / scale, level.origin.1 as f64 / scale, (level.n - 1) as f64 / scale)
         });
-        let total_x = (base.cols - 1) * BASE_STRIDE;
+        let total_x = (base.cols - 1) as f64;
+        let shifts: &[f64] = if planet { &[-1.0, 0.0, 1.0] } else { &[0.0] };
         let mut indices = Vec::new();
-        for j in 0..base.rows - 1 {
-            for i in 0..base.cols - 1 {
-                let (cx, cy) = ((i * BASE_STRIDE) as f64, (j * BASE_STRIDE) as f64);
+        for j in (0..base.rows - 1).step_by(stride as usize) {
+            for i in (0..base.cols - 1).step_by(stride as usize) {
+                let (i1, j1) = ((i + stride).min(base.cols - 1), (j + stride).min(base.rows - 1));
+                if planet {
+                    let centre = base.world[(i64::midpoint(j, j1) * base.cols + i64::midpoint(i, i1)) as usize];
+                    if (centre - view.eye).length() > horizon + cell {
+                        continue;
+                    }
+                }
+                let (cx, cy, size) = (i as f64, j as f64, stride as f64);
                 let inside = covered.is_some_and(|(x0, y0, side)| {
-                    let shifts: &[f64] = if self.surface.is_planet() { &[-1.0, 0.0, 1.0] } else { &[0.0] };
                     shifts.iter().any(|s| {
-                        let x = cx + s * total_x as f64;
-                        x >= x0
-                            && x + BASE_STRIDE as f64 <= x0 + side
-                            && cy >= y0
-                            && cy + BASE_STRIDE as f64 <= y0 + side
+                        let x = cx + s * total_x;
+                        x >= x0 && x + size <= x0 + side && cy >= y0 && cy + size <= y0 + side
                     })
                 });
                 if inside {
                     continue;
                 }
-                let a = (j * base.cols + i) as u32;
-                let (b, c, d) = (a + 1, a + base.cols as u32, a + base.cols as u32 + 1);
+                let corner = |i: i64, j: i64| (j * base.cols + i) as u32;
+                let (a, b, c, d) = (corner(i, j), corner(i1, j), corner(i, j1), corner(i1, j1));
                 indices.extend([a, c, d, a, d, b]);
             }
         }
-        let device = &self.gpu.device;
-        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("base vertices"),
-            contents: bytemuck::cast_slice(&vertices),
-            usage: wgpu::BufferUsages::VERTEX,
-        });
-        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        if indices.is_empty() {
+            return None;
+        }
+        let index_buffer = self.gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("base cells"),
             contents: bytemuck::cast_slice(&indices),
             usage: wgpu::BufferUsages::INDEX,
         });
-        Some((vertex_buffer, index_buffer, indices.len() as u32))
+        // Sunk a little below the levels, so where both are drawn the
+        // clipmap is on top: 0.3% of a drawn cell.
+        Some(((base.vertices.clone(), index_buffer, indices.len() as u32), 0.003 * cell))
     }
 
     fn read_back(

@@ -11,6 +11,10 @@ struct Frame {
     // The planet's centre from the eye (xyz; direction only, so f32 is
     // plenty), w 1 on the planet, 0 on a flat scene (up is +z).
     centre: vec4<f32>,
+    // The eye as double-single parts (for the base); eye_low.w is how far
+    // the base is sunk below the levels, in metres.
+    eye_high: vec4<f32>,
+    eye_low: vec4<f32>,
 }
 
 fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
@@ -180,15 +184,22 @@ struct BaseOut {
     @location(2) valid: f32,
 }
 
-// The base: a coarse grid of the whole scene, eye-relative positions made
-// in f64 on the CPU each frame.
+// The base: a coarse grid of the whole scene with double-single positions
+// (Cozzi & Ring's GPU relative-to-eye), the eye subtracted in two steps. A
+// reference mesh comes already relative to the eye (eye parts zero).
 @vertex
-fn vs_base(@location(0) position: vec4<f32>, @location(1) normal: vec4<f32>, @location(2) color: vec4<f32>) -> BaseOut {
+fn vs_base(
+    @location(0) high: vec4<f32>,
+    @location(1) low: vec4<f32>,
+    @location(2) normal: vec4<f32>,
+    @location(3) color: vec4<f32>,
+) -> BaseOut {
     var out: BaseOut;
-    out.clip = frame.view_proj * vec4<f32>(position.xyz, 1.0);
+    let p = (high.xyz - frame.eye_high.xyz) + (low.xyz - frame.eye_low.xyz) - normal.xyz * frame.eye_low.w;
+    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.normal = normal.xyz;
     out.color = color;
-    out.valid = position.w;
+    out.valid = high.w;
     return out;
 }
 

@@ -212,6 +212,7 @@ fn incremental_updates_equal_a_fill_from_scratch_across_the_antimeridian() {
             lon -= 360.0;
         }
         assert_matches_scratch(&renderer, &source);
+        assert_nested(&renderer);
     }
     // Small moves rewrite strips, not windows: far less than a refill of
     // every level each step.
@@ -403,4 +404,136 @@ fn levels_whose_data_is_not_ready_are_not_drawn_and_the_view_stays_whole() {
     source.ready_up_to = u8::MAX;
     let frame = renderer.render(&source, &view, &SETTINGS).unwrap();
     assert!(frame.update.active.iter().any(|&t| t > 9) && frame.update.not_ready.is_empty(), "{:?}", frame.update);
+}
+
+/// Flies in small steps over `height` and returns, per frame, the 99.9th
+/// percentile of the largest colour change of a pixel, and how many times
+/// level windows moved.
+fn flight(height: fn(f64, f64) -> f64) -> (Vec<u8>, usize) {
+    let gpu = gpu();
+    let surface = Surface::new(TileGrid::geodetic(256).unwrap());
+    let source = Analytic { surface: surface.clone(), height, max_level: 16, ready_up_to: u8::MAX };
+    let mut renderer = Renderer::new(gpu, surface, ClipmapConfig { n: 63, levels: 6 }).unwrap();
+    let (mut previous, mut changes, mut shifts): (Option<Frame>, Vec<u8>, usize) = (None, Vec::new(), 0);
+    let mut origins: Vec<(u8, (i64, i64))> = Vec::new();
+    for k in 0..24 {
+        // 6 m a frame north-east at 2500 m: windows move by a sample every
+        // few frames.
+        let p = pose(10.15 + f64::from(k) * 0.00005, 45.15 + f64::from(k) * 0.00005, 2500.0, 45.0, -35.0);
+        let frame = renderer.render(&source, &p, &SETTINGS).unwrap();
+        let now: Vec<(u8, (i64, i64))> =
+            frame.update.active.iter().map(|&t| (t, renderer.clipmap().level(t).unwrap().origin)).collect();
+        shifts += now.iter().filter(|o| !origins.contains(o)).count();
+        origins = now;
+        if let Some(prev) = previous {
+            let mut diffs: Vec<u8> = prev
+                .rgba
+                .chunks(4)
+                .zip(frame.rgba.chunks(4))
+                .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.abs_diff(*y)).max().unwrap_or(0))
+                .collect();
+            diffs.sort_unstable();
+            changes.push(diffs[diffs.len() * 999 / 1000]);
+        }
+        previous = Some(frame);
+    }
+    (changes, shifts)
+}
+
+#[test]
+fn a_slow_flight_across_window_shifts_does_not_pop() {
+    // Smooth terrain moving by a fraction of a pixel: colours change by a
+    // few levels; a level popping in would change whole areas.
+    let (changes, shifts) = flight(relief_examples::hill);
+    assert!(shifts > 6, "the flight moved windows only {shifts} times");
+    assert!(changes.iter().all(|&c| c <= 6), "99.9th percentile colour changes {changes:?}");
+    // Over bumps that coarse levels alias, the transition morphs them
+    // from frame to frame instead of switching: 16-18 levels here, where
+    // the same flight without the transition (alpha 0) measured 23-29.
+    let (changes, _) = flight(bumps);
+    assert!(changes.iter().all(|&c| c <= 21), "99.9th percentile colour changes over bumps {changes:?}");
+}
+
+/// 40 m bumps every 0.002 degrees (about 200 m): coarse levels alias them,
+/// so neighbouring levels differ by tens of metres where they meet.
+fn bumps(lon: f64, lat: f64) -> f64 {
+    let k = std::f64::consts::TAU / 0.002;
+    500.0 + 40.0 * (lon * k).sin() * (lat * k).sin()
+}
+
+#[test]
+fn levels_meet_without_cracks_where_they_differ() {
+    let gpu = gpu();
+    let surface = Surface::new(TileGrid::geodetic(256).unwrap());
+    let source = Analytic { surface: surface.clone(), height: bumps, max_level: 16, ready_up_to: u8::MAX };
+    let mut renderer = Renderer::new(gpu, surface, ClipmapConfig { n: 63, levels: 6 }).unwrap();
+    // Views the clipmap covers whole (no horizon: beyond the coarsest level
+    // a coarse base takes over, which may sit hundreds of metres low).
+    for (k, p) in [
+        pose(7.3, 46.1, 1500.0, 30.0, -50.0),
+        pose(7.3, 46.1, 3000.0, 200.0, -60.0),
+        pose(7.31, 46.12, 800.0, 90.0, -45.0),
+        pose(7.3, 46.1, 20_000.0, 0.0, -90.0),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let frame = renderer.render(&source, p, &SETTINGS).unwrap();
+        save(&frame, &format!("bumps-{k}.png"));
+        // Every level approximates the bumps within their 40 m amplitude
+        // (plus aliasing); a crack would show the base ~1000 m below, or sky.
+        let (w, h) = (frame.width, frame.height);
+        for py in 0..h {
+            for px in 0..w {
+                let depth = frame.depth[(py * w + px) as usize];
+                let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), w, h, depth.max(1e-30));
+                if depth <= 0.0 {
+                    assert!(
+                        !meets_ellipsoid(frame.view.eye, dir, 460.0 - BASE_SINK_M),
+                        "view {k}: sky at ({px}, {py})"
+                    );
+                    continue;
+                }
+                let (lon, lat, z) = geodesy::geodetic_from_ecef((frame.view.eye + dir * distance).to_array());
+                let error = (z - bumps(lon, lat)).abs();
+                assert!(error < 200.0, "view {k}: pixel ({px}, {py}) {error:.0} m off the surface: a crack");
+            }
+        }
+    }
+}
+
+/// Each finer window lies inside the coarser one, in the same revolution.
+fn assert_nested(renderer: &Renderer) {
+    let active = renderer.clipmap().active();
+    for pair in active.windows(2) {
+        let (c, f) = (renderer.clipmap().level(pair[0]).unwrap(), renderer.clipmap().level(pair[1]).unwrap());
+        let side = (f.n as i64 - 1) / 2;
+        for (fo, co) in [(f.origin.0, c.origin.0), (f.origin.1, c.origin.1)] {
+            assert!(
+                fo / 2 >= co && fo / 2 + side < co + c.n as i64,
+                "level {} at {:?} not inside level {} at {:?}",
+                pair[1],
+                f.origin,
+                pair[0],
+                c.origin
+            );
+        }
+    }
+}
+
+#[test]
+fn after_a_jump_across_the_antimeridian_levels_still_nest() {
+    // A camera over lon 0 (the south pole), then on the antimeridian: the
+    // kept coarse levels came from the other side of the planet; windows
+    // that chose different revolutions left a band of sky.
+    let (mut renderer, source) = hill_scene(&gpu(), ClipmapConfig::default());
+    for p in [
+        pose(0.0, -90.0, 20_000.0, 0.0, -90.0),
+        pose(180.0, -16.8, 5000.0, 270.0, -30.0),
+        pose(-179.9, -16.8, 5000.0, 90.0, -30.0),
+    ] {
+        let frame = renderer.render(&source, &p, &SETTINGS).unwrap();
+        assert_nested(&renderer);
+        assert_eq!(holes(&frame, 500.0 - BASE_SINK_M), 0, "{p:?}");
+    }
 }
