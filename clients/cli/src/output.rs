@@ -58,8 +58,11 @@ pub fn state_json(s: &pb::SceneState) -> Value {
         json!({"kind": g.kind, "crs": g.crs, "tile_size": g.tile_size, "extent": extent_json(g.extent.as_ref()),
                "level0_columns": g.level0_columns, "level0_rows": g.level0_rows})
     });
-    let effects: Vec<Value> =
-        s.effects.iter().map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran})).collect();
+    let effects: Vec<Value> = s
+        .effects
+        .iter()
+        .map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran, "last_cost_ms": e.last_cost_ms}))
+        .collect();
     let c = s.counters.unwrap_or_default();
     json!({
         "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
@@ -103,7 +106,14 @@ pub fn state_text(s: &pb::SceneState) -> String {
     let mut layers: Vec<_> = s.layers.iter().collect();
     layers.sort();
     let _ = writeln!(out, "  layers: {}", layers.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
-    let _ = writeln!(out, "  effects: {}", s.effects.iter().map(|e| e.name.as_str()).collect::<Vec<_>>().join(" "));
+    let effects: Vec<String> = s
+        .effects
+        .iter()
+        .map(|e| {
+            if e.ran { format!("{} (ran in the last frame, {:.1} ms)", e.name, e.last_cost_ms) } else { e.name.clone() }
+        })
+        .collect();
+    let _ = writeln!(out, "  effects: {}", effects.join(" "));
     let mut quality: Vec<_> = s.quality.iter().collect();
     quality.sort();
     let _ =
