@@ -6,7 +6,7 @@ use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
 use relief_renderer::{
-    ClipmapConfig, Frame, Gpu, Pose, RenderError, RenderSettings, Renderer, SampleBlock, Surface, TerrainSamples,
+    ClipmapConfig, Frame, Gpu, Pose, RenderError, RenderSettings, Renderer, Surface, TerrainSamples,
 };
 use relief_source::{CrsTransform, Extent, Payload, Quality, TileKey};
 use tokio::sync::{Semaphore, watch};
@@ -71,18 +71,31 @@ impl<'a> SceneTerrain<'a> {
             while level < 20 && snap.grid.tile_span(level).0 / f64::from(snap.grid.tile_size()) > r {
                 level += 1;
             }
-            (level + 1).min(relief_source::MAX_LEVEL)
+            (level + 1).min(relief_source::MAX_LEVEL - 1)
         });
         Self { store, snap, quality, height, color: layer("color"), max_level }
     }
 }
 
-impl TerrainSamples for SceneTerrain<'_> {
-    fn samples(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<SampleBlock> {
+impl SceneTerrain<'_> {
+    /// One value per corner sample of the block from source `index`'s tiles
+    /// (`default` without that layer), the tiles built in parallel first.
+    fn read<T: Copy>(
+        &self,
+        index: Option<usize>,
+        level: u8,
+        xs: Range<i64>,
+        ys: Range<i64>,
+        default: T,
+        value: impl Fn(&Payload, usize, usize) -> Option<T>,
+    ) -> Option<Vec<T>> {
+        let count = ((xs.end - xs.start) * (ys.end - ys.start)).max(0) as usize;
+        let Some(index) = index else { return Some(vec![default; count]) };
         let grid = &self.snap.grid;
         let n = i64::from(grid.tile_size());
-        // The tiles the block spans: its corners' tiles and every tile
-        // between, wrapped like the samples.
+        // The tiles the block spans: every tile-size step across it and its
+        // last sample, each with its south-east neighbour, wrapped like the
+        // samples.
         let mut keys = std::collections::BTreeSet::new();
         let step = |r: &Range<i64>| (r.start..r.end).step_by(n as usize).chain(std::iter::once(r.end - 1));
         for gy in step(&ys) {
@@ -91,16 +104,12 @@ impl TerrainSamples for SceneTerrain<'_> {
                 keys.insert(grid.corner_sample(level, gx + 1, gy + 1).0);
             }
         }
-        let mut requests = Vec::new();
-        for index in [self.height, self.color].into_iter().flatten() {
-            requests.extend(keys.iter().map(|&k| (index, k)));
-        }
-        let built = self.store.build(self.snap, &requests, &self.quality);
-        let mut tiles: HashMap<(usize, TileKey), Arc<Payload>> = HashMap::new();
-        for ((index, key), tile) in requests.iter().zip(built) {
+        let requests: Vec<(usize, TileKey)> = keys.iter().map(|&k| (index, k)).collect();
+        let mut tiles: HashMap<TileKey, Arc<Payload>> = HashMap::new();
+        for ((_, key), tile) in requests.iter().zip(self.store.build(self.snap, &requests, &self.quality)) {
             match tile {
                 Ok(t) => {
-                    tiles.insert((*index, *key), Arc::clone(&t.payload));
+                    tiles.insert(*key, Arc::clone(&t.payload));
                 }
                 Err(e) => {
                     tracing::warn!(level, error = %e, "terrain for the renderer is not ready");
@@ -108,37 +117,41 @@ impl TerrainSamples for SceneTerrain<'_> {
                 }
             }
         }
-        let mut block = SampleBlock::default();
-        let count = ((xs.end - xs.start) * (ys.end - ys.start)).max(0) as usize;
-        block.heights.reserve(count);
-        block.colors.reserve(count);
+        let mut out = Vec::with_capacity(count);
         for gy in ys {
             for gx in xs.clone() {
                 let (key, i, j) = grid.corner_sample(level, gx, gy);
-                let height = self.height.and_then(|h| match tiles.get(&(h, key)).map(AsRef::as_ref) {
-                    Some(Payload::Height(t)) => Some(t.get(i, j)),
-                    _ => None,
-                });
-                block.heights.push(height.unwrap_or(0.0));
-                // A corner sits between four texel centres (the colour tile
-                // has a one-texel border).
-                let color = self.color.and_then(|c| match tiles.get(&(c, key)).map(AsRef::as_ref) {
-                    Some(Payload::Color(t)) => {
-                        let mut sum = [0u32; 4];
-                        for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                            let o = ((j + dj) * t.size + i + di) * 4;
-                            for (total, v) in sum.iter_mut().zip(&t.rgba[o..o + 4]) {
-                                *total += u32::from(*v);
-                            }
-                        }
-                        Some(sum.map(|v| ((v + 2) / 4) as u8))
-                    }
-                    _ => None,
-                });
-                block.colors.push(color.unwrap_or([0; 4]));
+                out.push(tiles.get(&key).and_then(|t| value(t, i, j)).unwrap_or(default));
             }
         }
-        Some(block)
+        Some(out)
+    }
+}
+
+impl TerrainSamples for SceneTerrain<'_> {
+    fn heights(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<f32>> {
+        self.read(self.height, level, xs, ys, 0.0, |tile, i, j| match tile {
+            Payload::Height(t) => Some(t.get(i, j)),
+            _ => None,
+        })
+    }
+
+    /// A corner sits between four texel centres (colour tiles have a
+    /// one-texel border): their mean.
+    fn colors(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<[u8; 4]>> {
+        self.read(self.color, level, xs, ys, [0; 4], |tile, i, j| match tile {
+            Payload::Color(t) => {
+                let mut sum = [0u32; 4];
+                for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let o = ((j + dj) * t.size + i + di) * 4;
+                    for (total, v) in sum.iter_mut().zip(&t.rgba[o..o + 4]) {
+                        *total += u32::from(*v);
+                    }
+                }
+                Some(sum.map(|v| ((v + 2) / 4) as u8))
+            }
+            _ => None,
+        })
     }
 
     fn max_level(&self) -> u8 {

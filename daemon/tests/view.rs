@@ -33,13 +33,13 @@ fn samples_across_tile_borders_follow_the_hill() {
     // Level 10: 256-sample tiles of 0.176 degrees; this block straddles the
     // corner of four tiles (samples 277248 and 65024 are tile edges).
     let (level, xs, ys) = (10u8, 277_240..277_260, 65_016..65_036);
-    let block = terrain.samples(level, xs.clone(), ys.clone()).unwrap();
+    let heights = terrain.heights(level, xs.clone(), ys.clone()).unwrap();
     let step = 180.0 / 1024.0 / 256.0;
     let mut worst: f64 = 0.0;
     for (j, gy) in ys.enumerate() {
         for (i, gx) in xs.clone().enumerate() {
             let (lon, lat) = (-180.0 + gx as f64 * step, 90.0 - gy as f64 * step);
-            let h = f64::from(block.heights[j * 20 + i]);
+            let h = f64::from(heights[j * 20 + i]);
             worst = worst.max((h - relief_examples::hill(lon, lat)).abs());
         }
     }

@@ -18,24 +18,26 @@ use crate::surface::Surface;
 /// (interpolation reaches 0.5 within a millionth of the cell).
 pub const OFF_GRID: f32 = -1.0e6;
 
-/// Heights (metres, NaN for nodata) and colours of a block of corner samples.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct SampleBlock {
-    pub heights: Vec<f32>,
-    pub colors: Vec<[u8; 4]>,
-}
-
 /// Where the renderer gets terrain: the daemon answers from its tile store.
+/// Blocks are corner samples at a tile level, columns `xs` and rows `ys` of
+/// the level's global lattice, row-major. Indices may run past the grid: the
+/// implementation wraps longitudes, continues over the poles and clamps a
+/// flat grid. None when the data is not ready.
 pub trait TerrainSamples: Sync {
-    /// Corner samples at tile `level`, columns `xs` and rows `ys` of the
-    /// level's global lattice, row-major. Indices may run past the grid:
-    /// the implementation wraps longitudes, continues over the poles and
-    /// clamps a flat grid. None when the data is not ready.
-    fn samples(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<SampleBlock>;
+    /// Heights in metres, NaN for nodata.
+    fn heights(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<f32>>;
 
-    /// The finest tile level worth drawing (the height data's resolution).
+    /// Colours (RGBA8; alpha 0 where the scene has no colour).
+    fn colors(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<[u8; 4]>>;
+
+    /// The finest tile level worth drawing (the data's resolution).
     fn max_level(&self) -> u8;
 }
+
+/// Colour samples per geometry sample along a side: each level's colour is
+/// read from the tile level below it, so imagery is twice as sharp as the
+/// mesh (a texture clipmap over the geometry clipmap).
+pub const COLOR_DETAIL: i64 = 2;
 
 /// The clipmap's two knobs, from the manifest's `[quality]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -100,7 +102,40 @@ fn spans(range: &Range<i64>, n: usize) -> Vec<(usize, usize)> {
     if start + len <= n { vec![(start, len)] } else { vec![(start, n - start), (0, start + len - n)] }
 }
 
-/// One clipmap level: the window of samples at one tile level.
+/// The samples entering a square window of `size` when its origin moves
+/// from `old` to `new`: the whole columns that came in, then the rows that
+/// came in across the remaining columns (an L).
+fn entering(old: (i64, i64), new: (i64, i64), size: i64) -> Vec<Rect> {
+    let (dx, dy) = (new.0 - old.0, new.1 - old.1);
+    let (xs, ys) = (new.0..new.0 + size, new.1..new.1 + size);
+    let columns = if dx > 0 { xs.end - dx..xs.end } else { xs.start..xs.start - dx };
+    let kept = if dx > 0 { xs.start..xs.end - dx } else { xs.start - dx..xs.end };
+    let rows = if dy > 0 { ys.end - dy..ys.end } else { ys.start..ys.start - dy };
+    [Rect { x: columns, y: ys }, Rect { x: kept, y: rows }].into_iter().filter(|r| !r.is_empty()).collect()
+}
+
+/// The part of `window` (samples at `level`) inside `area` (grid units); on
+/// the planet the window may hold the area a revolution east or west.
+fn area_in(surface: &Surface, level: u8, area: &Extent, window: &Rect) -> Rect {
+    let (x0, y0) = surface.sample_coords(level, area.min_x, area.max_y);
+    let (x1, y1) = surface.sample_coords(level, area.max_x, area.min_y);
+    let touched = Rect { x: x0.floor() as i64..x1.ceil() as i64 + 1, y: y0.floor() as i64..y1.ceil() as i64 + 1 };
+    let mut rect = touched.intersect(window);
+    if surface.is_planet() && rect.is_empty() {
+        let total = 2 * (i64::from(surface.grid().tile_size()) << level);
+        for shift in [-total, total] {
+            let moved = Rect { x: touched.x.start + shift..touched.x.end + shift, y: touched.y.clone() };
+            rect = moved.intersect(window);
+            if !rect.is_empty() {
+                break;
+            }
+        }
+    }
+    rect
+}
+
+/// One clipmap level: the window of samples at one tile level, and its
+/// colour window at the next finer tile level.
 #[derive(Debug, Clone)]
 pub struct ClipLevel {
     pub tile_level: u8,
@@ -114,12 +149,20 @@ pub struct ClipLevel {
     /// Toroidal n x n: xyz relative to the anchor; w is 1 where there is
     /// terrain and `OFF_GRID` off a flat grid.
     pub positions: Vec<[f32; 4]>,
+    /// Toroidal (COLOR_DETAIL n) squared: colour samples of tile level + 1.
     pub colors: Vec<[u8; 4]>,
     dirty: Vec<StorageRect>,
+    color_dirty: Vec<StorageRect>,
     /// Samples written since the level was made (incremental work done).
     pub samples_written: u64,
     /// Times the whole window was rewritten after it was made.
     pub full_refills: u32,
+}
+
+/// Heights and colours fetched for a move, before anything is changed.
+struct Fetched {
+    heights: Vec<(Rect, Vec<f32>)>,
+    colors: Vec<(Rect, Vec<[u8; 4]>)>,
 }
 
 impl ClipLevel {
@@ -131,6 +174,7 @@ impl ClipLevel {
         n: usize,
         origin: (i64, i64),
     ) -> Option<Self> {
+        let side = COLOR_DETAIL as usize * n;
         let mut level = Self {
             tile_level,
             n,
@@ -138,8 +182,9 @@ impl ClipLevel {
             anchor: DVec3::ZERO,
             anchor_sample: (0, 0),
             positions: vec![[0.0; 4]; n * n],
-            colors: vec![[0; 4]; n * n],
+            colors: vec![[0; 4]; side * side],
             dirty: Vec::new(),
+            color_dirty: Vec::new(),
             samples_written: 0,
             full_refills: 0,
         };
@@ -153,15 +198,42 @@ impl ClipLevel {
         Rect { x: self.origin.0..self.origin.0 + n, y: self.origin.1..self.origin.1 + n }
     }
 
+    /// The colour window: samples of tile level + 1 over the same ground.
+    pub fn color_window(&self) -> Rect {
+        let (r, side) = (COLOR_DETAIL, COLOR_DETAIL * (self.n as i64 - 1) + 1);
+        Rect { x: r * self.origin.0..r * self.origin.0 + side, y: r * self.origin.1..r * self.origin.1 + side }
+    }
+
+    /// The stored colour of colour sample (cx, cy), global at tile level + 1.
+    pub fn color_at(&self, cx: i64, cy: i64) -> [u8; 4] {
+        let side = COLOR_DETAIL * self.n as i64;
+        self.colors[(cy.rem_euclid(side) * side + cx.rem_euclid(side)) as usize]
+    }
+
+    fn fetch(&self, source: &dyn TerrainSamples, heights: &[Rect], colors: &[Rect]) -> Option<Fetched> {
+        let mut out = Fetched { heights: Vec::new(), colors: Vec::new() };
+        for r in heights {
+            out.heights.push((r.clone(), source.heights(self.tile_level, r.x.clone(), r.y.clone())?));
+        }
+        for r in colors {
+            out.colors.push((r.clone(), source.colors(self.tile_level + 1, r.x.clone(), r.y.clone())?));
+        }
+        Some(out)
+    }
+
     fn refill(&mut self, surface: &Surface, source: &dyn TerrainSamples, origin: (i64, i64)) -> Option<()> {
-        let half = (self.n / 2) as i64;
-        let rect = Rect { x: origin.0..origin.0 + self.n as i64, y: origin.1..origin.1 + self.n as i64 };
-        let block = source.samples(self.tile_level, rect.x.clone(), rect.y.clone())?;
+        let previous = self.origin;
         self.origin = origin;
+        let fetched = self.fetch(source, &[self.window()], &[self.color_window()]);
+        let Some(fetched) = fetched else {
+            self.origin = previous;
+            return None;
+        };
+        let half = (self.n / 2) as i64;
         self.anchor_sample = (origin.0 + half, origin.1 + half);
         let (ax, ay) = surface.sample_point(self.tile_level, self.anchor_sample.0, self.anchor_sample.1);
         self.anchor = surface.world(ax, ay, 0.0);
-        self.store(surface, &rect, &block);
+        self.store(surface, fetched);
         self.full_refills += 1;
         Some(())
     }
@@ -180,83 +252,74 @@ impl ClipLevel {
         if dx.abs() >= n || dy.abs() >= n || far_from_anchor {
             return self.refill(surface, source, origin).is_some();
         }
-        let new = Rect { x: origin.0..origin.0 + n, y: origin.1..origin.1 + n };
-        // The L: whole columns that entered, then the entered rows of the
-        // remaining columns.
-        let columns = if dx > 0 { new.x.end - dx..new.x.end } else { new.x.start..new.x.start - dx };
-        let kept_columns = if dx > 0 { new.x.start..new.x.end - dx } else { new.x.start - dx..new.x.end };
-        let rows = if dy > 0 { new.y.end - dy..new.y.end } else { new.y.start..new.y.start - dy };
-        let strips = [Rect { x: columns, y: new.y.clone() }, Rect { x: kept_columns, y: rows }];
-        let mut blocks = Vec::new();
-        for strip in strips.iter().filter(|s| !s.is_empty()) {
-            match source.samples(self.tile_level, strip.x.clone(), strip.y.clone()) {
-                Some(block) => blocks.push((strip.clone(), block)),
-                None => return false,
-            }
-        }
+        let r = COLOR_DETAIL;
+        let heights = entering(self.origin, origin, n);
+        let colors = entering((r * self.origin.0, r * self.origin.1), (r * origin.0, r * origin.1), r * (n - 1) + 1);
+        let Some(fetched) = self.fetch(source, &heights, &colors) else { return false };
         self.origin = origin;
-        for (strip, block) in blocks {
-            self.store(surface, &strip, &block);
-        }
+        self.store(surface, fetched);
         true
     }
 
     /// Fetches again the part of the window inside `area` (grid units),
     /// after the scene rebuilt tiles there. False when not ready.
     pub fn refresh(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> bool {
-        let (x0, y0) = surface.sample_coords(self.tile_level, area.min_x, area.max_y);
-        let (x1, y1) = surface.sample_coords(self.tile_level, area.max_x, area.min_y);
-        let touched = Rect { x: x0.floor() as i64..x1.ceil() as i64 + 1, y: y0.floor() as i64..y1.ceil() as i64 + 1 };
-        let mut rect = touched.intersect(&self.window());
-        if surface.is_planet() && rect.is_empty() {
-            // The window may hold the area one revolution east or west.
-            let total = 2 * (i64::from(surface.grid().tile_size()) << self.tile_level);
-            for shift in [-total, total] {
-                let moved = Rect { x: touched.x.start + shift..touched.x.end + shift, y: touched.y.clone() };
-                rect = moved.intersect(&self.window());
-                if !rect.is_empty() {
-                    break;
-                }
-            }
-        }
-        if rect.is_empty() {
-            return true;
-        }
-        match source.samples(self.tile_level, rect.x.clone(), rect.y.clone()) {
-            Some(block) => {
-                self.store(surface, &rect, &block);
+        let heights = area_in(surface, self.tile_level, area, &self.window());
+        let colors = area_in(surface, self.tile_level + 1, area, &self.color_window());
+        let heights: Vec<Rect> = [heights].into_iter().filter(|r| !r.is_empty()).collect();
+        let colors: Vec<Rect> = [colors].into_iter().filter(|r| !r.is_empty()).collect();
+        match self.fetch(source, &heights, &colors) {
+            Some(fetched) => {
+                self.store(surface, fetched);
                 true
             }
             None => false,
         }
     }
 
-    fn store(&mut self, surface: &Surface, rect: &Rect, block: &SampleBlock) {
+    fn store(&mut self, surface: &Surface, fetched: Fetched) {
         let n = self.n;
-        let width = (rect.x.end - rect.x.start) as usize;
-        for (k, gy) in rect.y.clone().enumerate() {
-            let row = gy.rem_euclid(n as i64) as usize * n;
-            for (m, gx) in rect.x.clone().enumerate() {
-                let h = block.heights[k * width + m];
-                let (x, y) = surface.sample_point(self.tile_level, gx, gy);
-                let on = surface.on_grid(self.tile_level, gx, gy);
-                let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }) - self.anchor;
-                let slot = row + gx.rem_euclid(n as i64) as usize;
-                self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { OFF_GRID }];
-                self.colors[slot] = block.colors[k * width + m];
+        for (rect, heights) in fetched.heights {
+            let width = (rect.x.end - rect.x.start) as usize;
+            for (k, gy) in rect.y.clone().enumerate() {
+                let row = gy.rem_euclid(n as i64) as usize * n;
+                for (m, gx) in rect.x.clone().enumerate() {
+                    let h = heights[k * width + m];
+                    let (x, y) = surface.sample_point(self.tile_level, gx, gy);
+                    let on = surface.on_grid(self.tile_level, gx, gy);
+                    let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }) - self.anchor;
+                    let slot = row + gx.rem_euclid(n as i64) as usize;
+                    self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { OFF_GRID }];
+                }
+            }
+            self.samples_written += (width * rect.y.clone().count()) as u64;
+            for (y, height) in spans(&rect.y, n) {
+                for (x, width) in spans(&rect.x, n) {
+                    self.dirty.push(StorageRect { x, y, width, height });
+                }
             }
         }
-        self.samples_written += (width * rect.y.clone().count()) as u64;
-        for (y, height) in spans(&rect.y, n) {
-            for (x, width) in spans(&rect.x, n) {
-                self.dirty.push(StorageRect { x, y, width, height });
+        let side = COLOR_DETAIL as usize * n;
+        for (rect, colors) in fetched.colors {
+            let width = (rect.x.end - rect.x.start) as usize;
+            for (k, cy) in rect.y.clone().enumerate() {
+                let row = cy.rem_euclid(side as i64) as usize * side;
+                for (m, cx) in rect.x.clone().enumerate() {
+                    self.colors[row + cx.rem_euclid(side as i64) as usize] = colors[k * width + m];
+                }
+            }
+            for (y, height) in spans(&rect.y, side) {
+                for (x, width) in spans(&rect.x, side) {
+                    self.color_dirty.push(StorageRect { x, y, width, height });
+                }
             }
         }
     }
 
-    /// The storage rectangles written since the last call.
-    pub fn take_dirty(&mut self) -> Vec<StorageRect> {
-        std::mem::take(&mut self.dirty)
+    /// The storage rectangles written since the last call: positions, then
+    /// colours.
+    pub fn take_dirty(&mut self) -> (Vec<StorageRect>, Vec<StorageRect>) {
+        (std::mem::take(&mut self.dirty), std::mem::take(&mut self.color_dirty))
     }
 }
 
@@ -319,7 +382,8 @@ impl Clipmap {
     /// the data allows; each coarser level doubles them further out.
     pub fn level_range(&self, surface: &Surface, height_m: f64, max_level: u8, pixel_angle: f64) -> (u8, u8) {
         let wanted_step = 2.0 * height_m.max(0.01) * pixel_angle;
-        let mut finest = max_level;
+        // Colour reads one tile level finer than the geometry.
+        let mut finest = max_level.min(relief_source::MAX_LEVEL - 1);
         while finest > 0 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
             finest -= 1;
         }
@@ -342,8 +406,8 @@ impl Clipmap {
         let probe = max_level.min(self.active.last().copied().unwrap_or(8));
         let (px, py) = surface.sample_coords(probe, x, y);
         let ground = source
-            .samples(probe, px.round() as i64..px.round() as i64 + 1, py.round() as i64..py.round() as i64 + 1)
-            .and_then(|b| b.heights.first().copied())
+            .heights(probe, px.round() as i64..px.round() as i64 + 1, py.round() as i64..py.round() as i64 + 1)
+            .and_then(|h| h.first().copied())
             .filter(|h| h.is_finite())
             .map_or(0.0, f64::from);
         let (finest, coarsest) = self.level_range(surface, h - ground, max_level, pixel_angle);

@@ -14,7 +14,7 @@ mod renderer;
 mod surface;
 
 pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
-pub use clipmap::{ClipLevel, Clipmap, ClipmapConfig, Rect, SampleBlock, StorageRect, TerrainSamples, UpdateStats};
+pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
 pub use error::RenderError;
 pub use gpu::Gpu;
 pub use renderer::{Frame, MAX_LEVELS, RenderSettings, Renderer};

@@ -12,7 +12,7 @@ use relief_source::{Extent, geodesy};
 use wgpu::util::DeviceExt;
 
 use crate::camera::{Pose, View};
-use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
+use crate::clipmap::{COLOR_DETAIL, Clipmap, ClipmapConfig, StorageRect, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
@@ -107,13 +107,13 @@ impl Base {
         let (c, r) = surface.grid().tiles_at(0);
         let n = i64::from(surface.grid().tile_size());
         let (cols, rows) = (i64::from(c) * n + 1, i64::from(r) * n + 1);
-        let block = source.samples(0, 0..cols, 0..rows)?;
+        let (heights, colors) = (source.heights(0, 0..cols, 0..rows)?, source.colors(0, 0..cols, 0..rows)?);
         let mut world = Vec::with_capacity((cols * rows) as usize);
         let mut vertices = Vec::with_capacity((cols * rows) as usize);
         for gy in 0..rows {
             for gx in 0..cols {
                 let k = (gy * cols + gx) as usize;
-                let h = block.heights[k];
+                let h = heights[k];
                 let (x, y) = surface.sample_point(0, gx, gy);
                 let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 });
                 let up = surface.enu(x, y)[2].as_vec3();
@@ -123,7 +123,7 @@ impl Base {
                     high: [high[0], high[1], high[2], valid],
                     low: [low[0], low[1], low[2], 0.0],
                     normal: [up.x, up.y, up.z, 0.0],
-                    color: block.colors[k].map(|v| f32::from(v) / 255.0),
+                    color: colors[k].map(|v| f32::from(v) / 255.0),
                 });
                 world.push(p);
             }
@@ -234,12 +234,12 @@ impl Renderer {
                 attributes: &base_attributes,
             })],
         );
-        let n = config.n as u32;
         let layers = config.levels as u32;
-        let array = |label, format| {
+        let array = |label, side: usize, format| {
+            let side = side as u32;
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
-                size: wgpu::Extent3d { width: n, height: n, depth_or_array_layers: layers },
+                size: wgpu::Extent3d { width: side, height: side, depth_or_array_layers: layers },
                 mip_level_count: 1,
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
@@ -248,8 +248,8 @@ impl Renderer {
                 view_formats: &[],
             })
         };
-        let positions = array("level positions", wgpu::TextureFormat::Rgba32Float);
-        let colors = array("level colours", wgpu::TextureFormat::Rgba8Unorm);
+        let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
+        let colors = array("level colours", COLOR_DETAIL as usize * config.n, wgpu::TextureFormat::Rgba8Unorm);
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame"),
             size: size_of::<FrameUniform>() as u64,
@@ -466,14 +466,18 @@ impl Renderer {
         let (x0, y0) = self.surface.sample_coords(level, area.min_x, area.max_y);
         let (x1, y1) = self.surface.sample_coords(level, area.max_x, area.min_y);
         let (xs, ys) = (x0.floor() as i64..x1.ceil() as i64 + 1, y0.floor() as i64..y1.ceil() as i64 + 1);
-        let Some(block) = source.samples(level, xs.clone(), ys.clone()) else { return Ok(None) };
+        let (Some(heights), Some(colors)) =
+            (source.heights(level, xs.clone(), ys.clone()), source.colors(level, xs.clone(), ys.clone()))
+        else {
+            return Ok(None);
+        };
         let view = self.surface.view(pose);
         let (cols, rows) = ((xs.end - xs.start) as usize, (ys.end - ys.start) as usize);
         let mut world = Vec::with_capacity(cols * rows);
         for (j, gy) in ys.clone().enumerate() {
             for (i, gx) in xs.clone().enumerate() {
                 let (x, y) = self.surface.sample_point(level, gx, gy);
-                let h = block.heights[j * cols + i];
+                let h = heights[j * cols + i];
                 world.push(self.surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }));
             }
         }
@@ -489,7 +493,7 @@ impl Renderer {
                     high: [p.x, p.y, p.z, 1.0],
                     low: [0.0; 4],
                     normal: [n.x, n.y, n.z, 0.0],
-                    color: block.colors[k].map(|v| f32::from(v) / 255.0),
+                    color: colors[k].map(|v| f32::from(v) / 255.0),
                 }
             })
             .collect();
@@ -532,49 +536,25 @@ impl Renderer {
         [d.x as f32, d.y as f32, d.z as f32, 0.0]
     }
 
-    /// Brings each active level's texture layer up to date: the whole
-    /// layer when it held another level, else only the rectangles written.
+    /// Brings each active level's texture layers up to date: whole when the
+    /// layer held another level, else only the rectangles written.
     fn upload_levels(&mut self, active: &[u8]) {
         let layers = self.clipmap.config.levels;
         for &t in active {
             let layer = usize::from(t) % layers;
             let Some(level) = self.clipmap.level_mut(t) else { continue };
-            let n = level.n;
-            let rects = if self.layer_holds[layer] == Some(t) {
-                level.take_dirty()
-            } else {
-                level.take_dirty();
+            let (n, side) = (level.n, COLOR_DETAIL as usize * level.n);
+            let (mut positions, mut colors) = level.take_dirty();
+            if self.layer_holds[layer] != Some(t) {
                 self.layer_holds[layer] = Some(t);
-                vec![crate::clipmap::StorageRect { x: 0, y: 0, width: n, height: n }]
-            };
-            for r in rects {
-                let rows = r.y..r.y + r.height;
-                let cols = r.x..r.x + r.width;
-                let positions: Vec<[f32; 4]> = rows
-                    .clone()
-                    .flat_map(|y| level.positions[y * n + cols.start..y * n + cols.end].iter().copied())
-                    .collect();
-                let colors: Vec<[u8; 4]> =
-                    rows.flat_map(|y| level.colors[y * n + cols.start..y * n + cols.end].iter().copied()).collect();
-                let write = |texture: &wgpu::Texture, bytes: &[u8], texel: u32| {
-                    self.gpu.queue.write_texture(
-                        wgpu::TexelCopyTextureInfo {
-                            texture,
-                            mip_level: 0,
-                            origin: wgpu::Origin3d { x: r.x as u32, y: r.y as u32, z: layer as u32 },
-                            aspect: wgpu::TextureAspect::All,
-                        },
-                        bytes,
-                        wgpu::TexelCopyBufferLayout {
-                            offset: 0,
-                            bytes_per_row: Some(r.width as u32 * texel),
-                            rows_per_image: Some(r.height as u32),
-                        },
-                        wgpu::Extent3d { width: r.width as u32, height: r.height as u32, depth_or_array_layers: 1 },
-                    );
-                };
-                write(&self.positions, bytemuck::cast_slice(&positions), 16);
-                write(&self.colors, bytemuck::cast_slice(&colors), 4);
+                positions = vec![StorageRect { x: 0, y: 0, width: n, height: n }];
+                colors = vec![StorageRect { x: 0, y: 0, width: side, height: side }];
+            }
+            for r in positions {
+                write_rect(&self.gpu.queue, &self.positions, layer, &r, n, &level.positions);
+            }
+            for r in colors {
+                write_rect(&self.gpu.queue, &self.colors, layer, &r, side, &level.colors);
             }
         }
     }
@@ -790,4 +770,33 @@ fn cell_indices(n: usize, hole: Option<(i64, i64)>) -> Vec<u32> {
         }
     }
     out
+}
+
+/// Writes rectangle `r` of a toroidal `side` x `side` array into `layer` of
+/// `texture`.
+fn write_rect<T: Pod>(
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+    layer: usize,
+    r: &StorageRect,
+    side: usize,
+    data: &[T],
+) {
+    let texels: Vec<T> =
+        (r.y..r.y + r.height).flat_map(|y| data[y * side + r.x..y * side + r.x + r.width].iter().copied()).collect();
+    queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x: r.x as u32, y: r.y as u32, z: layer as u32 },
+            aspect: wgpu::TextureAspect::All,
+        },
+        bytemuck::cast_slice(&texels),
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some((r.width * size_of::<T>()) as u32),
+            rows_per_image: Some(r.height as u32),
+        },
+        wgpu::Extent3d { width: r.width as u32, height: r.height as u32, depth_or_array_layers: 1 },
+    );
 }

@@ -144,13 +144,17 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
     var out: Out;
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.normal = upward(normal, p);
-    let u = f32(wrap(lv.window.x, n) + i) + 0.5;
-    let v = f32(wrap(lv.window.y, n) + j) + 0.5;
-    out.uv = vec2<f32>(u, v) / f32(n);
-    // This vertex in the coarser window's samples.
-    let cu = f32(wrap(lv.coarse.x, n)) + (f32(gx) * 0.5 - f32(lv.coarse.x)) + 0.5;
-    let cv = f32(wrap(lv.coarse.y, n)) + (f32(gy) * 0.5 - f32(lv.coarse.y)) + 0.5;
-    out.uv_coarse = vec2<f32>(cu, cv) / f32(n);
+    // Colour windows hold COLOR_DETAIL (2) samples per geometry sample,
+    // from origin 2 x the window's, in textures 2n a side (toroidal too).
+    let cn = 2 * n;
+    let u = f32(wrap(2 * lv.window.x, cn) + 2 * i) + 0.5;
+    let v = f32(wrap(2 * lv.window.y, cn) + 2 * j) + 0.5;
+    out.uv = vec2<f32>(u, v) / f32(cn);
+    // This vertex in the coarser level's colour samples: the same tile
+    // level as this one's geometry, so index (gx, gy) itself.
+    let cu = f32(wrap(2 * lv.coarse.x, cn)) + f32(gx - 2 * lv.coarse.x) + 0.5;
+    let cv = f32(wrap(2 * lv.coarse.y, cn)) + f32(gy - 2 * lv.coarse.y) + 0.5;
+    out.uv_coarse = vec2<f32>(cu, cv) / f32(cn);
     out.alpha = alpha;
     out.valid = here.w;
     out.layers = vec2<i32>(lv.window.z, select(lv.window.z, lv.coarse.z, lv.coarse.w == 1));

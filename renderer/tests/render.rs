@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use glam::DVec3;
 use relief_renderer::{
-    ClipLevel, ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, SampleBlock, Surface, TerrainSamples,
+    COLOR_DETAIL, ClipLevel, ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, Surface, TerrainSamples,
 };
 use relief_source::{GridKind, ProjectedGrid, TileGrid, geodesy};
 
@@ -21,27 +21,37 @@ struct Analytic {
     ready_up_to: u8,
 }
 
-impl TerrainSamples for Analytic {
-    fn samples(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<SampleBlock> {
+impl Analytic {
+    /// The formula at every sample of the block (reflected past a pole).
+    fn values<T>(&self, level: u8, xs: Range<i64>, ys: Range<i64>, f: impl Fn(f64) -> T) -> Option<Vec<T>> {
         if level > self.ready_up_to {
             return None;
         }
-        let mut block = SampleBlock::default();
+        let mut out = Vec::new();
         for gy in ys {
             for gx in xs.clone() {
-                let (x, mut y) = self.surface.sample_point(level, gx, gy);
-                let mut x = x;
+                let (mut x, mut y) = self.surface.sample_point(level, gx, gy);
                 if self.surface.is_planet() && !(-90.0..=90.0).contains(&y) {
                     y = y.signum() * 180.0 - y;
                     x += 180.0;
                 }
-                let h = (self.height)(x, y);
-                block.heights.push(h as f32);
-                let c = relief_examples::demo_color(h);
-                block.colors.push([c[0], c[1], c[2], 255]);
+                out.push(f((self.height)(x, y)));
             }
         }
-        Some(block)
+        Some(out)
+    }
+}
+
+impl TerrainSamples for Analytic {
+    fn heights(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<f32>> {
+        self.values(level, xs, ys, |h| h as f32)
+    }
+
+    fn colors(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<[u8; 4]>> {
+        self.values(level, xs, ys, |h| {
+            let c = relief_examples::demo_color(h);
+            [c[0], c[1], c[2], 255]
+        })
     }
 
     fn max_level(&self) -> u8 {
@@ -191,8 +201,15 @@ fn assert_matches_scratch(renderer: &Renderer, source: &Analytic) {
                 "level {t} sample {k}: {pa} vs {pb}"
             );
             assert_eq!(a[3], b[3]);
-            assert_eq!(level.colors[k], scratch.colors[k], "level {t} sample {k}");
         }
+        let window = level.color_window();
+        assert_eq!(window, scratch.color_window());
+        for cy in window.y.clone() {
+            for cx in window.x.clone() {
+                assert_eq!(level.color_at(cx, cy), scratch.color_at(cx, cy), "level {t} colour sample ({cx}, {cy})");
+            }
+        }
+        assert_eq!(window.x.end - window.x.start, COLOR_DETAIL * (level.n as i64 - 1) + 1);
     }
 }
 
@@ -394,7 +411,8 @@ fn a_rebuilt_area_refreshes_only_its_samples() {
 #[test]
 fn levels_whose_data_is_not_ready_are_not_drawn_and_the_view_stays_whole() {
     let (mut renderer, mut source) = hill_scene(&gpu(), ClipmapConfig::default());
-    source.ready_up_to = 9;
+    // Tile level 10 is ready, 11 is not: level 10's colour comes from 11.
+    source.ready_up_to = 10;
     let view = pose(10.1, 45.1, 4000.0, 45.0, -25.0);
     let frame = renderer.render(&source, &view, &SETTINGS).unwrap();
     assert!(frame.update.active.iter().all(|&t| t <= 9), "{:?}", frame.update);
