@@ -200,7 +200,7 @@ impl Viewer {
                 let Some(viewer) = weak.upgrade() else { break };
                 if let EventKind::Generation { dirty, .. } = event.kind {
                     let extents = dirty.into_iter().flat_map(|d| d.extents).collect();
-                    let mut r = viewer.renderers.lock().expect("renderer lock is never poisoned");
+                    let mut r = viewer.renderers();
                     r.dirt.push_back((event.generation, extents));
                     while r.dirt.len() > DIRT_LOG {
                         r.dirt.pop_front();
@@ -209,6 +209,19 @@ impl Viewer {
             }
         });
         viewer
+    }
+
+    /// The renderers, locked. A frame that panicked mid-way (a driver bug)
+    /// leaves them in an unknown state: they are dropped and made anew,
+    /// rather than every later frame failing.
+    fn renderers(&self) -> std::sync::MutexGuard<'_, Renderers> {
+        self.renderers.lock().unwrap_or_else(|poisoned| {
+            self.renderers.clear_poison();
+            let mut r = poisoned.into_inner();
+            r.by_config.clear();
+            tracing::error!("a frame failed part way; renderers are made anew");
+            r
+        })
     }
 
     pub fn camera(&self) -> Camera {
@@ -253,7 +266,7 @@ impl Viewer {
         config.validate().map_err(|message| RenderError::Request { field: "quality.clipmap_grid_size", message })?;
         let terrain = SceneTerrain::new(&self.scene.store, &snap, quality.unwrap_or(snap.manifest.quality));
         let lighting = snap.manifest.effects.iter().any(|e| e == "lighting");
-        let mut guard = self.renderers.lock().expect("renderer lock is never poisoned");
+        let mut guard = self.renderers();
         let r = &mut *guard;
         if r.gpu.is_none() {
             r.gpu = Some(Arc::new(Gpu::headless().map_err(|e| ViewError::NoDevice(e.to_string()))?));
@@ -293,7 +306,7 @@ impl Viewer {
 
     /// What the device is, once a frame has opened it.
     pub fn device(&self) -> Option<String> {
-        self.renderers.lock().expect("renderer lock is never poisoned").gpu.as_ref().map(|g| g.description.clone())
+        self.renderers().gpu.as_ref().map(|g| g.description.clone())
     }
 }
 
