@@ -11,10 +11,13 @@
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
+use common::median;
 use relief_daemon::scene::Scene;
 use relief_examples as fixtures;
 use relief_source::{Payload, Quality, Resampling, TileKey};
@@ -22,20 +25,12 @@ use relief_source::{Payload, Quality, Resampling, TileKey};
 const THREADS: usize = 2;
 const RUNS: usize = 3;
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
-
 fn machine() -> String {
     format!("{}, tile pool of {THREADS} threads", relief_tests::machine())
 }
 
 fn load(manifest: &Path) -> Scene {
-    match Scene::load(manifest, false, THREADS) {
-        Ok((scene, _)) => scene,
-        Err(errors) => panic!("bench scene does not load: {errors:?}"),
-    }
+    common::load(manifest, THREADS).expect("the bench scene loads")
 }
 
 /// Every tile of levels 0..=max that overlaps the source's data.

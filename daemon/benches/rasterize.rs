@@ -8,65 +8,62 @@
 //! against coverage error, taking 8 x 8 sub-samples as the reference.
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
-#![expect(clippy::unwrap_used, reason = "a bench that cannot set up has nothing to report")]
+
+mod common;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use anyhow::Context;
 use gdal::vector::LayerAccess;
-use relief_daemon::scene::Scene;
 use relief_source::{Payload, Quality, SampleKind, TileGrid, TileKey};
 
-fn keys(max_level: u8) -> Vec<TileKey> {
-    let grid = TileGrid::geodetic(256).unwrap();
+fn keys(grid: &TileGrid, max_level: u8) -> Vec<TileKey> {
     (0..=max_level).flat_map(|l| grid.keys_overlapping(l, &grid.extent())).collect()
 }
 
-fn relief(dir: &Path, countries: &Path, antialias: u32, keys: &[TileKey]) -> (f64, Vec<Vec<u8>>) {
+fn relief(dir: &Path, countries: &Path, antialias: u32, keys: &[TileKey]) -> anyhow::Result<(f64, Vec<Vec<u8>>)> {
     let manifest = relief_examples::write_manifest(
         dir,
         &format!(
             "[scene]\nname = \"countries\"\n\n[[source]]\nid = \"countries\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"countries\"]\nstroke = \"none\"\nfill = \"#ff0000ff\"\nantialias = {antialias}\n\n[layers]\ncolor = \"drawn\"\n\n[cache]\nmemory_mb = 4096\n",
             countries.display()
         ),
-    )
-    .unwrap();
-    let (scene, _) = Scene::load(&manifest, false, 2).unwrap();
+    )?;
+    let scene = common::load(&manifest, 2)?;
     let snap = scene.snapshot();
-    let index = snap.index_of("drawn").unwrap();
+    let index = snap.index_of("drawn").context("the bench scene has its rasterizer")?;
     let requests: Vec<(usize, TileKey)> = keys.iter().map(|k| (index, *k)).collect();
     let started = Instant::now();
     let built = scene.store.build(&snap, &requests, &Quality::default());
     let seconds = started.elapsed().as_secs_f64();
-    let alphas = built
-        .into_iter()
-        .map(|t| match t.unwrap().payload.as_ref() {
-            Payload::Color(c) => c.rgba.chunks(4).map(|p| p[3]).collect(),
-            _ => unreachable!("a rasterizer gives colour"),
-        })
-        .collect();
-    (seconds, alphas)
+    let mut alphas = Vec::with_capacity(built.len());
+    for tile in built {
+        match tile?.payload.as_ref() {
+            Payload::Color(c) => alphas.push(c.rgba.chunks(4).map(|p| p[3]).collect()),
+            other => anyhow::bail!("a rasterizer gave a {} tile", other.kind()),
+        }
+    }
+    Ok((seconds, alphas))
 }
 
-fn gdal(countries: &Path, keys: &[TileKey]) -> f64 {
-    let grid = TileGrid::geodetic(256).unwrap();
-    let source = gdal::Dataset::open(countries).unwrap();
-    let mut layer = source.layer(0).unwrap();
+fn gdal(grid: &TileGrid, countries: &Path, keys: &[TileKey]) -> anyhow::Result<f64> {
+    let source = gdal::Dataset::open(countries)?;
+    let mut layer = source.layer(0)?;
     let geometries: Vec<gdal::vector::Geometry> = layer.features().filter_map(|f| f.geometry().cloned()).collect();
     let burn = vec![255.0; geometries.len()];
-    let driver = gdal::DriverManager::get_driver_by_name("MEM").unwrap();
+    let driver = gdal::DriverManager::get_driver_by_name("MEM")?;
     let started = Instant::now();
     for key in keys {
         let l = grid.lattice(*key, SampleKind::TexelWithBorder);
-        let mut ds = driver.create_with_band_type::<u8, _>("", l.cols, l.rows, 1).unwrap();
-        ds.set_geo_transform(&[l.x(0) - l.step_x / 2.0, l.step_x, 0.0, l.y(0) + l.step_y / 2.0, 0.0, -l.step_y])
-            .unwrap();
-        gdal::raster::rasterize(&mut ds, &[1], &geometries, &burn, None).unwrap();
+        let mut ds = driver.create_with_band_type::<u8, _>("", l.cols, l.rows, 1)?;
+        ds.set_geo_transform(&[l.x(0) - l.step_x / 2.0, l.step_x, 0.0, l.y(0) + l.step_y / 2.0, 0.0, -l.step_y])?;
+        gdal::raster::rasterize(&mut ds, &[1], &geometries, &burn, None)?;
     }
-    started.elapsed().as_secs_f64()
+    Ok(started.elapsed().as_secs_f64())
 }
 
-fn main() {
+fn main() -> anyhow::Result<()> {
     let max_level: u8 = std::env::var("RELIEF_BENCH_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(6);
     let data: PathBuf = std::env::var_os("RELIEF_SHARED_DATA")
         .map(PathBuf::from)
@@ -74,19 +71,20 @@ fn main() {
     let countries = data.join("shp/naturalearth_lowres.shp");
     if !countries.exists() {
         println!("skipping: no Natural Earth countries at {}", countries.display());
-        return;
+        return Ok(());
     }
-    let dir = tempfile::tempdir().unwrap();
-    let keys = keys(max_level);
-    let g = gdal(&countries, &keys);
+    let dir = tempfile::tempdir()?;
+    let grid = TileGrid::geodetic(256).map_err(anyhow::Error::msg)?;
+    let keys = keys(&grid, max_level);
+    let g = gdal(&grid, &countries, &keys)?;
     // A discarded first run: the first ~3 GB of tiles pay the kernel's page
     // faults, which would be charged to whichever setting ran first.
-    relief(dir.path(), &countries, 1, &keys);
+    relief(dir.path(), &countries, 1, &keys)?;
     let mut runs = Vec::new();
     for antialias in [1u32, 2, 4, 8] {
-        runs.push((antialias, relief(dir.path(), &countries, antialias, &keys)));
+        runs.push((antialias, relief(dir.path(), &countries, antialias, &keys)?));
     }
-    let reference = &runs.last().unwrap().1.1;
+    let reference = runs.last().map(|r| r.1.1.clone()).unwrap_or_default();
     println!(
         "\n## Natural Earth countries rasterized, levels 0..={max_level} ({} tiles of 258 x 258 texels)",
         keys.len()
@@ -102,7 +100,7 @@ fn main() {
     println!("| GDAL rasterize (aliased, centre of texel) | 1 | {g:.2} | {:.0} | 1.00 | - |", keys.len() as f64 / g);
     for (antialias, (seconds, alphas)) in &runs {
         let (mut sum, mut n) = (0.0, 0usize);
-        for (a, b) in alphas.iter().zip(reference) {
+        for (a, b) in alphas.iter().zip(&reference) {
             for (x, y) in a.iter().zip(b) {
                 sum += (f64::from(*x) - f64::from(*y)).abs();
                 n += 1;
@@ -115,4 +113,5 @@ fn main() {
             sum / n as f64
         );
     }
+    Ok(())
 }

@@ -10,7 +10,6 @@
 //! `cargo bench -p relief-daemon --bench reload` (RELIEF_BENCH_EDITS, default 25).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
-#![expect(clippy::unwrap_used, reason = "a bench that cannot set up has nothing to report")]
 
 use std::time::Instant;
 
@@ -54,17 +53,22 @@ struct Run {
     retried: u64,
 }
 
-async fn run(dir: &std::path::Path, label: &str, watch: &str, edits: usize, seed: u64) -> Run {
-    let manifest = write_manifest(dir, &format!("[scene]\nname = \"reload-bench\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"dem.tif\"\n\n[layers]\nheight = \"dem\"\n\n[cache]\nmemory_mb = 2048\n\n[watch]\n{watch}\n")).unwrap();
-    let daemon = Reliefd::start(&manifest, &[]).unwrap();
-    let channel = daemon.channel().await.unwrap();
+async fn run(dir: &std::path::Path, label: &str, watch: &str, edits: usize, seed: u64) -> anyhow::Result<Run> {
+    let manifest = write_manifest(
+        dir,
+        &format!(
+            "[scene]\nname = \"reload-bench\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"dem.tif\"\n\n[layers]\nheight = \"dem\"\n\n[cache]\nmemory_mb = 2048\n\n[watch]\n{watch}\n"
+        ),
+    )?;
+    let daemon = Reliefd::start(&manifest, &[])?;
+    let channel = daemon.channel().await?;
     let keys = keys();
     let started = Instant::now();
     for k in &keys {
-        edit::tile_hash(channel.clone(), "dem", *k).await.unwrap();
+        edit::tile_hash(channel.clone(), "dem", *k).await?;
     }
     let full_ms = started.elapsed().as_secs_f64() * 1e3;
-    let events = Events::follow(channel.clone()).await.unwrap();
+    let events = Events::follow(channel.clone()).await?;
     let mut rng = Lcg(seed);
     let (mut latencies_ms, mut rebuilt) = (Vec::new(), Vec::new());
     let mut generation = 1;
@@ -72,32 +76,32 @@ async fn run(dir: &std::path::Path, label: &str, watch: &str, edits: usize, seed
     for n in 0..edits {
         let (x, y) = (rng.range(0.0, (SIDE - 64) as f64) as usize, rng.range(0.0, (SIDE - 64) as f64) as usize);
         let t0 = Instant::now();
-        edit::rewrite_window(&path, x, y, 64, 64, |_, _, h| h + 10.0 + n as f32).unwrap();
-        let state = edit::wait_for(channel.clone(), generation + 1).await.unwrap();
+        edit::rewrite_window(&path, x, y, 64, 64, |_, _, h| h + 10.0 + n as f32)?;
+        let state = edit::wait_for(channel.clone(), generation + 1).await?;
         latencies_ms.push(t0.elapsed().as_secs_f64() * 1e3);
         generation = state.generation;
-        rebuilt.push(events.generation(generation).await.unwrap().tiles_rebuilt);
+        rebuilt.push(events.generation(generation).await?.tiles_rebuilt);
     }
-    let state = SceneServiceClient::new(channel).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
+    let state = SceneServiceClient::new(channel).get_state(pb::GetStateRequest {}).await?.into_inner();
     if std::env::var_os("RELIEF_TEST_LOG").is_some() {
         for line in daemon.log().iter().rev().take(12).rev() {
             println!("{line}");
         }
     }
-    daemon.stop(&[]).unwrap();
-    Run {
+    daemon.stop(&[])?;
+    Ok(Run {
         label: label.into(),
         latencies_ms,
         rebuilt,
         cached: keys.len(),
         full_ms,
         retried: state.counters.unwrap_or_default().reads_retried,
-    }
+    })
 }
 
-fn main() {
+fn main() -> anyhow::Result<()> {
     let edits: usize = std::env::var("RELIEF_BENCH_EDITS").ok().and_then(|v| v.parse().ok()).unwrap_or(25);
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir()?;
     let pixel = 1.0 / 3600.0;
     let spec = RasterSpec {
         width: SIDE,
@@ -108,7 +112,7 @@ fn main() {
         crs: "EPSG:4326",
         nodata: Some(-32768.0),
     };
-    write_dem(&dir.path().join("dem.tif"), &spec, terrain).unwrap();
+    write_dem(&dir.path().join("dem.tif"), &spec, terrain)?;
 
     let settings = [
         ("fast path + 500 ms quiet period (default)", "fast_path = true\ndebounce_ms = 500", edits),
@@ -117,12 +121,12 @@ fn main() {
         ("quiet period only, 250 ms", "fast_path = false\ndebounce_ms = 250", edits.min(10)),
         ("quiet period only, 500 ms", "fast_path = false\ndebounce_ms = 500", edits.min(10)),
     ];
-    let runtime = tokio::runtime::Runtime::new().unwrap();
+    let runtime = tokio::runtime::Runtime::new()?;
     let runs: Vec<Run> = settings
         .iter()
         .enumerate()
         .map(|(i, (label, watch, n))| runtime.block_on(run(dir.path(), label, watch, *n, 17 + i as u64)))
-        .collect();
+        .collect::<anyhow::Result<_>>()?;
 
     println!("\n## Edit to WaitForGeneration: 64 x 64 window rewritten through GDAL in a {SIDE} x {SIDE} Float32 DEM");
     println!(
@@ -150,4 +154,5 @@ fn main() {
             r.retried
         );
     }
+    Ok(())
 }

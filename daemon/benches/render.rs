@@ -9,12 +9,14 @@
 //! level as one mesh.
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
-#![expect(clippy::unwrap_used, reason = "a bench that cannot set up has nothing to report")]
+
+mod common;
 
 use std::sync::Arc;
 
+use anyhow::Context;
+use common::median;
 use glam::DVec3;
-use relief_daemon::scene::Scene;
 use relief_daemon::view::SceneTerrain;
 use relief_renderer::{ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, Surface, TerrainSamples};
 use relief_source::{Extent, geodesy};
@@ -30,11 +32,6 @@ fn pose(step: usize) -> Pose {
         roll_deg: 0.0,
         vertical_fov_deg: 50.0,
     }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
 }
 
 fn total_ms(frame: &Frame) -> f64 {
@@ -70,13 +67,13 @@ fn surface_error(frame: &Frame) -> (f64, f64) {
     ((sum / n.max(1) as f64).sqrt(), max)
 }
 
-fn main() {
-    let dir = tempfile::tempdir().unwrap();
-    let manifest = relief_examples::write_demo_scene(dir.path()).unwrap();
-    let (scene, _) = Scene::load(&manifest, false, 2).unwrap();
+fn main() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let manifest = relief_examples::write_demo_scene(dir.path())?;
+    let scene = common::load(&manifest, 2)?;
     let snap = scene.snapshot();
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
-    let gpu = Arc::new(Gpu::headless().unwrap());
+    let gpu = Arc::new(Gpu::headless()?);
     println!("\n## Frame time at 1280 x 720, demo scene, against surface error");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!(
@@ -90,19 +87,20 @@ fn main() {
     for n in [63usize, 127, 255] {
         for levels in [4usize, 6, 8] {
             let config = ClipmapConfig { n, levels };
-            let mut renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), config).unwrap();
+            let mut renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), config)?;
             // The first frame fills every level and builds tiles: not timed.
-            renderer.render(&terrain, &pose(0), &SETTINGS).unwrap();
-            let flying: Vec<f64> =
-                (1..=10).map(|k| total_ms(&renderer.render(&terrain, &pose(k), &SETTINGS).unwrap())).collect();
+            renderer.render(&terrain, &pose(0), &SETTINGS)?;
+            let flying = (1..=10)
+                .map(|k| Ok(total_ms(&renderer.render(&terrain, &pose(k), &SETTINGS)?)))
+                .collect::<anyhow::Result<Vec<f64>>>()?;
             let mut still = Vec::new();
             let mut last = None;
             for _ in 0..5 {
-                let frame = renderer.render(&terrain, &pose(10), &SETTINGS).unwrap();
+                let frame = renderer.render(&terrain, &pose(10), &SETTINGS)?;
                 still.push(total_ms(&frame));
                 last = Some(frame);
             }
-            let frame = last.unwrap();
+            let frame = last.context("no frame rendered")?;
             let (rms, max) = surface_error(&frame);
             let triangles = frame.update.active.len() * (n - 1) * (n - 1) * 2;
             let still = median(still);
@@ -113,7 +111,7 @@ fn main() {
         }
     }
     // The brute-force reference: the DEM's finest level, every sample.
-    let renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default()).unwrap();
+    let renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
     let [w, s, e, n] = relief_examples::DEMO_EXTENT;
     let level = terrain.max_level() - 1;
     let area = Extent::new(w, s, e, n);
@@ -121,14 +119,16 @@ fn main() {
     let mut mesh_ms = 0.0;
     let mut last = None;
     for _ in 0..3 {
-        let frame = renderer.render_full_mesh(&terrain, level, &area, &pose(10), &SETTINGS).unwrap().unwrap();
+        let frame = renderer
+            .render_full_mesh(&terrain, level, &area, &pose(10), &SETTINGS)?
+            .context("the DEM's tiles are not ready")?;
         mesh_ms = frame.passes[0].1;
         times.push(frame.passes[1].1);
         last = Some(frame);
     }
-    let frame = last.unwrap();
+    let frame = last.context("no frame rendered")?;
     let (rms, max) = surface_error(&frame);
-    let step = snap.grid.tile_span(level).0 / f64::from(snap.grid.tile_size());
+    let step = snap.grid.sample_step(level);
     let samples = ((e - w) / step).ceil() * ((n - s) / step).ceil();
     let brute = median(times);
     println!("\n### Brute force: the whole DEM at tile level {level} as one mesh ({:.0} triangles)", 2.0 * samples);
@@ -140,4 +140,5 @@ fn main() {
         "| full-resolution mesh | {brute:.1} | {mesh_ms:.0} | {rms:.2} | {max:.1} | {:.2}x |",
         default_still / brute
     );
+    Ok(())
 }

@@ -68,7 +68,7 @@ impl<'a> SceneTerrain<'a> {
             .reduce(f64::min);
         let max_level = resolution.map_or(12, |r| {
             let mut level = 0u8;
-            while level < 20 && snap.grid.tile_span(level).0 / f64::from(snap.grid.tile_size()) > r {
+            while level < 20 && snap.grid.sample_step(level) > r {
                 level += 1;
             }
             (level + 1).min(relief_source::MAX_LEVEL - 1)

@@ -2,30 +2,30 @@
 //! hill): `SceneTerrain` samples across tile borders, and the heights
 //! reconstructed from a rendered depth buffer, against the formula.
 
-#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
-
 use std::sync::Arc;
 
+use anyhow::Context;
 use glam::DVec3;
 use relief_daemon::scene::Scene;
 use relief_daemon::view::SceneTerrain;
 use relief_renderer::{ClipmapConfig, Gpu, Pose, RenderSettings, Renderer, Surface, TerrainSamples};
 use relief_source::geodesy;
 
-fn hill_scene(dir: &std::path::Path) -> Scene {
-    relief_examples::write_dem(&dir.join("hill.tif"), &relief_examples::hill_spec(), relief_examples::hill).unwrap();
+fn hill_scene(dir: &std::path::Path) -> anyhow::Result<Scene> {
+    relief_examples::write_dem(&dir.join("hill.tif"), &relief_examples::hill_spec(), relief_examples::hill)?;
     let manifest = relief_examples::write_manifest(
         dir,
         "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[layers]\nheight = \"dem\"\n",
-    )
-    .unwrap();
-    Scene::load(&manifest, false, 2).unwrap().0
+    )?;
+    Scene::load(&manifest, false, 2)
+        .map(|(scene, _)| scene)
+        .map_err(|e| anyhow::anyhow!("the hill scene does not load: {e:?}"))
 }
 
 #[test]
-fn samples_across_tile_borders_follow_the_hill() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = hill_scene(dir.path());
+fn samples_across_tile_borders_follow_the_hill() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let scene = hill_scene(dir.path())?;
     let snap = scene.snapshot();
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
     // The DEM has 0.00125-degree pixels: refine to one level past them.
@@ -33,7 +33,7 @@ fn samples_across_tile_borders_follow_the_hill() {
     // Level 10: 256-sample tiles of 0.176 degrees; this block straddles the
     // corner of four tiles (samples 277248 and 65024 are tile edges).
     let (level, xs, ys) = (10u8, 277_240..277_260, 65_016..65_036);
-    let heights = terrain.heights(level, xs.clone(), ys.clone()).unwrap();
+    let heights = terrain.heights(level, xs.clone(), ys.clone()).context("the hill's tiles build")?;
     let step = 180.0 / 1024.0 / 256.0;
     let mut worst: f64 = 0.0;
     for (j, gy) in ys.enumerate() {
@@ -45,16 +45,17 @@ fn samples_across_tile_borders_follow_the_hill() {
     }
     // Bilinear from 0.00125-degree pixels on the hill's curvature: <= 0.045 m.
     assert!(worst < 0.05, "worst {worst} m");
+    Ok(())
 }
 
 #[test]
-fn the_rendered_surface_is_the_hill() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = hill_scene(dir.path());
+fn the_rendered_surface_is_the_hill() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let scene = hill_scene(dir.path())?;
     let snap = scene.snapshot();
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
-    let gpu = Arc::new(Gpu::headless().unwrap());
-    let mut renderer = Renderer::new(gpu, Surface::new(snap.grid.clone()), ClipmapConfig::default()).unwrap();
+    let gpu = Arc::new(Gpu::headless()?);
+    let mut renderer = Renderer::new(gpu, Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
     let settings = RenderSettings { width: 320, height: 180, lighting: true };
     let pose = Pose {
         position: [10.1, 45.1, 4000.0],
@@ -63,7 +64,7 @@ fn the_rendered_surface_is_the_hill() {
         roll_deg: 0.0,
         vertical_fov_deg: 50.0,
     };
-    let frame = renderer.render(&terrain, &pose, &settings).unwrap();
+    let frame = renderer.render(&terrain, &pose, &settings)?;
     let (mut worst, mut checked) = (0.0f64, 0);
     for py in (0..180).step_by(4) {
         for px in (0..320).step_by(4) {
@@ -84,4 +85,5 @@ fn the_rendered_surface_is_the_hill() {
     }
     // The same budget as the renderer's own test: 1 m + 1 mm per metre.
     assert!(checked > 1000 && worst < 1.0, "{checked} pixels, worst {worst}");
+    Ok(())
 }

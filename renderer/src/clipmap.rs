@@ -122,7 +122,7 @@ fn area_in(surface: &Surface, level: u8, area: &Extent, window: &Rect) -> Rect {
     let touched = Rect { x: x0.floor() as i64..x1.ceil() as i64 + 1, y: y0.floor() as i64..y1.ceil() as i64 + 1 };
     let mut rect = touched.intersect(window);
     if surface.is_planet() && rect.is_empty() {
-        let total = 2 * (i64::from(surface.grid().tile_size()) << level);
+        let total = surface.revolution(level);
         for shift in [-total, total] {
             let moved = Rect { x: touched.x.start + shift..touched.x.end + shift, y: touched.y.clone() };
             rect = moved.intersect(window);
@@ -153,6 +153,9 @@ pub struct ClipLevel {
     pub colors: Vec<[u8; 4]>,
     dirty: Vec<StorageRect>,
     color_dirty: Vec<StorageRect>,
+    /// A refresh found its data not ready: the whole window is fetched again
+    /// on the next move.
+    stale: bool,
     /// Samples written since the level was made (incremental work done).
     pub samples_written: u64,
     /// Times the whole window was rewritten after it was made.
@@ -185,6 +188,7 @@ impl ClipLevel {
             colors: vec![[0; 4]; side * side],
             dirty: Vec::new(),
             color_dirty: Vec::new(),
+            stale: false,
             samples_written: 0,
             full_refills: 0,
         };
@@ -234,6 +238,7 @@ impl ClipLevel {
         let (ax, ay) = surface.sample_point(self.tile_level, self.anchor_sample.0, self.anchor_sample.1);
         self.anchor = surface.world(ax, ay, 0.0);
         self.store(surface, fetched);
+        self.stale = false;
         self.full_refills += 1;
         Some(())
     }
@@ -244,12 +249,12 @@ impl ClipLevel {
     pub fn move_to(&mut self, surface: &Surface, source: &dyn TerrainSamples, origin: (i64, i64)) -> bool {
         let n = self.n as i64;
         let (dx, dy) = (origin.0 - self.origin.0, origin.1 - self.origin.1);
-        if dx == 0 && dy == 0 {
+        if dx == 0 && dy == 0 && !self.stale {
             return true;
         }
         let far_from_anchor =
             (origin.0 - self.anchor_sample.0).abs() > 2 * n || (origin.1 - self.anchor_sample.1).abs() > 2 * n;
-        if dx.abs() >= n || dy.abs() >= n || far_from_anchor {
+        if dx.abs() >= n || dy.abs() >= n || far_from_anchor || self.stale {
             return self.refill(surface, source, origin).is_some();
         }
         let r = COLOR_DETAIL;
@@ -262,7 +267,8 @@ impl ClipLevel {
     }
 
     /// Fetches again the part of the window inside `area` (grid units),
-    /// after the scene rebuilt tiles there. False when not ready.
+    /// after the scene rebuilt tiles there. When that data is not ready the
+    /// level is marked stale (refilled on its next move) and false returned.
     pub fn refresh(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> bool {
         let heights = area_in(surface, self.tile_level, area, &self.window());
         let colors = area_in(surface, self.tile_level + 1, area, &self.color_window());
@@ -273,7 +279,10 @@ impl ClipLevel {
                 self.store(surface, fetched);
                 true
             }
-            None => false,
+            None => {
+                self.stale = true;
+                false
+            }
         }
     }
 
@@ -370,7 +379,7 @@ impl Clipmap {
         let even = |v: f64| 2 * ((v - half) / 2.0).round() as i64;
         let (mut ox, oy) = (even(fx), even(fy));
         if let (true, Some(near)) = (surface.is_planet(), near) {
-            let total = 2 * (i64::from(surface.grid().tile_size()) << level);
+            let total = surface.revolution(level);
             ox += total * ((near.0 - ox) as f64 / total as f64).round() as i64;
         }
         (ox, oy)
@@ -450,11 +459,7 @@ impl Clipmap {
     /// Re-fetches what the scene rebuilt in `area`, in every kept level.
     pub fn invalidate(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
         for level in self.levels.values_mut() {
-            if !level.refresh(surface, source, area) {
-                // Not ready: refetch it all when it is.
-                let origin = level.origin;
-                level.origin = (origin.0 + 4 * level.n as i64, origin.1);
-            }
+            level.refresh(surface, source, area);
         }
     }
 }

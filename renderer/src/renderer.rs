@@ -103,37 +103,66 @@ struct Base {
 }
 
 impl Base {
-    fn fill(device: &wgpu::Device, surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
-        let (c, r) = surface.grid().tiles_at(0);
-        let n = i64::from(surface.grid().tile_size());
-        let (cols, rows) = (i64::from(c) * n + 1, i64::from(r) * n + 1);
-        let (heights, colors) = (source.heights(0, 0..cols, 0..rows)?, source.colors(0, 0..cols, 0..rows)?);
-        let mut world = Vec::with_capacity((cols * rows) as usize);
-        let mut vertices = Vec::with_capacity((cols * rows) as usize);
-        for gy in 0..rows {
-            for gx in 0..cols {
-                let k = (gy * cols + gx) as usize;
-                let h = heights[k];
-                let (x, y) = surface.sample_point(0, gx, gy);
-                let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 });
-                let up = surface.enu(x, y)[2].as_vec3();
-                let (high, low) = split(p);
-                let valid = if surface.on_grid(0, gx, gy) { 1.0 } else { crate::clipmap::OFF_GRID };
-                vertices.push(BaseVertex {
-                    high: [high[0], high[1], high[2], valid],
-                    low: [low[0], low[1], low[2], 0.0],
-                    normal: [up.x, up.y, up.z, 0.0],
-                    color: colors[k].map(|v| f32::from(v) / 255.0),
-                });
-                world.push(p);
-            }
+    /// The vertices of samples `xs` x `ys` of tile level 0 (row-major),
+    /// with their world positions.
+    fn vertices(
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        xs: std::ops::Range<i64>,
+        ys: std::ops::Range<i64>,
+    ) -> Option<(Vec<DVec3>, Vec<BaseVertex>)> {
+        let heights = source.heights(0, xs.clone(), ys.clone())?;
+        let colors = source.colors(0, xs.clone(), ys.clone())?;
+        let (mut world, mut vertices) = (Vec::with_capacity(heights.len()), Vec::with_capacity(heights.len()));
+        let samples = ys.flat_map(|gy| xs.clone().map(move |gx| (gx, gy)));
+        for (((gx, gy), h), color) in samples.zip(heights).zip(colors) {
+            let (x, y) = surface.sample_point(0, gx, gy);
+            let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 });
+            let up = surface.enu(x, y)[2].as_vec3();
+            let (high, low) = split(p);
+            let valid = if surface.on_grid(0, gx, gy) { 1.0 } else { crate::clipmap::OFF_GRID };
+            vertices.push(BaseVertex {
+                high: [high[0], high[1], high[2], valid],
+                low: [low[0], low[1], low[2], 0.0],
+                normal: [up.x, up.y, up.z, 0.0],
+                color: color.map(|v| f32::from(v) / 255.0),
+            });
+            world.push(p);
         }
+        Some((world, vertices))
+    }
+
+    fn fill(device: &wgpu::Device, surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
+        let (cells_x, cells_y) = surface.grid().samples_at(0);
+        let (cols, rows) = (cells_x + 1, cells_y + 1);
+        let (world, vertices) = Self::vertices(surface, source, 0..cols, 0..rows)?;
         let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("base vertices"),
             contents: bytemuck::cast_slice(&vertices),
-            usage: wgpu::BufferUsages::VERTEX,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
         });
         Some(Self { cols, rows, world, vertices, cell_m: surface.step(0) * surface.metres_per_unit() })
+    }
+
+    /// Fetches again the samples inside `area` (grid units) and writes
+    /// only their rows' spans of the vertex buffer. False when not ready.
+    fn refresh(&mut self, queue: &wgpu::Queue, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> bool {
+        let (x0, y0) = surface.sample_coords(0, area.min_x, area.max_y);
+        let (x1, y1) = surface.sample_coords(0, area.max_x, area.min_y);
+        let xs = (x0.floor() as i64).clamp(0, self.cols)..(x1.ceil() as i64 + 1).clamp(0, self.cols);
+        let ys = (y0.floor() as i64).clamp(0, self.rows)..(y1.ceil() as i64 + 1).clamp(0, self.rows);
+        if xs.is_empty() || ys.is_empty() {
+            return true;
+        }
+        let Some((world, vertices)) = Self::vertices(surface, source, xs.clone(), ys.clone()) else { return false };
+        let width = (xs.end - xs.start) as usize;
+        for (k, gy) in ys.enumerate() {
+            let first = (gy * self.cols + xs.start) as usize;
+            self.world[first..first + width].copy_from_slice(&world[k * width..(k + 1) * width]);
+            let offset = (first * size_of::<BaseVertex>()) as u64;
+            queue.write_buffer(&self.vertices, offset, bytemuck::cast_slice(&vertices[k * width..(k + 1) * width]));
+        }
+        true
     }
 }
 
@@ -318,10 +347,15 @@ impl Renderer {
         &self.gpu
     }
 
-    /// The scene rebuilt tiles in `area`: refresh those samples only.
+    /// The scene rebuilt tiles in `area`: refresh those samples only, in
+    /// the levels and in the base (which is filled anew if not ready).
     pub fn invalidate(&mut self, source: &dyn TerrainSamples, area: &Extent) {
         self.clipmap.invalidate(&self.surface, source, area);
-        self.base = None;
+        if let Some(base) = &mut self.base
+            && !base.refresh(&self.gpu.queue, &self.surface, source, area)
+        {
+            self.base = None;
+        }
     }
 
     /// Renders the view from `pose`.
@@ -569,7 +603,7 @@ impl Renderer {
             let offset = (level.anchor - view.eye).as_vec3();
             let (mut fx, fy) = self.surface.sample_coords(t, pose.position[0], pose.position[1]);
             if self.surface.is_planet() {
-                let total = 2.0 * (f64::from(self.surface.grid().tile_size()) * f64::from(1u32 << t));
+                let total = self.surface.revolution(t) as f64;
                 let centre = level.origin.0 as f64 + (level.n / 2) as f64;
                 fx += total * ((centre - fx) / total).round();
             }
@@ -600,7 +634,7 @@ impl Renderer {
             let hole = active.get(k + 1).and_then(|&f| self.clipmap.level(f)).map(|finer| {
                 let mut hx = finer.origin.0 / 2 - level.origin.0;
                 if self.surface.is_planet() {
-                    let total = 2 * (i64::from(self.surface.grid().tile_size()) << t);
+                    let total = self.surface.revolution(t);
                     hx -= total * ((hx as f64) / total as f64).round() as i64;
                 }
                 (hx, finer.origin.1 / 2 - level.origin.1)

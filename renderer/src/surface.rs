@@ -49,21 +49,22 @@ impl Surface {
 
     /// Corner-sample spacing at tile level `level`, in grid units.
     pub fn step(&self, level: u8) -> f64 {
-        self.grid.tile_span(level).0 / f64::from(self.grid.tile_size())
+        self.grid.sample_step(level)
     }
 
     /// Grid point of global corner sample (gx, gy) at `level`.
     pub fn sample_point(&self, level: u8, gx: i64, gy: i64) -> (f64, f64) {
-        let e = self.grid.extent();
-        let s = self.step(level);
-        (e.min_x + gx as f64 * s, e.max_y - gy as f64 * s)
+        self.grid.sample_point(level, gx, gy)
     }
 
     /// Continuous sample coordinates of grid point (x, y) at `level`.
     pub fn sample_coords(&self, level: u8, x: f64, y: f64) -> (f64, f64) {
-        let e = self.grid.extent();
-        let s = self.step(level);
-        ((x - e.min_x) / s, (e.max_y - y) / s)
+        self.grid.sample_coords(level, x, y)
+    }
+
+    /// Corner samples round the planet at `level` (a revolution).
+    pub fn revolution(&self, level: u8) -> i64 {
+        self.grid.samples_at(level).0
     }
 
     /// Metres per grid unit along the ground (at the equator on the planet).
@@ -76,8 +77,7 @@ impl Surface {
         if self.is_planet() {
             return true;
         }
-        let (cols, rows) = self.grid.tiles_at(level);
-        let n = i64::from(self.grid.tile_size());
-        (0..=i64::from(cols) * n).contains(&gx) && (0..=i64::from(rows) * n).contains(&gy)
+        let (cols, rows) = self.grid.samples_at(level);
+        (0..=cols).contains(&gx) && (0..=rows).contains(&gy)
     }
 }

@@ -254,6 +254,35 @@ impl TileGrid {
         (e.width() / f64::from(cols), e.height() / f64::from(rows))
     }
 
+    /// Cells of the global corner-sample lattice at `level` across and down
+    /// the grid (tiles times N); samples run from 0 to these, inclusive.
+    pub fn samples_at(&self, level: u8) -> (i64, i64) {
+        let (cols, rows) = self.tiles_at(level);
+        let n = i64::from(self.tile_size);
+        (i64::from(cols) * n, i64::from(rows) * n)
+    }
+
+    /// Spacing of the corner samples at `level`, in CRS units (the same
+    /// east and south on both kinds of grid).
+    pub fn sample_step(&self, level: u8) -> f64 {
+        self.tile_span(level).0 / f64::from(self.tile_size)
+    }
+
+    /// The point of global corner sample (gx, gy) at `level` (gx east, gy
+    /// south of the grid's north-west corner; any integer).
+    pub fn sample_point(&self, level: u8, gx: i64, gy: i64) -> (f64, f64) {
+        let e = self.extent();
+        let s = self.sample_step(level);
+        (e.min_x + gx as f64 * s, e.max_y - gy as f64 * s)
+    }
+
+    /// Point (x, y) in continuous corner-sample coordinates at `level`.
+    pub fn sample_coords(&self, level: u8, x: f64, y: f64) -> (f64, f64) {
+        let e = self.extent();
+        let s = self.sample_step(level);
+        ((x - e.min_x) / s, (e.max_y - y) / s)
+    }
+
     pub fn contains_key(&self, key: TileKey) -> bool {
         let (cols, rows) = self.tiles_at(key.level);
         key.level <= MAX_LEVEL && key.x < cols && key.y < rows
@@ -279,7 +308,7 @@ impl TileGrid {
     pub fn corner_sample(&self, level: u8, gx: i64, gy: i64) -> (TileKey, usize, usize) {
         let n = i64::from(self.tile_size);
         let (cols, rows) = self.tiles_at(level);
-        let (total_x, total_y) = (i64::from(cols) * n, i64::from(rows) * n);
+        let (total_x, total_y) = self.samples_at(level);
         let (mut x, mut y) = (gx, gy);
         match self.kind {
             GridKind::Geodetic => {

@@ -47,12 +47,7 @@ impl HeightWindow<'_, '_> {
     /// The height at grid-CRS point (x, y), bilinear between the four
     /// samples round it; NaN where any of them is nodata.
     pub fn height_at(&mut self, x: f64, y: f64) -> Result<f32, SourceError> {
-        let grid = self.ctx.grid;
-        let n = f64::from(grid.tile_size());
-        let e = grid.extent();
-        let (w, h) = grid.tile_span(self.level);
-        let gx = (x - e.min_x) / (w / n);
-        let gy = (e.max_y - y) / (h / n);
+        let (gx, gy) = self.ctx.grid.sample_coords(self.level, x, y);
         let (x0, y0) = (gx.floor(), gy.floor());
         let (fx, fy) = ((gx - x0) as f32, (gy - y0) as f32);
         let (i, j) = (x0 as i64, y0 as i64);
