@@ -18,3 +18,4 @@ bench: setup
 	cargo bench -p relief-daemon --bench reload
 	cargo bench -p relief-daemon --bench rasterize
 	cargo bench -p relief-daemon --bench render
+	cargo bench -p relief-daemon --bench frames

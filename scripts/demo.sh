@@ -27,6 +27,8 @@ for _ in $(seq 1 100); do
   sleep 0.1
 done
 grep '^listening on' "$out/reliefd.out" || { echo "reliefd did not say where it listens" >&2; exit 1; }
+viewer=$(sed -n 's/^viewer: //p' "$out/reliefd.out")
+echo "live view in a browser: $viewer"
 
 step() { echo; echo "\$ $*"; "$@"; }
 step "$bin/relief" state
@@ -47,7 +49,11 @@ for v in range valley above planet; do echo "  $out/view-$v.png"; done
 cat <<MSG
 
 reliefd is serving the demo scene on $listen (log: $out/reliefd.log).
+Watch it live: open $viewer in a browser (drag to orbit, right-drag to pan,
+wheel to zoom, WASD to move); edit $out/scene/dem.tif and the view follows.
 Try, in another terminal:
+  curl -s http://$listen/api/state
+  curl -s -o view.png "http://$listen/api/render?width=1280&height=720"
   $bin/relief state --json
   $bin/relief watch                      # then edit or replace $out/scene/dem.tif
   $bin/relief elevation 6.5,45.3

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian packages relief needs, once. Safe to run again: it only
+# Installs the Debian packages relief needs, once (Chromium and curl are for
+# the tests of the browser viewer and the HTTP transport). Safe to run again: it only
 # calls apt-get when something is missing. Retries once, because an install on
 # this kind of machine has been seen to fail half way (STACK.md).
 set -euo pipefail
@@ -7,6 +8,7 @@ set -euo pipefail
 packages=(
   libgdal-dev gdal-bin python3-gdal libproj-dev proj-bin
   mesa-vulkan-drivers libvulkan1 pkg-config
+  chromium curl
 )
 
 missing=()

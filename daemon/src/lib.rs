@@ -5,8 +5,12 @@
 //! relief-proto at the gRPC edge only (`service`). Frames are drawn by
 //! relief-renderer; `view` feeds it the scene's tiles and owns the camera.
 
+pub mod camera;
+pub mod frames;
 pub mod graph;
 pub mod manifest;
+pub mod navigate;
+pub mod png;
 pub mod registry;
 pub mod scene;
 pub mod service;

@@ -25,7 +25,7 @@ struct Args {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Serve a scene over gRPC.
+    /// Serve a scene over gRPC and HTTP (the browser viewer at http://ADDR/).
     Serve {
         /// The scene manifest (TOML).
         manifest: PathBuf,
@@ -128,6 +128,7 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
     #[expect(clippy::print_stdout, reason = "the one line clients and tests read the address from")]
     {
         println!("listening on {addr}");
+        println!("viewer: http://{addr}/");
     }
     use std::io::Write as _;
     let _ = std::io::stdout().flush();
@@ -137,7 +138,7 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
         () = shutdown_signal() => tracing::info!("shutting down"),
         result = server => {
             // The server stopped on its own: report why.
-            result.context("the gRPC server task failed")??;
+            result.context("the server task failed")??;
         }
     }
     shutdown.cancel();

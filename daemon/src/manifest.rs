@@ -26,6 +26,10 @@ pub enum ManifestError {
     Source { path: PathBuf, source_id: String, field: String, message: String },
 }
 
+/// Default of `[quality] interactive_scale`: half of each side (a quarter of
+/// the pixels) while the user drags.
+pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
+
 /// The effects a scene may declare, and the layers each one reads.
 pub const EFFECTS: &[(&str, &[&str])] = &[
     ("lighting", &["height"]),
@@ -132,6 +136,7 @@ struct RawQuality {
     reprojection_error_px: Option<f64>,
     clipmap_grid_size: Option<usize>,
     clipmap_levels: Option<usize>,
+    interactive_scale: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -197,6 +202,9 @@ pub struct Manifest {
     /// The renderer's accuracy knobs: samples per clipmap level side and
     /// how many levels.
     pub clipmap: ClipmapConfig,
+    /// The fraction of each side a view is rendered at while its user
+    /// drags (full size again once the camera rests).
+    pub interactive_scale: f64,
     pub camera: RawCamera,
     pub cache_budget_bytes: u64,
     pub watch: WatchSettings,
@@ -312,6 +320,10 @@ impl Manifest {
             levels: raw.quality.clipmap_levels.unwrap_or(defaults.levels),
         };
         clipmap.validate().map_err(|e| field("quality.clipmap_grid_size", e))?;
+        let interactive_scale = raw.quality.interactive_scale.unwrap_or(DEFAULT_INTERACTIVE_SCALE);
+        if !(interactive_scale.is_finite() && (0.1..=1.0).contains(&interactive_scale)) {
+            return Err(field("quality.interactive_scale", format!("{interactive_scale} is not from 0.1 to 1")));
+        }
         let tile_size = raw.scene.tile_size.unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
             return Err(field("scene.tile_size", format!("{tile_size} is not a power of two from 16 to 4096")));
@@ -350,6 +362,7 @@ impl Manifest {
             effects,
             quality,
             clipmap,
+            interactive_scale,
             camera: raw.camera.unwrap_or_default(),
             cache_budget_bytes: memory_mb * 1024 * 1024,
             watch,

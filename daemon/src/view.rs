@@ -5,12 +5,12 @@ use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
-use relief_renderer::{
-    ClipmapConfig, Frame, Gpu, Pose, RenderError, RenderSettings, Renderer, Surface, TerrainSamples,
-};
-use relief_source::{CrsTransform, Extent, Payload, Quality, TileKey};
+use relief_renderer::{ClipmapConfig, Frame, Gpu, RenderError, RenderSettings, Renderer, Surface, TerrainSamples};
+use relief_source::{Extent, Payload, Quality, TileKey};
 use tokio::sync::{Semaphore, watch};
 
+pub use crate::camera::Camera;
+use crate::camera::{default_camera, pose};
 use crate::graph::SceneSnapshot;
 use crate::scene::{EventKind, Scene};
 use crate::tiles::TileStore;
@@ -22,18 +22,6 @@ pub const MAX_RENDERS_IN_FLIGHT: usize = 4;
 /// Generations of dirt remembered for renderers that fall behind.
 const DIRT_LOG: usize = 64;
 
-/// A camera as viewers give it: geodetic position on any scene.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Camera {
-    pub lon_deg: f64,
-    pub lat_deg: f64,
-    pub altitude_m: f64,
-    pub heading_deg: f64,
-    pub pitch_deg: f64,
-    pub roll_deg: f64,
-    pub vertical_fov_deg: f64,
-}
-
 #[derive(Debug, thiserror::Error)]
 pub enum ViewError {
     #[error(transparent)]
@@ -42,6 +30,14 @@ pub enum ViewError {
     Busy,
     #[error("no renderer: {0}")]
     NoDevice(String),
+    #[error("too many views: {0}; close one or share a camera")]
+    TooManyViews(String),
+    #[error("no open view has id '{0}' (views close after a minute unseen)")]
+    UnknownView(String),
+    #[error("view '{0}' has shown no frame yet")]
+    NoFrame(String),
+    #[error("no source has id '{0}'")]
+    UnknownSource(String),
 }
 
 /// The scene's tiles as the renderer asks for them.
@@ -179,6 +175,7 @@ pub struct Viewer {
     renderers: Mutex<Renderers>,
     camera: watch::Sender<Camera>,
     permits: Semaphore,
+    frames: std::sync::atomic::AtomicU64,
 }
 
 impl Viewer {
@@ -192,6 +189,7 @@ impl Viewer {
             renderers: Mutex::new(Renderers { gpu: None, by_config: HashMap::new(), dirt: VecDeque::new() }),
             camera,
             permits: Semaphore::new(MAX_RENDERS_IN_FLIGHT),
+            frames: std::sync::atomic::AtomicU64::new(0),
         });
         let weak = Arc::downgrade(&viewer);
         let mut events = scene.events();
@@ -239,8 +237,9 @@ impl Viewer {
         Ok(camera)
     }
 
-    /// Renders from `camera` (the current one when None). Blocking: call it
-    /// from a blocking thread. One frame at a time uses the device.
+    /// Renders from `camera` (the current one when None), as one of at
+    /// most [`MAX_RENDERS_IN_FLIGHT`] single frames asked for at once.
+    /// Blocking: call it from a blocking thread.
     pub fn render(
         &self,
         camera: Option<Camera>,
@@ -250,6 +249,25 @@ impl Viewer {
         quality: Option<Quality>,
     ) -> Result<Rendered, ViewError> {
         let _permit = self.permits.try_acquire().map_err(|_| ViewError::Busy)?;
+        self.draw(camera, width, height, clipmap, quality)
+    }
+
+    /// Frames rendered since start.
+    pub fn frames_rendered(&self) -> u64 {
+        self.frames.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// Renders a frame, waiting for the device: one frame at a time uses
+    /// it. Blocking. The frame hub calls this for its streams, one at a
+    /// time; single frames go through `render` and its limit.
+    pub fn draw(
+        &self,
+        camera: Option<Camera>,
+        width: u32,
+        height: u32,
+        clipmap: Option<ClipmapConfig>,
+        quality: Option<Quality>,
+    ) -> Result<Rendered, ViewError> {
         for (field, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_SIDE).contains(&v) {
                 return Err(RenderError::Request {
@@ -301,65 +319,12 @@ impl Viewer {
             ran.insert("lighting".to_owned(), draw);
         }
         self.scene.set_effects_ran(ran);
+        self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Ok(Rendered { frame, generation: snap.generation, camera })
     }
 
     /// What the device is, once a frame has opened it.
     pub fn device(&self) -> Option<String> {
         self.renderers().gpu.as_ref().map(|g| g.description.clone())
-    }
-}
-
-/// The renderer's pose for a geodetic camera: longitude and latitude go to
-/// the grid's CRS on a projected scene.
-fn pose(snap: &SceneSnapshot, c: &Camera) -> Result<Pose, RenderError> {
-    let mut pose = Pose {
-        position: [c.lon_deg, c.lat_deg, c.altitude_m],
-        heading_deg: c.heading_deg,
-        pitch_deg: c.pitch_deg,
-        roll_deg: c.roll_deg,
-        vertical_fov_deg: c.vertical_fov_deg,
-    };
-    pose.validate(true)?;
-    if !snap.grid.is_geodetic() {
-        let (mut xs, mut ys) = ([c.lon_deg], [c.lat_deg]);
-        relief_source_gdal::OsrTransform.transform("EPSG:4326", snap.grid.crs(), &mut xs, &mut ys).map_err(|e| {
-            RenderError::Camera { field: "lon_deg", message: format!("cannot place it in {}: {e}", snap.grid.crs()) }
-        })?;
-        pose.position = [xs[0], ys[0], c.altitude_m];
-        pose.validate(false)?;
-    }
-    Ok(pose)
-}
-
-/// The manifest's `[camera]`, its gaps filled to frame the height layer
-/// (or the whole grid): from the south, 35 degrees down.
-fn default_camera(snap: &SceneSnapshot) -> Camera {
-    let raw = snap.manifest.camera;
-    let layer_extent = ["height", "color"]
-        .iter()
-        .filter_map(|l| snap.manifest.layers.get(*l))
-        .filter_map(|id| snap.index_of(id))
-        .find_map(|i| snap.slots[i].source.as_ref().and_then(|s| s.info().extent));
-    let extent = layer_extent.unwrap_or_else(|| snap.grid.extent());
-    let (mut lon, mut lat) = (f64::midpoint(extent.min_x, extent.max_x), f64::midpoint(extent.min_y, extent.max_y));
-    let mut size_m = extent.height() * if snap.grid.is_geodetic() { 111_320.0 } else { 1.0 };
-    if !snap.grid.is_geodetic() {
-        let (mut xs, mut ys) = ([lon], [lat]);
-        if relief_source_gdal::OsrTransform.transform(snap.grid.crs(), "EPSG:4326", &mut xs, &mut ys).is_ok() {
-            (lon, lat) = (xs[0], ys[0]);
-        }
-    }
-    size_m = size_m.clamp(100.0, 2.0e7);
-    let altitude = 0.5 * size_m + 2000.0;
-    let back_deg = (0.6 * size_m / 111_320.0).min(30.0);
-    Camera {
-        lon_deg: raw.lon_deg.unwrap_or(lon),
-        lat_deg: raw.lat_deg.unwrap_or((lat - back_deg).clamp(-89.0, 89.0)),
-        altitude_m: raw.altitude_m.unwrap_or(altitude),
-        heading_deg: raw.heading_deg.unwrap_or(0.0),
-        pitch_deg: raw.pitch_deg.unwrap_or(-35.0),
-        roll_deg: raw.roll_deg.unwrap_or(0.0),
-        vertical_fov_deg: raw.vertical_fov_deg.unwrap_or(50.0),
     }
 }

@@ -6,6 +6,7 @@
 #[allow(clippy::pedantic, clippy::all, missing_docs)]
 pub mod v1 {
     tonic::include_proto!("relief.v1");
+    include!(concat!(env!("OUT_DIR"), "/relief.v1.serde.rs"));
 }
 
 /// The encoded `FileDescriptorSet` of relief.v1, for gRPC reflection.

@@ -10,6 +10,7 @@ mod camera;
 mod clipmap;
 mod error;
 mod gpu;
+mod navigate;
 mod renderer;
 mod surface;
 

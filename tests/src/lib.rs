@@ -2,9 +2,12 @@
 //! loopback, make analytic fixtures with GDAL, and ask GDAL itself for
 //! reference values.
 
+pub mod browser;
 pub mod daemon;
 pub mod edit;
+pub mod http;
 pub mod reference;
+pub mod scenes;
 pub mod tiles;
 pub mod vectors;
 

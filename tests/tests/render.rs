@@ -10,24 +10,13 @@ use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_tests::daemon::{Reliefd, relief};
-use relief_tests::{edit, fixtures};
+use relief_tests::edit;
 use tokio_stream::StreamExt;
 use tonic::transport::Channel;
 
 /// The hill DEM and an "orthophoto" tinted by height, lit or not.
 fn scene(dir: &Path, effects: &str) -> PathBuf {
-    fixtures::write_dem(&dir.join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).unwrap();
-    fixtures::write_rgb(&dir.join("tint.tif"), &fixtures::hill_spec(), |x, y| {
-        fixtures::demo_color(fixtures::hill(x, y))
-    })
-    .unwrap();
-    fixtures::write_manifest(
-        dir,
-        &format!(
-            "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[[source]]\nid = \"tint\"\nkind = \"gdal\"\npath = \"tint.tif\"\n\n[layers]\nheight = \"dem\"\ncolor = \"tint\"\n{effects}\n[camera]\nlon_deg = 10.25\nlat_deg = 45.1\naltitude_m = 9000\npitch_deg = -45\n"
-        ),
-    )
-    .unwrap()
+    relief_tests::scenes::hill(dir, effects).unwrap()
 }
 
 fn camera(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> pb::Camera {
@@ -206,7 +195,7 @@ async fn streamed_frames_follow_the_camera_and_the_generation_without_a_backlog(
             height: 480,
             format: pb::ImageFormat::Rgba8 as i32,
             max_fps: 20.0,
-            quality: None,
+            ..Default::default()
         })
         .await
         .unwrap()

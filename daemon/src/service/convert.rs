@@ -4,6 +4,7 @@ use relief_proto::v1 as pb;
 use relief_source::{Extent, PayloadKind, Quality, TileGrid, TileKey};
 use tonic::Status;
 
+use crate::frames::FrameHub;
 use crate::manifest::EFFECTS;
 use crate::scene::{EventKind, Scene, SceneEvent};
 use crate::service::status::invalid_field;
@@ -64,7 +65,7 @@ fn grid_info(grid: &TileGrid) -> pb::GridInfo {
 }
 
 /// The whole state of `scene` at its current generation.
-pub fn scene_state(scene: &Scene) -> pb::SceneState {
+pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
     let snap = &*scene.snapshot();
     let store = &scene.store;
     let manifest_error = scene.manifest_error();
@@ -117,6 +118,7 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
         })
         .collect();
     let c = store.counters();
+    let frames = hub.counters();
     pb::SceneState {
         name: m.name.clone(),
         generation: snap.generation,
@@ -128,6 +130,9 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
             ("resampling".to_string(), m.quality.resampling.to_string()),
             ("reprojection_error_px".to_string(), m.quality.reprojection_error_px.to_string()),
             ("tile_size".to_string(), snap.grid.tile_size().to_string()),
+            ("clipmap_grid_size".to_string(), m.clipmap.n.to_string()),
+            ("clipmap_levels".to_string(), m.clipmap.levels.to_string()),
+            ("interactive_scale".to_string(), m.interactive_scale.to_string()),
         ]
         .into_iter()
         .collect(),
@@ -138,8 +143,12 @@ pub fn scene_state(scene: &Scene) -> pb::SceneState {
             cache_entries: c.entries,
             cache_bytes: c.bytes,
             cache_budget_bytes: c.budget_bytes,
-            frames_rendered: 0,
+            frames_rendered: hub.viewer().frames_rendered(),
             reads_retried,
+            frame_views: frames.views as u64,
+            frame_streams: frames.streams as u64,
+            open_views: frames.open_views as u64,
+            stream_frames_rendered: frames.frames_rendered,
         }),
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),
@@ -264,10 +273,5 @@ pub fn camera_to(c: &crate::view::Camera) -> pb::Camera {
 
 /// RGBA8 rows as a PNG.
 pub fn png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, tonic::Status> {
-    use image::ImageEncoder;
-    let mut out = Vec::new();
-    image::codecs::png::PngEncoder::new(std::io::Cursor::new(&mut out))
-        .write_image(rgba, width, height, image::ExtendedColorType::Rgba8)
-        .map_err(|e| tonic::Status::internal(format!("cannot encode PNG: {e}")))?;
-    Ok(out)
+    crate::png::encode(rgba, width, height).map_err(tonic::Status::internal)
 }

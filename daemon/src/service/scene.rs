@@ -1,57 +1,52 @@
-//! SceneService: state, events, generations and reloads.
+//! The scene calls: state, events, generations and reloads. Transports
+//! (gRPC, HTTP) are thin adapters over these.
 
 use std::sync::Arc;
 use std::time::Duration;
 
 use relief_proto::v1::{
-    GetStateRequest, ReloadRequest, SceneEvent, SceneState, SetSourceParameterRequest, WaitForGenerationRequest,
-    WatchRequest, scene_event, scene_service_server::SceneService,
+    ReloadRequest, SceneEvent, SceneState, SetSourceParameterRequest, WaitForGenerationRequest, WatchRequest,
+    scene_event,
 };
 use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 use tokio_util::sync::CancellationToken;
-use tonic::{Request, Response, Status};
+use tonic::Status;
 
+use crate::frames::FrameHub;
 use crate::scene::Scene;
 use crate::service::convert;
 
 /// The longest a WaitForGeneration call may wait.
 const MAX_WAIT: Duration = Duration::from_secs(600);
 
-pub struct SceneApi {
+pub struct SceneCalls {
     scene: Arc<Scene>,
+    hub: Arc<FrameHub>,
     shutdown: CancellationToken,
 }
 
-impl SceneApi {
-    pub fn new(scene: Arc<Scene>, shutdown: CancellationToken) -> Self {
-        Self { scene, shutdown }
+impl SceneCalls {
+    pub fn new(scene: Arc<Scene>, hub: Arc<FrameHub>, shutdown: CancellationToken) -> Self {
+        Self { scene, hub, shutdown }
     }
 
-    fn state(&self) -> SceneState {
-        convert::scene_state(&self.scene)
-    }
-}
-
-#[tonic::async_trait]
-impl SceneService for SceneApi {
-    async fn get_state(&self, _request: Request<GetStateRequest>) -> Result<Response<SceneState>, Status> {
-        Ok(Response::new(self.state()))
+    pub fn state(&self) -> SceneState {
+        convert::scene_state(&self.scene, &self.hub)
     }
 
-    type WatchStream = ReceiverStream<Result<SceneEvent, Status>>;
-
-    async fn watch(&self, request: Request<WatchRequest>) -> Result<Response<Self::WatchStream>, Status> {
-        let from = request.into_inner().from_generation;
+    /// The current state, then one event per change after `from_generation`.
+    pub fn watch(&self, request: &WatchRequest) -> ReceiverStream<Result<SceneEvent, Status>> {
+        let from = request.from_generation;
         // Subscribe before taking the snapshot, so no event falls between.
         let mut events = self.scene.events();
         let (tx, rx) = mpsc::channel(16);
-        let scene = Arc::clone(&self.scene);
+        let (scene, hub) = (Arc::clone(&self.scene), Arc::clone(&self.hub));
         let shutdown = self.shutdown.clone();
         tokio::spawn(async move {
             let snapshot = |scene: &Scene| {
-                let state = convert::scene_state(scene);
+                let state = convert::scene_state(scene, &hub);
                 SceneEvent { generation: state.generation, event: Some(scene_event::Event::Snapshot(state)) }
             };
             if tx.send(Ok(snapshot(&scene))).await.is_err() {
@@ -74,21 +69,17 @@ impl SceneService for SceneApi {
                 }
             }
         });
-        Ok(Response::new(ReceiverStream::new(rx)))
+        ReceiverStream::new(rx)
     }
 
-    async fn wait_for_generation(
-        &self,
-        request: Request<WaitForGenerationRequest>,
-    ) -> Result<Response<SceneState>, Status> {
-        let r = request.into_inner();
+    pub async fn wait_for_generation(&self, r: WaitForGenerationRequest) -> Result<SceneState, Status> {
         let timeout = Duration::from_millis(u64::from(r.timeout_ms)).min(MAX_WAIT);
         let mut generations = self.scene.generations();
         let reached = tokio::time::timeout(timeout, generations.wait_for(|g| *g >= r.min_generation))
             .await
             .map(|r| r.map(|_| ()));
         match reached {
-            Ok(Ok(())) => Ok(Response::new(self.state())),
+            Ok(Ok(())) => Ok(self.state()),
             Ok(Err(_)) => Err(Status::unavailable("the scene is shutting down")),
             Err(_) => Err(Status::deadline_exceeded(format!(
                 "generation {} not reached within {} ms (current: {})",
@@ -99,19 +90,15 @@ impl SceneService for SceneApi {
         }
     }
 
-    async fn set_source_parameter(
-        &self,
-        request: Request<SetSourceParameterRequest>,
-    ) -> Result<Response<SceneState>, Status> {
-        let r = request.into_inner();
+    pub fn set_source_parameter(&self, r: &SetSourceParameterRequest) -> Result<SceneState, Status> {
         Err(Status::unimplemented(format!(
             "SetSourceParameter: source '{}' has no runtime parameters in this reliefd",
             r.source_id
         )))
     }
 
-    async fn reload(&self, request: Request<ReloadRequest>) -> Result<Response<SceneState>, Status> {
-        let ids = request.into_inner().source_ids;
+    pub async fn reload(&self, r: ReloadRequest) -> Result<SceneState, Status> {
+        let ids = r.source_ids;
         let snap = self.scene.snapshot();
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {
             return Err(Status::not_found(format!("no source has id '{unknown}'")));
@@ -123,6 +110,6 @@ impl SceneService for SceneApi {
         })
         .await
         .map_err(|_| Status::internal("reload task failed"))?;
-        Ok(Response::new(self.state()))
+        Ok(self.state())
     }
 }

@@ -1,13 +1,13 @@
-//! TileService: tiles of any source, and elevations at points.
+//! The tile calls: tiles of any source, and elevations at points.
 
 use std::sync::Arc;
 
 use relief_proto::v1::{
     ElevationSample, GetTileRequest, GetTileResponse, SampleElevationRequest, SampleElevationResponse,
-    get_tile_response, tile_service_server::TileService,
+    get_tile_response,
 };
 use relief_source::{GeodeticPoint, Payload};
-use tonic::{Request, Response, Status};
+use tonic::Status;
 
 use crate::scene::Scene;
 use crate::service::convert;
@@ -16,20 +16,16 @@ use crate::service::status::{from_tile_error, invalid_field};
 /// Most points one SampleElevation call may ask for.
 const MAX_POINTS: usize = 1_000_000;
 
-pub struct TileApi {
+pub struct TileCalls {
     scene: Arc<Scene>,
 }
 
-impl TileApi {
+impl TileCalls {
     pub fn new(scene: Arc<Scene>) -> Self {
         Self { scene }
     }
-}
 
-#[tonic::async_trait]
-impl TileService for TileApi {
-    async fn get_tile(&self, request: Request<GetTileRequest>) -> Result<Response<GetTileResponse>, Status> {
-        let r = request.into_inner();
+    pub async fn tile(&self, r: GetTileRequest) -> Result<GetTileResponse, Status> {
         let key = convert::tile_key(r.key.as_ref())?;
         let snap = self.scene.snapshot();
         let index = snap
@@ -60,7 +56,7 @@ impl TileService for TileApi {
             Payload::Mesh(m) => (m.parts.len(), get_tile_response::Payload::Mesh(convert::mesh(m))),
             Payload::Instances(i) => (i.instances.len(), get_tile_response::Payload::Instances(convert::instances(i))),
         };
-        Ok(Response::new(GetTileResponse {
+        Ok(GetTileResponse {
             source_id: r.source_id,
             key: Some(convert::key(key)),
             generation: snap.generation,
@@ -71,14 +67,10 @@ impl TileService for TileApi {
             extent: Some(convert::extent(snap.grid.tile_extent(key))),
             crs: snap.grid.crs().into(),
             payload: Some(payload),
-        }))
+        })
     }
 
-    async fn sample_elevation(
-        &self,
-        request: Request<SampleElevationRequest>,
-    ) -> Result<Response<SampleElevationResponse>, Status> {
-        let r = request.into_inner();
+    pub async fn elevation(&self, r: SampleElevationRequest) -> Result<SampleElevationResponse, Status> {
         if r.points.len() > MAX_POINTS {
             return Err(invalid_field(
                 "points",
@@ -130,10 +122,10 @@ impl TileService for TileApi {
                 }
                 other => Status::internal(format!("source '{id}': {other}")),
             })?;
-        Ok(Response::new(SampleElevationResponse {
+        Ok(SampleElevationResponse {
             generation: snap.generation,
             source_id: id,
             samples: heights.into_iter().map(|height_m| ElevationSample { height_m }).collect(),
-        }))
+        })
     }
 }

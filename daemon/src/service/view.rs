@@ -1,44 +1,39 @@
-//! ViewService: the camera and rendered frames.
+//! The view calls: the scene camera, single frames, frame streams through
+//! the hub, views of the viewers' own, gestures and picks. Transports
+//! (gRPC, HTTP) are thin adapters over these.
 
+use std::pin::Pin;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use relief_proto::v1::{
-    Camera, GetCameraRequest, ImageFormat, PassTiming, QualityOverrides, RenderRequest, RenderResponse,
-    SetCameraRequest, StreamFramesRequest, view_service_server::ViewService,
+    Camera, ImageFormat, NavigateRequest, OpenViewRequest, PassTiming, PickRequest, PickResponse, QualityOverrides,
+    RenderRequest, RenderResponse, SetCameraRequest, StreamFramesRequest, UpdateViewRequest, ViewState,
+    navigate_request,
 };
 use relief_renderer::ClipmapConfig;
-use tokio_stream::wrappers::ReceiverStream;
+use tokio_stream::{Stream, StreamExt, wrappers::ReceiverStream};
 use tokio_util::sync::CancellationToken;
-use tonic::{Request, Response, Status};
+use tonic::Status;
 
+use crate::frames::{CameraSource, FrameHub, HubFrame, OpenView, StreamSpec, ViewSettings};
+use crate::navigate::{Gesture, navigate, pick};
 use crate::scene::Scene;
 use crate::service::convert;
-use crate::service::status::invalid_field;
-use crate::view::{Rendered, ViewError, Viewer};
+use crate::service::status::{from_view_error as status, invalid_field};
+use crate::view::{MAX_IMAGE_SIDE, Viewer};
 
 /// Fastest StreamFrames rate a viewer may ask for.
 const MAX_FPS: f64 = 60.0;
 
-pub struct ViewApi {
+/// A stream of frames as a transport sends it.
+pub type Frames = Pin<Box<dyn Stream<Item = Result<RenderResponse, Status>> + Send>>;
+
+pub struct ViewCalls {
     scene: Arc<Scene>,
-    viewer: Arc<Viewer>,
+    hub: Arc<FrameHub>,
     /// Ends frame streams when reliefd stops.
     shutdown: CancellationToken,
-}
-
-impl ViewApi {
-    pub fn new(scene: Arc<Scene>, viewer: Arc<Viewer>, shutdown: CancellationToken) -> Self {
-        Self { scene, viewer, shutdown }
-    }
-}
-
-fn status(e: &ViewError) -> Status {
-    match e {
-        ViewError::Invalid(e) => Status::invalid_argument(e.to_string()),
-        ViewError::Busy => Status::resource_exhausted(e.to_string()),
-        ViewError::NoDevice(_) => Status::unavailable(e.to_string()),
-    }
 }
 
 /// A frame request checked and in relief's own types.
@@ -75,118 +70,219 @@ fn frame_request(
         c.validate().map_err(|e| invalid_field("quality.clipmap_grid_size", e))?;
     }
     let quality = overrides.map(|o| convert::quality(snap.manifest.quality, Some(o))).transpose()?;
-    Ok(FrameRequest {
-        camera: camera.map(convert::camera_from),
-        width: if width == 0 { 1280 } else { width },
-        height: if height == 0 { 720 } else { height },
-        png,
-        clipmap,
-        quality,
-    })
-}
-
-async fn render(viewer: &Arc<Viewer>, r: FrameRequest) -> Result<RenderResponse, Status> {
-    let job = Arc::clone(viewer);
-    let rendered = tokio::task::spawn_blocking(move || job.render(r.camera, r.width, r.height, r.clipmap, r.quality))
-        .await
-        .map_err(|e| Status::internal(format!("the render task failed: {e}")))?
-        .map_err(|e| status(&e))?;
-    response(rendered, r.png)
-}
-
-fn response(rendered: Rendered, png: bool) -> Result<RenderResponse, Status> {
-    let Rendered { frame, generation, camera } = rendered;
-    let started = Instant::now();
-    let (format, image) = if png {
-        (ImageFormat::Png, convert::png(&frame.rgba, frame.width, frame.height)?)
-    } else {
-        (ImageFormat::Rgba8, frame.rgba)
-    };
-    let mut passes: Vec<PassTiming> =
-        frame.passes.iter().map(|(pass, ms)| PassTiming { pass: (*pass).into(), elapsed_ms: *ms }).collect();
-    if png {
-        passes.push(PassTiming { pass: "encode png".into(), elapsed_ms: started.elapsed().as_secs_f64() * 1e3 });
+    let (width, height) = (if width == 0 { 1280 } else { width }, if height == 0 { 720 } else { height });
+    for (field, v) in [("width", width), ("height", height)] {
+        if v > MAX_IMAGE_SIDE {
+            return Err(invalid_field(field, format!("{v} is not from 1 to {MAX_IMAGE_SIDE} pixels")));
+        }
     }
+    let camera = camera.map(convert::camera_from);
+    if let Some(c) = &camera {
+        crate::camera::pose(&snap, c).map_err(|e| Status::invalid_argument(e.to_string()))?;
+    }
+    Ok(FrameRequest { camera, width, height, png, clipmap, quality })
+}
+
+/// A frame as relief.v1 answers it, the PNG encoded now if not yet.
+fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
+    let f = &frame.rendered.frame;
+    let mut passes: Vec<PassTiming> =
+        f.passes.iter().map(|(pass, ms)| PassTiming { pass: (*pass).into(), elapsed_ms: *ms }).collect();
+    let (format, image) = if png {
+        let (png, ms) = frame.png().map_err(Status::internal)?;
+        passes.push(PassTiming { pass: "encode png".into(), elapsed_ms: ms });
+        (ImageFormat::Png, png)
+    } else {
+        (ImageFormat::Rgba8, frame.rgba.clone())
+    };
     Ok(RenderResponse {
-        generation,
-        width: frame.width,
-        height: frame.height,
+        generation: frame.rendered.generation,
+        width: f.width,
+        height: f.height,
         format: format as i32,
         image,
         passes,
-        camera: Some(convert::camera_to(&camera)),
+        camera: Some(convert::camera_to(&frame.rendered.camera)),
     })
 }
 
-#[tonic::async_trait]
-impl ViewService for ViewApi {
-    async fn set_camera(&self, request: Request<SetCameraRequest>) -> Result<Response<Camera>, Status> {
-        let camera = request.into_inner().camera.ok_or_else(|| invalid_field("camera", "missing"))?;
-        let set = self.viewer.set_camera(convert::camera_from(&camera)).map_err(|e| status(&e))?;
-        Ok(Response::new(convert::camera_to(&set)))
+fn view_state(view: &OpenView, scene_camera: crate::view::Camera) -> ViewState {
+    let s = view.settings();
+    ViewState {
+        view_id: view.id.clone(),
+        camera: Some(convert::camera_to(if s.follow_scene_camera { &scene_camera } else { &s.camera })),
+        follow_scene_camera: s.follow_scene_camera,
+        interactive: s.interactive,
+    }
+}
+
+impl ViewCalls {
+    pub fn new(scene: Arc<Scene>, hub: Arc<FrameHub>, shutdown: CancellationToken) -> Self {
+        Self { scene, hub, shutdown }
     }
 
-    async fn get_camera(&self, _request: Request<GetCameraRequest>) -> Result<Response<Camera>, Status> {
-        Ok(Response::new(convert::camera_to(&self.viewer.camera())))
+    fn viewer(&self) -> &Arc<Viewer> {
+        self.hub.viewer()
     }
 
-    async fn render(&self, request: Request<RenderRequest>) -> Result<Response<RenderResponse>, Status> {
-        let r = request.into_inner();
+    pub fn set_camera(&self, r: &SetCameraRequest) -> Result<Camera, Status> {
+        let camera = r.camera.as_ref().ok_or_else(|| invalid_field("camera", "missing"))?;
+        let set = self.viewer().set_camera(convert::camera_from(camera)).map_err(|e| status(&e))?;
+        Ok(convert::camera_to(&set))
+    }
+
+    pub fn camera(&self) -> Camera {
+        convert::camera_to(&self.viewer().camera())
+    }
+
+    /// One frame, rendered for this call alone (at most four at once).
+    pub async fn render(&self, r: &RenderRequest) -> Result<RenderResponse, Status> {
         let req = frame_request(&self.scene, r.camera.as_ref(), (r.width, r.height), r.format, r.quality.as_ref())?;
-        Ok(Response::new(render(&self.viewer, req).await?))
+        let viewer = Arc::clone(self.viewer());
+        tokio::task::spawn_blocking(move || {
+            let rendered =
+                viewer.render(req.camera, req.width, req.height, req.clipmap, req.quality).map_err(|e| status(&e))?;
+            response(&HubFrame::new(rendered), req.png)
+        })
+        .await
+        .map_err(|e| Status::internal(format!("the render task failed: {e}")))?
     }
 
-    type StreamFramesStream = ReceiverStream<Result<RenderResponse, Status>>;
-
-    /// A frame now, then one whenever the generation or the camera changes,
-    /// at most `max_fps`. A frame is rendered only once the channel has room
-    /// for it, from the state of that moment: a slow viewer gets the latest
-    /// state, never a queue of old frames. (What a viewer's own HTTP/2
-    /// window holds on top is its choice: a viewer that wants the freshest
-    /// frame keeps that window near one frame.)
-    async fn stream_frames(
-        &self,
-        request: Request<StreamFramesRequest>,
-    ) -> Result<Response<Self::StreamFramesStream>, Status> {
-        let r = request.into_inner();
-        let req = frame_request(&self.scene, None, (r.width, r.height), r.format, r.quality.as_ref())?;
+    /// Frames of the scene camera, a fixed camera or an open view, shared
+    /// through the hub with every stream that shows the same.
+    pub fn stream_frames(&self, r: &StreamFramesRequest) -> Result<Frames, Status> {
+        let req = frame_request(&self.scene, r.camera.as_ref(), (r.width, r.height), r.format, r.quality.as_ref())?;
         let fps = if r.max_fps == 0.0 { 10.0 } else { r.max_fps };
         if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
             return Err(invalid_field("max_fps", format!("{fps} is not more than 0 and at most {MAX_FPS}")));
         }
-        let (tx, rx) = tokio::sync::mpsc::channel(1);
-        let (viewer, scene, shutdown) = (Arc::clone(&self.viewer), Arc::clone(&self.scene), self.shutdown.clone());
-        tokio::spawn(async move {
-            let mut generations = scene.generations();
-            let mut cameras = viewer.cameras();
-            let interval = Duration::from_secs_f64(1.0 / fps);
-            loop {
-                let permit = tokio::select! {
-                    p = tx.reserve() => p,
-                    () = shutdown.cancelled() => break,
-                };
-                let Ok(permit) = permit else { break };
-                let started = Instant::now();
-                generations.mark_unchanged();
-                cameras.mark_unchanged();
-                let frame = render(&viewer, req).await;
-                let failed = frame.is_err();
-                permit.send(frame);
-                if failed {
-                    break;
-                }
-                tokio::time::sleep(interval.saturating_sub(started.elapsed())).await;
-                let changed = tokio::select! {
-                    r = generations.changed() => r.is_ok(),
-                    r = cameras.changed() => r.is_ok(),
-                    () = tx.closed() => false,
-                    () = shutdown.cancelled() => false,
-                };
-                if !changed {
-                    break;
-                }
+        let source = if !r.view_id.is_empty() {
+            CameraSource::View(self.hub.views.get(&r.view_id).map_err(|e| status(&e))?)
+        } else if let Some(camera) = req.camera {
+            CameraSource::Fixed(camera)
+        } else {
+            CameraSource::Scene
+        };
+        let spec = StreamSpec {
+            source,
+            width: req.width,
+            height: req.height,
+            clipmap: req.clipmap,
+            quality: req.quality,
+            max_fps: fps,
+            png: req.png,
+            interactive_scale: self.scene.snapshot().manifest.interactive_scale,
+        };
+        let frames = crate::frames::start(&self.hub, spec, self.shutdown.clone()).map_err(|e| status(&e))?;
+        let png = req.png;
+        Ok(Box::pin(ReceiverStream::new(frames).map(move |f| match f {
+            Ok(frame) => response(&frame, png),
+            Err(e) => Err(status(&e)),
+        })))
+    }
+
+    pub fn open_view(&self, r: &OpenViewRequest) -> Result<ViewState, Status> {
+        let scene_camera = self.viewer().camera();
+        let camera = match &r.camera {
+            Some(c) => {
+                let c = convert::camera_from(c);
+                crate::camera::pose(&self.scene.snapshot(), &c).map_err(|e| Status::invalid_argument(e.to_string()))?;
+                c
+            }
+            None => scene_camera,
+        };
+        let settings = ViewSettings { camera, follow_scene_camera: r.follow_scene_camera, interactive: false };
+        let view = self.hub.views.open(settings).map_err(|e| status(&e))?;
+        Ok(view_state(&view, scene_camera))
+    }
+
+    pub fn update_view(&self, r: &UpdateViewRequest) -> Result<ViewState, Status> {
+        let view = self.hub.views.get(&r.view_id).map_err(|e| status(&e))?;
+        let camera = r
+            .camera
+            .as_ref()
+            .map(|c| {
+                let c = convert::camera_from(c);
+                crate::camera::pose(&self.scene.snapshot(), &c).map(|_| c)
+            })
+            .transpose()
+            .map_err(|e| Status::invalid_argument(e.to_string()))?;
+        view.update(|s| {
+            if let Some(c) = camera {
+                s.camera = c;
+            }
+            if let Some(f) = r.follow_scene_camera {
+                s.follow_scene_camera = f;
+            }
+            if let Some(i) = r.interactive {
+                s.interactive = i;
             }
         });
-        Ok(Response::new(ReceiverStream::new(rx)))
+        Ok(view_state(&view, self.viewer().camera()))
+    }
+
+    /// Moves the view's camera, or the scene camera (with no view, or a
+    /// view that follows it), by a gesture.
+    pub async fn navigate(&self, r: NavigateRequest) -> Result<Camera, Status> {
+        let gesture = match r.gesture {
+            Some(navigate_request::Gesture::Orbit(o)) => {
+                Gesture::Orbit { heading_deg: o.heading_deg, pitch_deg: o.pitch_deg }
+            }
+            Some(navigate_request::Gesture::Pan(p)) => {
+                Gesture::Pan { from: (p.from_x, p.from_y), to: (p.to_x, p.to_y) }
+            }
+            Some(navigate_request::Gesture::Zoom(z)) => Gesture::Zoom { factor: z.factor, at: (z.x, z.y) },
+            Some(navigate_request::Gesture::Move(m)) => {
+                Gesture::Move { forward: m.forward, right: m.right, up: m.up, turn_deg: m.turn_deg }
+            }
+            Some(navigate_request::Gesture::FlyToSource(id)) => Gesture::FlyTo(id),
+            None => return Err(invalid_field("gesture", "missing: orbit, pan, zoom, move or fly_to_source")),
+        };
+        let view =
+            (!r.view_id.is_empty()).then(|| self.hub.views.get(&r.view_id)).transpose().map_err(|e| status(&e))?;
+        let follows = view.as_ref().is_none_or(|v| v.settings().follow_scene_camera);
+        let camera = match &view {
+            Some(v) if !follows => v.settings().camera,
+            _ => self.viewer().camera(),
+        };
+        let frame = view.as_ref().and_then(|v| v.last_frame());
+        let snap = self.scene.snapshot();
+        let moved = tokio::task::spawn_blocking(move || navigate(&snap, &camera, frame.as_deref(), &gesture))
+            .await
+            .map_err(|e| Status::internal(format!("the navigation task failed: {e}")))?
+            .map_err(|e| status(&e))?;
+        match view {
+            Some(v) if !follows => {
+                v.update(|s| s.camera = moved);
+            }
+            _ => {
+                self.viewer().set_camera(moved).map_err(|e| status(&e))?;
+            }
+        }
+        Ok(convert::camera_to(&moved))
+    }
+
+    /// The point under a pixel of the view's last frame.
+    pub async fn pick(&self, r: &PickRequest) -> Result<PickResponse, Status> {
+        let view = self.hub.views.get(&r.view_id).map_err(|e| status(&e))?;
+        let frame = view.last_frame().ok_or_else(|| status(&crate::view::ViewError::NoFrame(r.view_id.clone())))?;
+        let snap = self.scene.snapshot();
+        let at = (r.x, r.y);
+        let generation = frame.rendered.generation;
+        let started = Instant::now();
+        let picked = tokio::task::spawn_blocking(move || pick(&snap, &frame, at))
+            .await
+            .map_err(|e| Status::internal(format!("the pick task failed: {e}")))?
+            .map_err(|e| status(&e))?;
+        tracing::debug!(elapsed_ms = started.elapsed().as_secs_f64() * 1e3, "picked");
+        Ok(picked.map_or(PickResponse { generation, ..PickResponse::default() }, |p| PickResponse {
+            hit: true,
+            lon_deg: p.lon_deg,
+            lat_deg: p.lat_deg,
+            surface_height_m: p.surface_height_m,
+            ground_height_m: p.ground_height_m,
+            distance_m: p.distance_m,
+            generation: p.generation,
+        }))
     }
 }

@@ -1,0 +1,334 @@
+//! Frames for viewers: edit to frame, frames per second delivered to many
+//! viewers, and reliefd's memory under fifty of them. Prints tables; never
+//! asserts a time.
+//!
+//! The real reliefd serves the demo scene (lavapipe without a GPU).
+//! - Edit to frame: a 64 x 64 window of the DEM rewritten through GDAL;
+//!   the time runs from the start of the write to the first frame of the
+//!   new generation at a gRPC StreamFrames viewer and at the browser page
+//!   (headless Chromium; arrival in its JavaScript, and the image decoded
+//!   and shown), both at 1280 x 720 on the scene camera.
+//! - Frames per second delivered at 640 x 360 while the camera flies (a
+//!   new camera every 33 ms): to 1, 10 and 50 viewers sharing the scene
+//!   camera, and to 10 viewers with cameras of their own (views opened
+//!   with OpenView, each moved by UpdateView).
+//! - Memory: reliefd's resident set every 10 s while 50 viewers watch the
+//!   flight, against the cache budget.
+//!
+//! `cargo bench -p relief-daemon --bench frames`; RELIEF_BENCH_EDITS
+//! (default 25), RELIEF_BENCH_FPS_SECS (default 10), RELIEF_BENCH_SOAK_SECS
+//! (default 600; 0 skips it).
+
+#![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
+
+mod common;
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::time::{Duration, Instant, SystemTime};
+
+use relief_proto::v1 as pb;
+use relief_proto::v1::scene_service_client::SceneServiceClient;
+use relief_proto::v1::view_service_client::ViewServiceClient;
+use relief_tests::browser::{Browser, chromium_path};
+use relief_tests::daemon::Reliefd;
+use relief_tests::edit;
+use tokio_stream::StreamExt;
+use tonic::transport::Channel;
+
+fn env(name: &str, default: u64) -> u64 {
+    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+}
+
+fn since_epoch_ms() -> f64 {
+    SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64() * 1e3)
+}
+
+fn rss_mb(pid: u32) -> f64 {
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("VmRSS:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn views(channel: &Channel) -> ViewServiceClient<Channel> {
+    ViewServiceClient::new(channel.clone()).max_decoding_message_size(256 << 20)
+}
+
+/// The camera of the flight at step `k`: a slow circle over the range.
+fn flight(k: u64) -> pb::Camera {
+    let t = k as f64 * 0.01;
+    pb::Camera {
+        lon_deg: 6.5 + 0.15 * t.cos(),
+        lat_deg: 45.2 + 0.1 * t.sin(),
+        altitude_m: 9000.0,
+        heading_deg: (t.to_degrees() + 90.0).rem_euclid(360.0),
+        pitch_deg: -25.0,
+        roll_deg: 0.0,
+        vertical_fov_deg: 50.0,
+    }
+}
+
+/// Moves the scene camera (or, with view ids, each view's camera) every
+/// 33 ms until `stop`.
+fn fly(channel: Channel, view_ids: Vec<String>, stop: Arc<AtomicBool>) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let mut client = views(&channel);
+        let mut k = 0u64;
+        while !stop.load(Ordering::Relaxed) {
+            k += 1;
+            if view_ids.is_empty() {
+                let _ = client.set_camera(pb::SetCameraRequest { camera: Some(flight(k)) }).await;
+            }
+            for (i, id) in view_ids.iter().enumerate() {
+                let mut c = flight(k + 40 * i as u64);
+                c.heading_deg = (c.heading_deg + 36.0 * i as f64).rem_euclid(360.0);
+                let update = pb::UpdateViewRequest { view_id: id.clone(), camera: Some(c), ..Default::default() };
+                let _ = client.update_view(update).await;
+            }
+            tokio::time::sleep(Duration::from_millis(33)).await;
+        }
+    })
+}
+
+/// Opens `n` streams (on `view_ids` when given) and counts their frames.
+async fn watchers(
+    channel: &Channel,
+    n: usize,
+    view_ids: &[String],
+    size: (u32, u32),
+    stop: &Arc<AtomicBool>,
+) -> anyhow::Result<Vec<(Arc<AtomicU64>, tokio::task::JoinHandle<()>)>> {
+    let mut out = Vec::new();
+    for i in 0..n {
+        let request = pb::StreamFramesRequest {
+            width: size.0,
+            height: size.1,
+            max_fps: 60.0,
+            view_id: view_ids.get(i).cloned().unwrap_or_default(),
+            ..Default::default()
+        };
+        let mut stream = views(channel).stream_frames(request).await?.into_inner();
+        let (count, stop) = (Arc::new(AtomicU64::new(0)), Arc::clone(stop));
+        let counter = Arc::clone(&count);
+        let task = tokio::spawn(async move {
+            while !stop.load(Ordering::Relaxed) {
+                match tokio::time::timeout(Duration::from_millis(500), stream.next()).await {
+                    Ok(Some(Ok(_))) => {
+                        counter.fetch_add(1, Ordering::Relaxed);
+                    }
+                    Ok(_) => return,
+                    Err(_) => {}
+                }
+            }
+        });
+        out.push((count, task));
+    }
+    Ok(out)
+}
+
+async fn state(channel: &Channel) -> anyhow::Result<pb::SceneState> {
+    Ok(SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner())
+}
+
+/// Frames per second each of `n` viewers received over `secs` of flight.
+async fn fps(daemon: &Reliefd, n: usize, own_cameras: bool, secs: u64) -> anyhow::Result<(f64, f64, f64, u64)> {
+    let channel = daemon.channel().await?;
+    let mut view_ids = Vec::new();
+    if own_cameras {
+        for _ in 0..n {
+            view_ids.push(views(&channel).open_view(pb::OpenViewRequest::default()).await?.into_inner().view_id);
+        }
+    }
+    let stop = Arc::new(AtomicBool::new(false));
+    let viewers = watchers(&channel, n, &view_ids, (640, 360), &stop).await?;
+    // Warm up: every viewer has its first frame.
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while viewers.iter().any(|(c, _)| c.load(Ordering::Relaxed) == 0) && Instant::now() < deadline {
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let flying = fly(channel.clone(), view_ids, Arc::clone(&stop));
+    tokio::time::sleep(Duration::from_secs(1)).await;
+    let rendered0 = state(&channel).await?.counters.unwrap_or_default().stream_frames_rendered;
+    let counts0: Vec<u64> = viewers.iter().map(|(c, _)| c.load(Ordering::Relaxed)).collect();
+    let started = Instant::now();
+    tokio::time::sleep(Duration::from_secs(secs)).await;
+    let elapsed = started.elapsed().as_secs_f64();
+    let counts: Vec<f64> =
+        viewers.iter().zip(&counts0).map(|((c, _), c0)| (c.load(Ordering::Relaxed) - c0) as f64 / elapsed).collect();
+    let rendered = state(&channel).await?.counters.unwrap_or_default().stream_frames_rendered - rendered0;
+    stop.store(true, Ordering::Relaxed);
+    let _ = flying.await;
+    for (_, t) in viewers {
+        let _ = t.await;
+    }
+    let mean = counts.iter().sum::<f64>() / counts.len() as f64;
+    let min = counts.iter().copied().fold(f64::INFINITY, f64::min);
+    Ok((mean, min, rendered as f64 / elapsed, rendered))
+}
+
+struct EditToFrame {
+    grpc_ms: Vec<f64>,
+    page_received_ms: Vec<f64>,
+    page_shown_ms: Vec<f64>,
+    generation_ms: Vec<f64>,
+}
+
+async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) -> anyhow::Result<EditToFrame> {
+    let channel = daemon.channel().await?;
+    let page = match chromium_path() {
+        Some(_) => {
+            // A 1700 x 720 window leaves the view 1280 x 720 beside the panel.
+            let page = Browser::start(1700, 720).await?;
+            page.navigate(&format!("{}/", daemon.url())).await?;
+            page.wait_for("document.body.dataset.ready === '1'", Duration::from_secs(120)).await?;
+            page.wait_for("window.relief.lastFrame.width === 1280", Duration::from_secs(60)).await?;
+            Some(page)
+        }
+        None => {
+            println!("(no chromium: the page's column is left out)");
+            None
+        }
+    };
+    let request = pb::StreamFramesRequest { width: 1280, height: 720, max_fps: 60.0, ..Default::default() };
+    let mut stream = views(&channel).stream_frames(request).await?.into_inner();
+    let mut generation = stream.next().await.ok_or_else(|| anyhow::anyhow!("no first frame"))??.generation;
+    let mut rng = relief_examples::Lcg(7);
+    let mut out =
+        EditToFrame { grpc_ms: vec![], page_received_ms: vec![], page_shown_ms: vec![], generation_ms: vec![] };
+    let events = edit::Events::follow(channel.clone()).await?;
+    for _ in 0..edits {
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let (x, y) = (rng.range(100.0, 800.0) as usize, rng.range(100.0, 450.0) as usize);
+        let lift = rng.range(50.0, 400.0);
+        let started = Instant::now();
+        let started_epoch = since_epoch_ms();
+        edit::rewrite_window(dem, x, y, 64, 64, |_, _, h| if h > -1000.0 { h + lift } else { h })?;
+        let frame = loop {
+            let f = tokio::time::timeout(Duration::from_secs(30), stream.next())
+                .await?
+                .ok_or_else(|| anyhow::anyhow!("the stream ended"))??;
+            if f.generation > generation {
+                break f;
+            }
+        };
+        out.grpc_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        generation = frame.generation;
+        if let Some((_, g)) = events.generations().into_iter().find(|(n, _)| *n == generation) {
+            out.generation_ms.push(g.elapsed_ms);
+        }
+        if let Some(page) = &page {
+            let expr = format!(
+                "(() => {{ const f = window.relief.frameLog.find(f => f.generation >= {generation} && f.shown); return f ? [f.received, f.shown] : null; }})()"
+            );
+            let deadline = Instant::now() + Duration::from_secs(30);
+            loop {
+                let v = page.eval(&expr).await?;
+                if let Some([r, s]) = v.as_array().map(|a| [a[0].as_f64(), a[1].as_f64()]) {
+                    out.page_received_ms.push(r.unwrap_or(f64::NAN) - started_epoch);
+                    out.page_shown_ms.push(s.unwrap_or(f64::NAN) - started_epoch);
+                    break;
+                }
+                anyhow::ensure!(Instant::now() < deadline, "the page did not show generation {generation}");
+                tokio::time::sleep(Duration::from_millis(5)).await;
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn row(label: &str, mut v: Vec<f64>) {
+    v.sort_by(f64::total_cmp);
+    println!(
+        "| {label} | {} | {:.0} | {:.0} | {:.0} |",
+        v.len(),
+        percentile(&v, 0.5),
+        percentile(&v, 0.95),
+        percentile(&v, 1.0)
+    );
+}
+
+async fn run() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let manifest = relief_examples::write_demo_scene(dir.path())?;
+    let daemon = Reliefd::start(&manifest, &[])?;
+    let channel = daemon.channel().await?;
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_owned())
+        })
+        .unwrap_or_default();
+    println!("machine: {cpu}, {} cores", std::thread::available_parallelism().map_or(0, std::num::NonZero::get));
+    let probe = views(&channel).render(pb::RenderRequest { width: 64, height: 36, ..Default::default() }).await?;
+    println!("device: {:?} passes, generation {}", probe.into_inner().passes.len(), 1);
+
+    let edits = env("RELIEF_BENCH_EDITS", 25) as usize;
+    println!("\n## Edit to frame (64 x 64 DEM window, 1280 x 720, the scene camera), ms\n");
+    println!("| viewer | edits | p50 | p95 | max |\n|---|---|---|---|---|");
+    let e = edit_to_frame(&daemon, &manifest.with_file_name("dem.tif"), edits).await?;
+    row("daemon: read, rebuild and publish (GenerationEvent.elapsed_ms)", e.generation_ms);
+    row("gRPC StreamFrames viewer: frame received", e.grpc_ms);
+    if !e.page_received_ms.is_empty() {
+        row("browser page: frame received by its script", e.page_received_ms);
+        row("browser page: image decoded and shown", e.page_shown_ms);
+    }
+
+    let secs = env("RELIEF_BENCH_FPS_SECS", 10);
+    println!("\n## Frames per second delivered, 640 x 360, camera moving every 33 ms ({secs} s each)\n");
+    println!(
+        "| viewers | cameras | fps per viewer (mean) | fps (slowest viewer) | distinct renders/s |\n|---|---|---|---|---|"
+    );
+    for (n, own) in [(1, false), (10, false), (50, false), (10, true)] {
+        let (mean, min, renders, _) = fps(&daemon, n, own, secs).await?;
+        let cameras = if own { "own camera each" } else { "shared (scene camera)" };
+        println!("| {n} | {cameras} | {mean:.1} | {min:.1} | {renders:.1} |");
+    }
+
+    let soak = env("RELIEF_BENCH_SOAK_SECS", 600);
+    if soak > 0 {
+        let budget_mb =
+            state(&channel).await?.counters.unwrap_or_default().cache_budget_bytes as f64 / (1 << 20) as f64;
+        println!("\n## Memory: 50 viewers at 640 x 360 on a flying camera for {soak} s\n");
+        println!("cache budget {budget_mb:.0} MB; goal: flat, within budget + 150 MB = {:.0} MB\n", budget_mb + 150.0);
+        println!("| s | reliefd RSS MB | frames received (all viewers) | cache MB |\n|---|---|---|---|");
+        let stop = Arc::new(AtomicBool::new(false));
+        let viewers = watchers(&channel, 50, &[], (640, 360), &stop).await?;
+        let flying = fly(channel.clone(), Vec::new(), Arc::clone(&stop));
+        let started = Instant::now();
+        let mut samples = Vec::new();
+        loop {
+            let s = started.elapsed().as_secs();
+            let rss = rss_mb(daemon.pid());
+            let frames: u64 = viewers.iter().map(|(c, _)| c.load(Ordering::Relaxed)).sum();
+            let cache = state(&channel).await?.counters.unwrap_or_default().cache_bytes as f64 / (1 << 20) as f64;
+            println!("| {s} | {rss:.0} | {frames} | {cache:.0} |");
+            samples.push(rss);
+            if s >= soak {
+                break;
+            }
+            tokio::time::sleep(Duration::from_secs(10)).await;
+        }
+        stop.store(true, Ordering::Relaxed);
+        let _ = flying.await;
+        let max = samples.iter().copied().fold(0.0, f64::max);
+        let after_warmup = &samples[samples.len().min(3) - 1..];
+        let growth = after_warmup.last().copied().unwrap_or(0.0) - after_warmup.first().copied().unwrap_or(0.0);
+        println!("\npeak {max:.0} MB; growth after the first 20 s {growth:+.0} MB");
+    }
+    daemon.stop(&[])?;
+    Ok(())
+}
+
+fn main() -> anyhow::Result<()> {
+    tokio::runtime::Builder::new_multi_thread().worker_threads(2).enable_all().build()?.block_on(run())
+}

@@ -1,0 +1,250 @@
+//! Frames for many viewers. A view is (camera, size, quality): the hub
+//! renders each distinct view once per change of generation and hands the
+//! frame to every stream showing it through a latest-wins slot (a
+//! `tokio::sync::watch`), so a slow stream skips frames and never queues
+//! them. Distinct views take turns on the one device, round-robin.
+//!
+//! Limits: at most [`MAX_VIEWS`] distinct views at once and
+//! [`FRAME_MEMORY_BYTES`] of frames held for them (colour, depth and PNG,
+//! about 9 bytes a pixel); a stream that would add a distinct view past
+//! either is refused, and streams that share a view never are. Each stream
+//! holds at most one frame on its way out.
+
+mod stream;
+mod views;
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use bytes::Bytes;
+use relief_renderer::ClipmapConfig;
+use relief_source::Quality;
+use tokio::sync::{Notify, watch};
+use tokio_util::sync::CancellationToken;
+
+pub use stream::{CameraSource, FrameStream, StreamSpec, start};
+pub use views::{OpenView, ViewSettings, Views};
+
+use crate::scene::Scene;
+use crate::view::{Camera, Rendered, ViewError, Viewer};
+
+/// Distinct views rendered at once.
+pub const MAX_VIEWS: usize = 64;
+/// Frames held for distinct views, in bytes.
+pub const FRAME_MEMORY_BYTES: u64 = 512 * 1024 * 1024;
+/// Bytes a frame holds per pixel: RGBA, f32 depth, and its PNG at most.
+const BYTES_PER_PIXEL: u64 = 4 + 4 + 1;
+
+/// One distinct render: what every stream showing it shares.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewKey {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub clipmap: Option<ClipmapConfig>,
+    pub quality: Option<Quality>,
+}
+
+impl ViewKey {
+    fn frame_bytes(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height) * BYTES_PER_PIXEL
+    }
+}
+
+/// A rendered frame as the hub shares it; its PNG is encoded once, by the
+/// first stream that wants it.
+pub struct HubFrame {
+    pub rendered: Rendered,
+    pub rgba: Bytes,
+    /// The PNG and the milliseconds its encoding took.
+    png: OnceLock<Result<(Bytes, f64), String>>,
+}
+
+impl HubFrame {
+    pub fn new(mut rendered: Rendered) -> Self {
+        let rgba = Bytes::from(std::mem::take(&mut rendered.frame.rgba));
+        Self { rendered, rgba, png: OnceLock::new() }
+    }
+
+    /// The frame as a PNG, encoded on first use, and how long that took.
+    /// Blocking.
+    pub fn png(&self) -> Result<(Bytes, f64), String> {
+        self.png
+            .get_or_init(|| {
+                let f = &self.rendered.frame;
+                let started = std::time::Instant::now();
+                let png = crate::png::encode(&self.rgba, f.width, f.height)?;
+                Ok((Bytes::from(png), started.elapsed().as_secs_f64() * 1e3))
+            })
+            .clone()
+    }
+
+    pub fn is_png_encoded(&self) -> bool {
+        self.png.get().is_some()
+    }
+}
+
+/// What a slot holds: nothing yet, the newest frame, or why it failed.
+pub type Published = Option<Result<Arc<HubFrame>, Arc<ViewError>>>;
+
+struct Slot {
+    key: ViewKey,
+    tx: watch::Sender<Published>,
+    /// The generation the slot was last rendered (or failed) at.
+    done_at: Mutex<Option<u64>>,
+}
+
+/// Counters for the scene state and the benchmarks.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct HubCounters {
+    /// Distinct views some stream shows.
+    pub views: usize,
+    pub streams: usize,
+    pub open_views: usize,
+    pub frames_rendered: u64,
+}
+
+pub struct FrameHub {
+    /// The views viewers opened for themselves.
+    pub views: Views,
+    scene: Arc<Scene>,
+    viewer: Arc<Viewer>,
+    /// Distinct views in round-robin order, and the turn's position.
+    slots: Mutex<(Vec<Arc<Slot>>, usize)>,
+    wake: Notify,
+    rendered: std::sync::atomic::AtomicU64,
+}
+
+/// A stream's hold on a distinct view: dropping it leaves the view.
+pub struct Subscription {
+    slot: Arc<Slot>,
+    pub frames: watch::Receiver<Published>,
+}
+
+impl Subscription {
+    pub fn key(&self) -> &ViewKey {
+        &self.slot.key
+    }
+}
+
+impl FrameHub {
+    /// The hub and its scheduler, which runs until `shutdown`.
+    pub fn start(scene: &Arc<Scene>, viewer: &Arc<Viewer>, shutdown: CancellationToken) -> Arc<Self> {
+        let hub = Arc::new(Self {
+            views: Views::default(),
+            scene: Arc::clone(scene),
+            viewer: Arc::clone(viewer),
+            slots: Mutex::new((Vec::new(), 0)),
+            wake: Notify::new(),
+            rendered: std::sync::atomic::AtomicU64::new(0),
+        });
+        tokio::spawn(Arc::clone(&hub).schedule(shutdown));
+        hub
+    }
+
+    pub fn viewer(&self) -> &Arc<Viewer> {
+        &self.viewer
+    }
+
+    fn slots(&self) -> std::sync::MutexGuard<'_, (Vec<Arc<Slot>>, usize)> {
+        self.slots.lock().expect("the hub's lock is never held across a panic")
+    }
+
+    /// Joins the distinct view `key`, making it when no stream shows it yet.
+    /// `may_refuse`: a stream that starts may be refused past the limits; a
+    /// stream that moves its camera always gets its new view.
+    pub fn subscribe(&self, key: ViewKey, may_refuse: bool) -> Result<Subscription, ViewError> {
+        let mut guard = self.slots();
+        let (slots, _) = &mut *guard;
+        slots.retain(|s| s.tx.receiver_count() > 0);
+        if let Some(slot) = slots.iter().find(|s| s.key == key) {
+            return Ok(Subscription { slot: Arc::clone(slot), frames: slot.tx.subscribe() });
+        }
+        if may_refuse {
+            let held: u64 = slots.iter().map(|s| s.key.frame_bytes()).sum();
+            if slots.len() >= MAX_VIEWS {
+                return Err(ViewError::TooManyViews(format!("{MAX_VIEWS} distinct views are shown already")));
+            }
+            if held + key.frame_bytes() > FRAME_MEMORY_BYTES {
+                return Err(ViewError::TooManyViews(format!(
+                    "their frames would hold more than {} MiB",
+                    FRAME_MEMORY_BYTES >> 20
+                )));
+            }
+        }
+        let (tx, frames) = watch::channel(None);
+        let slot = Arc::new(Slot { key, tx, done_at: Mutex::new(None) });
+        slots.push(Arc::clone(&slot));
+        drop(guard);
+        self.wake.notify_one();
+        Ok(Subscription { slot, frames })
+    }
+
+    pub fn counters(&self) -> HubCounters {
+        let guard = self.slots();
+        HubCounters {
+            views: guard.0.iter().filter(|s| s.tx.receiver_count() > 0).count(),
+            streams: guard.0.iter().map(|s| s.tx.receiver_count()).sum(),
+            open_views: self.views.len(),
+            frames_rendered: self.rendered.load(std::sync::atomic::Ordering::Relaxed),
+        }
+    }
+
+    /// The next view, after the last one served, that some stream shows
+    /// and that is not yet rendered at `generation`.
+    fn next_stale(&self, generation: u64) -> Option<Arc<Slot>> {
+        let mut guard = self.slots();
+        let (slots, turn) = &mut *guard;
+        slots.retain(|s| s.tx.receiver_count() > 0);
+        let n = slots.len();
+        let start = *turn + 1;
+        let next = (0..n).map(|i| (start + i) % n).find(|&i| {
+            let done = *slots[i].done_at.lock().expect("never held across a panic");
+            done.is_none_or(|g| g < generation)
+        })?;
+        *turn = next;
+        Some(Arc::clone(&slots[next]))
+    }
+
+    /// Renders stale views one at a time, in turn, until `shutdown`.
+    async fn schedule(self: Arc<Self>, shutdown: CancellationToken) {
+        let mut generations = self.scene.generations();
+        loop {
+            let generation = *generations.borrow_and_update();
+            let Some(slot) = self.next_stale(generation) else {
+                tokio::select! {
+                    () = self.wake.notified() => {}
+                    r = generations.changed() => if r.is_err() { return },
+                    () = shutdown.cancelled() => return,
+                }
+                continue;
+            };
+            let (viewer, key) = (Arc::clone(&self.viewer), slot.key);
+            let job = tokio::task::spawn_blocking(move || {
+                let rendered = viewer.draw(Some(key.camera), key.width, key.height, key.clipmap, key.quality)?;
+                Ok::<_, ViewError>(HubFrame::new(rendered))
+            });
+            let result = tokio::select! {
+                r = job => r,
+                () = shutdown.cancelled() => return,
+            };
+            let published = match result {
+                Ok(Ok(frame)) => {
+                    *slot.done_at.lock().expect("never held across a panic") = Some(frame.rendered.generation);
+                    self.rendered.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                    Ok(Arc::new(frame))
+                }
+                Ok(Err(e)) => {
+                    tracing::warn!(error = %e, "a view could not be rendered");
+                    *slot.done_at.lock().expect("never held across a panic") = Some(generation);
+                    Err(Arc::new(e))
+                }
+                Err(e) => {
+                    tracing::error!("the render task failed: {e}");
+                    *slot.done_at.lock().expect("never held across a panic") = Some(generation);
+                    Err(Arc::new(ViewError::NoDevice(format!("the render task failed: {e}"))))
+                }
+            };
+            slot.tx.send_replace(Some(published));
+        }
+    }
+}

@@ -1,0 +1,181 @@
+//! One viewer's stream of frames: it follows its camera (the scene's, a
+//! fixed one, or an open view's) through the hub's distinct views, and
+//! sends the newest frame when the viewer has taken the last one, at most
+//! `max_fps`.
+
+use std::sync::{Arc, Weak};
+use std::time::{Duration, Instant};
+
+use relief_renderer::ClipmapConfig;
+use relief_source::Quality;
+use tokio::sync::{mpsc, watch};
+use tokio_util::sync::CancellationToken;
+
+use super::{FrameHub, HubFrame, OpenView, Subscription, ViewKey, ViewSettings};
+use crate::view::{Camera, ViewError};
+
+/// Whose camera a stream shows.
+#[derive(Clone)]
+pub enum CameraSource {
+    /// The scene camera, as SetCamera moves it.
+    Scene,
+    Fixed(Camera),
+    View(Arc<OpenView>),
+}
+
+#[derive(Clone)]
+pub struct StreamSpec {
+    pub source: CameraSource,
+    pub width: u32,
+    pub height: u32,
+    pub clipmap: Option<ClipmapConfig>,
+    pub quality: Option<Quality>,
+    pub max_fps: f64,
+    /// Encode PNG before sending (off the async threads).
+    pub png: bool,
+    /// The fraction of each side while a view is interactive.
+    pub interactive_scale: f64,
+}
+
+/// What a stream yields: a frame, or why the view cannot be rendered.
+pub type FrameStream = mpsc::Receiver<Result<Arc<HubFrame>, Arc<ViewError>>>;
+
+/// The cameras a stream listens to.
+struct Cameras {
+    scene: watch::Receiver<Camera>,
+    view: Option<(Arc<OpenView>, watch::Receiver<ViewSettings>)>,
+    fixed: Option<Camera>,
+}
+
+impl Cameras {
+    fn new(hub: &FrameHub, source: &CameraSource) -> Self {
+        let scene = hub.viewer().cameras();
+        match source {
+            CameraSource::Scene => Self { scene, view: None, fixed: None },
+            CameraSource::Fixed(c) => Self { scene, view: None, fixed: Some(*c) },
+            CameraSource::View(v) => Self { scene, view: Some((Arc::clone(v), v.watch())), fixed: None },
+        }
+    }
+
+    /// The camera to show now, and whether the user is dragging.
+    fn current(&mut self) -> (Camera, bool) {
+        let scene = *self.scene.borrow_and_update();
+        if let Some(c) = self.fixed {
+            return (c, false);
+        }
+        match &mut self.view {
+            Some((_, settings)) => {
+                let s = *settings.borrow_and_update();
+                (if s.follow_scene_camera { scene } else { s.camera }, s.interactive)
+            }
+            None => (scene, false),
+        }
+    }
+
+    /// Waits for a change of either camera; false when one is gone.
+    async fn changed(&mut self) -> bool {
+        match &mut self.view {
+            Some((_, settings)) => tokio::select! {
+                r = self.scene.changed() => r.is_ok(),
+                r = settings.changed() => r.is_ok(),
+            },
+            None if self.fixed.is_some() => std::future::pending().await,
+            None => self.scene.changed().await.is_ok(),
+        }
+    }
+}
+
+impl StreamSpec {
+    fn key(&self, (camera, interactive): (Camera, bool)) -> ViewKey {
+        let scale = if interactive { self.interactive_scale } else { 1.0 };
+        let side = |v: u32| ((f64::from(v) * scale).round() as u32).max(1);
+        ViewKey {
+            camera,
+            width: side(self.width),
+            height: side(self.height),
+            clipmap: self.clipmap,
+            quality: self.quality,
+        }
+    }
+}
+
+/// Starts a stream. A stream that would add a distinct view past the hub's
+/// limits is refused here; once running it follows its camera wherever it
+/// goes, and ends when the receiver is dropped or at `shutdown`.
+pub fn start(hub: &Arc<FrameHub>, spec: StreamSpec, shutdown: CancellationToken) -> Result<FrameStream, ViewError> {
+    let mut cameras = Cameras::new(hub, &spec.source);
+    let subscription = hub.subscribe(spec.key(cameras.current()), true)?;
+    let (tx, rx) = mpsc::channel(1);
+    tokio::spawn(run(Arc::clone(hub), spec, cameras, subscription, tx, shutdown));
+    Ok(rx)
+}
+
+async fn run(
+    hub: Arc<FrameHub>,
+    spec: StreamSpec,
+    mut cameras: Cameras,
+    mut sub: Subscription,
+    tx: mpsc::Sender<Result<Arc<HubFrame>, Arc<ViewError>>>,
+    shutdown: CancellationToken,
+) {
+    let interval = Duration::from_secs_f64(1.0 / spec.max_fps);
+    let mut last_sent: Option<(Weak<HubFrame>, Instant)> = None;
+    loop {
+        let newest = sub.frames.borrow_and_update().clone();
+        let unsent = match newest {
+            Some(Ok(frame)) => last_sent.as_ref().is_none_or(|(w, _)| !std::ptr::eq(w.as_ptr(), Arc::as_ptr(&frame))),
+            Some(Err(e)) => {
+                let _ = tx.send(Err(e)).await;
+                return;
+            }
+            None => false,
+        };
+        if unsent {
+            // Room first, then the rate limit, then the newest frame.
+            let permit = tokio::select! {
+                p = tx.reserve() => match p { Ok(p) => p, Err(_) => return },
+                () = shutdown.cancelled() => return,
+            };
+            if let Some((_, at)) = &last_sent {
+                let wait = interval.saturating_sub(at.elapsed());
+                tokio::select! {
+                    () = tokio::time::sleep(wait) => {}
+                    () = shutdown.cancelled() => return,
+                }
+            }
+            let newest = sub.frames.borrow_and_update().clone();
+            let Some(Ok(frame)) = newest else { continue };
+            if spec.png && !frame.is_png_encoded() {
+                let job = Arc::clone(&frame);
+                // An encoding error shows when the transport asks for it.
+                let _ = tokio::task::spawn_blocking(move || job.png()).await;
+            }
+            if let CameraSource::View(view) = &spec.source {
+                view.shown(&frame);
+            }
+            last_sent = Some((Arc::downgrade(&frame), Instant::now()));
+            permit.send(Ok(frame));
+            continue;
+        }
+        tokio::select! {
+            r = sub.frames.changed() => if r.is_err() { return },
+            alive = cameras.changed() => {
+                if !alive {
+                    return;
+                }
+                let key = spec.key(cameras.current());
+                if key != *sub.key() {
+                    match hub.subscribe(key, false) {
+                        Ok(s) => sub = s,
+                        Err(e) => {
+                            let _ = tx.send(Err(Arc::new(e))).await;
+                            return;
+                        }
+                    }
+                }
+            }
+            () = tx.closed() => return,
+            () = shutdown.cancelled() => return,
+        }
+    }
+}

@@ -1,0 +1,385 @@
+//! The HTTP transport, on the gRPC port: the browser viewer's page, and
+//! each call as JSON (the relief.v1 messages in the proto3 JSON mapping),
+//! streams as Server-Sent Events. Every route parses its input, hands it
+//! to the one implementation of the call and writes the answer; errors are
+//! the gRPC status's code and message, with the matching HTTP status.
+
+use std::collections::HashMap;
+use std::convert::Infallible;
+use std::sync::Arc;
+
+use axum::Router;
+use axum::body::Bytes;
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderValue, Method, StatusCode, Uri, header};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::{get, patch, post};
+use relief_proto::v1 as pb;
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use tokio_stream::{Stream, StreamExt};
+use tonic::{Code, Status};
+use tower::ServiceExt as _;
+
+use super::Calls;
+
+type Shared = State<Arc<Calls>>;
+
+/// A call's failure as HTTP: the status that matches its gRPC code, and
+/// `{"code": "INVALID_ARGUMENT", "message": "..."}`.
+pub struct HttpError(Status);
+
+impl From<Status> for HttpError {
+    fn from(s: Status) -> Self {
+        Self(s)
+    }
+}
+
+fn http_status(code: Code) -> StatusCode {
+    match code {
+        Code::Ok => StatusCode::OK,
+        Code::InvalidArgument | Code::FailedPrecondition | Code::OutOfRange => StatusCode::BAD_REQUEST,
+        Code::NotFound => StatusCode::NOT_FOUND,
+        Code::AlreadyExists | Code::Aborted => StatusCode::CONFLICT,
+        Code::PermissionDenied => StatusCode::FORBIDDEN,
+        Code::Unauthenticated => StatusCode::UNAUTHORIZED,
+        Code::ResourceExhausted => StatusCode::TOO_MANY_REQUESTS,
+        Code::Unimplemented => StatusCode::NOT_IMPLEMENTED,
+        Code::Unavailable => StatusCode::SERVICE_UNAVAILABLE,
+        Code::DeadlineExceeded => StatusCode::GATEWAY_TIMEOUT,
+        Code::Cancelled => StatusCode::from_u16(499).unwrap_or(StatusCode::BAD_REQUEST),
+        Code::Unknown | Code::Internal | Code::DataLoss => StatusCode::INTERNAL_SERVER_ERROR,
+    }
+}
+
+fn error_body(s: &Status) -> serde_json::Value {
+    let code = format!("{:?}", s.code());
+    // "InvalidArgument" -> "INVALID_ARGUMENT", as gRPC names its codes.
+    let mut name = String::new();
+    for (i, c) in code.chars().enumerate() {
+        if c.is_uppercase() && i > 0 {
+            name.push('_');
+        }
+        name.push(c.to_ascii_uppercase());
+    }
+    serde_json::json!({ "code": name, "message": s.message() })
+}
+
+impl IntoResponse for HttpError {
+    fn into_response(self) -> Response {
+        (http_status(self.0.code()), axum::Json(error_body(&self.0))).into_response()
+    }
+}
+
+type Reply<T> = Result<axum::Json<T>, HttpError>;
+
+fn reply<T: Serialize>(r: Result<T, Status>) -> Reply<T> {
+    r.map(axum::Json).map_err(HttpError)
+}
+
+/// A request body as a relief.v1 message; an empty body is the message's
+/// defaults.
+fn body<T: DeserializeOwned + Default>(bytes: &Bytes, message: &str) -> Result<T, HttpError> {
+    if bytes.iter().all(u8::is_ascii_whitespace) {
+        return Ok(T::default());
+    }
+    serde_json::from_slice(bytes)
+        .map_err(|e| HttpError(Status::invalid_argument(format!("invalid JSON body for a {message}: {e}"))))
+}
+
+type Params = Query<HashMap<String, String>>;
+
+/// A query parameter parsed as `T`, naming the parameter when it is not.
+fn param<T: std::str::FromStr>(q: &HashMap<String, String>, name: &str) -> Result<Option<T>, HttpError> {
+    q.get(name)
+        .map(|v| {
+            v.parse()
+                .map_err(|_| HttpError(Status::invalid_argument(format!("invalid query parameter '{name}': '{v}'"))))
+        })
+        .transpose()
+}
+
+/// `camera=lon,lat,alt,heading,pitch,roll` and `fov=deg` (default 50).
+fn camera_param(q: &HashMap<String, String>) -> Result<Option<pb::Camera>, HttpError> {
+    let Some(text) = q.get("camera") else { return Ok(None) };
+    let v: Vec<f64> = text.split(',').map(|p| p.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| {
+        HttpError(Status::invalid_argument(format!(
+            "invalid query parameter 'camera': '{text}' is not lon,lat,alt,heading,pitch,roll"
+        )))
+    })?;
+    let [lon, lat, alt, heading, pitch, roll] = v[..] else {
+        return Err(HttpError(Status::invalid_argument(format!(
+            "invalid query parameter 'camera': '{text}' has {} numbers, not 6 (lon,lat,alt,heading,pitch,roll)",
+            v.len()
+        ))));
+    };
+    Ok(Some(pb::Camera {
+        lon_deg: lon,
+        lat_deg: lat,
+        altitude_m: alt,
+        heading_deg: heading,
+        pitch_deg: pitch,
+        roll_deg: roll,
+        vertical_fov_deg: param(q, "fov")?.unwrap_or(50.0),
+    }))
+}
+
+fn format_param(q: &HashMap<String, String>) -> Result<i32, HttpError> {
+    match q.get("format").map(String::as_str) {
+        None | Some("png") => Ok(pb::ImageFormat::Png as i32),
+        Some("rgba") => Ok(pb::ImageFormat::Rgba8 as i32),
+        Some(other) => Err(HttpError(Status::invalid_argument(format!(
+            "invalid query parameter 'format': '{other}' (png or rgba)"
+        )))),
+    }
+}
+
+/// Server-Sent Events of a call's stream: `event: NAME` with the message
+/// as JSON; a failure ends the stream with `event: error`.
+fn sse<T: Serialize + Send + 'static>(
+    name: &'static str,
+    stream: impl Stream<Item = Result<T, Status>> + Send + 'static,
+) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+    // The streams behind end after their first error.
+    let events = stream.map(move |item| {
+        let event = match item {
+            Ok(message) => Event::default().event(name).json_data(message),
+            Err(status) => Event::default().event("error").json_data(error_body(&status)),
+        };
+        Ok(event.unwrap_or_else(|e| Event::default().event("error").data(format!("cannot encode: {e}"))))
+    });
+    Sse::new(events).keep_alive(KeepAlive::default())
+}
+
+async fn state(State(c): Shared) -> Reply<pb::SceneState> {
+    Ok(axum::Json(c.scene.state()))
+}
+
+async fn events(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse, HttpError> {
+    let from = param(&q, "from")?.unwrap_or(0);
+    Ok(sse("scene", c.scene.watch(&pb::WatchRequest { from_generation: from })))
+}
+
+async fn wait(State(c): Shared, Query(q): Params) -> Reply<pb::SceneState> {
+    let min_generation = param(&q, "generation")?
+        .ok_or_else(|| HttpError(Status::invalid_argument("missing query parameter 'generation'")))?;
+    let timeout_ms = param(&q, "timeout_ms")?.unwrap_or(10_000);
+    reply(c.scene.wait_for_generation(pb::WaitForGenerationRequest { min_generation, timeout_ms }).await)
+}
+
+async fn reload(State(c): Shared, bytes: Bytes) -> Reply<pb::SceneState> {
+    reply(c.scene.reload(body(&bytes, "ReloadRequest")?).await)
+}
+
+async fn get_camera(State(c): Shared) -> Reply<pb::Camera> {
+    Ok(axum::Json(c.view.camera()))
+}
+
+async fn set_camera(State(c): Shared, bytes: Bytes) -> Reply<pb::Camera> {
+    let camera: pb::Camera = body(&bytes, "Camera")?;
+    reply(c.view.set_camera(&pb::SetCameraRequest { camera: Some(camera) }))
+}
+
+/// The image itself (PNG, or raw RGBA with its size in headers), with the
+/// generation, camera and pass timings in `x-relief-*` headers.
+async fn render_image(State(c): Shared, Query(q): Params) -> Result<Response, HttpError> {
+    let request = pb::RenderRequest {
+        camera: camera_param(&q)?,
+        width: param(&q, "width")?.unwrap_or(0),
+        height: param(&q, "height")?.unwrap_or(0),
+        format: format_param(&q)?,
+        quality: None,
+    };
+    let r = c.view.render(&request).await?;
+    let png = r.format == pb::ImageFormat::Png as i32;
+    let mut response = r.image.clone().into_response();
+    let headers = response.headers_mut();
+    let content_type = if png { "image/png" } else { "application/octet-stream" };
+    headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
+    let camera = r.camera.unwrap_or_default();
+    let text = [
+        ("x-relief-generation", r.generation.to_string()),
+        ("x-relief-width", r.width.to_string()),
+        ("x-relief-height", r.height.to_string()),
+        (
+            "x-relief-camera",
+            format!(
+                "{},{},{},{},{},{}",
+                camera.lon_deg,
+                camera.lat_deg,
+                camera.altitude_m,
+                camera.heading_deg,
+                camera.pitch_deg,
+                camera.roll_deg
+            ),
+        ),
+        (
+            "x-relief-passes",
+            r.passes.iter().map(|p| format!("{}={:.2}", p.pass, p.elapsed_ms)).collect::<Vec<_>>().join(";"),
+        ),
+    ];
+    for (name, value) in text {
+        if let Ok(v) = HeaderValue::from_str(&value) {
+            headers.insert(name, v);
+        }
+    }
+    Ok(response)
+}
+
+async fn render_json(State(c): Shared, bytes: Bytes) -> Reply<pb::RenderResponse> {
+    let request: pb::RenderRequest = body(&bytes, "RenderRequest")?;
+    reply(c.view.render(&request).await)
+}
+
+async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse, HttpError> {
+    let request = pb::StreamFramesRequest {
+        width: param(&q, "width")?.unwrap_or(0),
+        height: param(&q, "height")?.unwrap_or(0),
+        format: format_param(&q)?,
+        max_fps: param(&q, "max_fps")?.unwrap_or(0.0),
+        quality: None,
+        camera: camera_param(&q)?,
+        view_id: q.get("view").cloned().unwrap_or_default(),
+    };
+    Ok(sse("frame", c.view.stream_frames(&request)?))
+}
+
+async fn open_view(State(c): Shared, bytes: Bytes) -> Reply<pb::ViewState> {
+    reply(c.view.open_view(&body(&bytes, "OpenViewRequest")?))
+}
+
+async fn update_view(State(c): Shared, Path(id): Path<String>, bytes: Bytes) -> Reply<pb::ViewState> {
+    let request = pb::UpdateViewRequest { view_id: id, ..body(&bytes, "UpdateViewRequest")? };
+    reply(c.view.update_view(&request))
+}
+
+async fn navigate_view(State(c): Shared, Path(id): Path<String>, bytes: Bytes) -> Reply<pb::Camera> {
+    let request = pb::NavigateRequest { view_id: id, ..body(&bytes, "NavigateRequest")? };
+    reply(c.view.navigate(request).await)
+}
+
+async fn navigate_scene(State(c): Shared, bytes: Bytes) -> Reply<pb::Camera> {
+    let request = pb::NavigateRequest { view_id: String::new(), ..body(&bytes, "NavigateRequest")? };
+    reply(c.view.navigate(request).await)
+}
+
+async fn pick(State(c): Shared, Path(id): Path<String>, Query(q): Params) -> Reply<pb::PickResponse> {
+    let request = pb::PickRequest { view_id: id, x: param(&q, "x")?.unwrap_or(0.5), y: param(&q, "y")?.unwrap_or(0.5) };
+    reply(c.view.pick(&request).await)
+}
+
+/// `points=lon,lat;lon,lat` and an optional `source`.
+async fn elevation_get(State(c): Shared, Query(q): Params) -> Reply<pb::SampleElevationResponse> {
+    let text = q.get("points").map_or("", String::as_str);
+    let points = text
+        .split(';')
+        .filter(|p| !p.trim().is_empty())
+        .map(|p| {
+            let v: Vec<f64> = p.split(',').filter_map(|x| x.trim().parse().ok()).collect();
+            match v[..] {
+                [lon_deg, lat_deg] => Ok(pb::GeodeticPoint { lon_deg, lat_deg }),
+                _ => Err(HttpError(Status::invalid_argument(format!(
+                    "invalid query parameter 'points': '{p}' is not lon,lat"
+                )))),
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let source_id = q.get("source").cloned().unwrap_or_default();
+    reply(c.tiles.elevation(pb::SampleElevationRequest { points, source_id }).await)
+}
+
+async fn elevation_post(State(c): Shared, bytes: Bytes) -> Reply<pb::SampleElevationResponse> {
+    reply(c.tiles.elevation(body(&bytes, "SampleElevationRequest")?).await)
+}
+
+async fn tile(
+    State(c): Shared,
+    Path((source_id, level, x, y)): Path<(String, u32, u32, u32)>,
+) -> Reply<pb::GetTileResponse> {
+    let request = pb::GetTileRequest { source_id, key: Some(pb::TileKey { level, x, y }), quality: None };
+    reply(c.tiles.tile(request).await)
+}
+
+/// The calls this transport offers, for `curl /api`.
+const ROUTES: &[(&str, &str, &str)] = &[
+    ("GET", "/api/state", "SceneState"),
+    ("GET", "/api/events?from=N", "SceneEvent stream (Server-Sent Events, event: scene)"),
+    ("GET", "/api/wait?generation=N&timeout_ms=T", "SceneState once generation N is served"),
+    ("POST", "/api/reload", "ReloadRequest -> SceneState"),
+    ("GET", "/api/camera", "the scene Camera"),
+    ("PUT", "/api/camera", "Camera -> Camera (SetCamera)"),
+    ("GET", "/api/render?camera=lon,lat,alt,heading,pitch,roll&fov=&width=&height=&format=png|rgba", "the image"),
+    ("POST", "/api/render", "RenderRequest -> RenderResponse"),
+    ("GET", "/api/frames?view=ID|camera=...&width=&height=&max_fps=", "RenderResponse stream (SSE, event: frame)"),
+    ("POST", "/api/views", "OpenViewRequest -> ViewState"),
+    ("PATCH", "/api/views/{id}", "UpdateViewRequest -> ViewState"),
+    ("POST", "/api/views/{id}/navigate", "NavigateRequest -> Camera"),
+    ("POST", "/api/navigate", "NavigateRequest on the scene camera -> Camera"),
+    ("GET", "/api/views/{id}/pick?x=&y=", "PickResponse"),
+    ("GET", "/api/elevation?points=lon,lat;lon,lat&source=ID", "SampleElevationResponse"),
+    ("POST", "/api/elevation", "SampleElevationRequest -> SampleElevationResponse"),
+    ("GET", "/api/tiles/{source}/{level}/{x}/{y}", "GetTileResponse"),
+];
+
+async fn routes() -> axum::Json<serde_json::Value> {
+    axum::Json(serde_json::json!(
+        ROUTES
+            .iter()
+            .map(|(m, p, what)| serde_json::json!({"method": m, "path": p, "answer": what}))
+            .collect::<Vec<_>>()
+    ))
+}
+
+async fn asset(uri: Uri) -> Response {
+    match relief_web::asset(uri.path()) {
+        Some(a) => {
+            ([(header::CONTENT_TYPE, a.content_type), (header::CACHE_CONTROL, "no-cache")], a.body).into_response()
+        }
+        None => not_found(Method::GET, uri).await,
+    }
+}
+
+async fn not_found(method: Method, uri: Uri) -> Response {
+    HttpError(Status::not_found(format!("no route {method} {}; GET /api lists the calls", uri.path()))).into_response()
+}
+
+/// The HTTP routes over `calls`; what none of them takes goes to `grpc`
+/// when it is a gRPC call (by its content type), else gets a 404.
+pub fn router(calls: Arc<Calls>, grpc: Router) -> Router {
+    let mut router = Router::new()
+        .route("/api", get(routes))
+        .route("/api/state", get(state))
+        .route("/api/events", get(events))
+        .route("/api/wait", get(wait))
+        .route("/api/reload", post(reload))
+        .route("/api/camera", get(get_camera).put(set_camera))
+        .route("/api/render", get(render_image).post(render_json))
+        .route("/api/frames", get(frames))
+        .route("/api/views", post(open_view))
+        .route("/api/views/{id}", patch(update_view))
+        .route("/api/views/{id}/navigate", post(navigate_view))
+        .route("/api/navigate", post(navigate_scene))
+        .route("/api/views/{id}/pick", get(pick))
+        .route("/api/elevation", get(elevation_get).post(elevation_post))
+        .route("/api/tiles/{source}/{level}/{x}/{y}", get(tile));
+    for a in relief_web::ASSETS {
+        router = router.route(a.path, get(asset));
+    }
+    let rest = tower::service_fn(move |request: axum::extract::Request| {
+        let grpc = grpc.clone();
+        async move {
+            let is_grpc = request
+                .headers()
+                .get(header::CONTENT_TYPE)
+                .and_then(|v| v.to_str().ok())
+                .is_some_and(|v| v.starts_with("application/grpc"));
+            if is_grpc {
+                grpc.oneshot(request).await
+            } else {
+                Ok(not_found(request.method().clone(), request.uri().clone()).await)
+            }
+        }
+    });
+    router.fallback_service(rest).with_state(calls)
+}

@@ -1,0 +1,21 @@
+//! Scenes the end-to-end tests serve, written from analytic fixtures.
+
+use std::path::{Path, PathBuf};
+
+use crate::fixtures;
+
+/// The hill DEM (`dem`) and an "orthophoto" tinted by height (`tint`), with
+/// `effects` (a manifest fragment, say "[effects]\nlighting = {}\n") and a
+/// camera south of the hill at 9 km, 45 degrees down.
+pub fn hill(dir: &Path, effects: &str) -> anyhow::Result<PathBuf> {
+    fixtures::write_dem(&dir.join("hill.tif"), &fixtures::hill_spec(), fixtures::hill)?;
+    fixtures::write_rgb(&dir.join("tint.tif"), &fixtures::hill_spec(), |x, y| {
+        fixtures::demo_color(fixtures::hill(x, y))
+    })?;
+    fixtures::write_manifest(
+        dir,
+        &format!(
+            "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[[source]]\nid = \"tint\"\nkind = \"gdal\"\npath = \"tint.tif\"\n\n[layers]\nheight = \"dem\"\ncolor = \"tint\"\n{effects}\n[camera]\nlon_deg = 10.25\nlat_deg = 45.1\naltitude_m = 9000\npitch_deg = -45\n"
+        ),
+    )
+}

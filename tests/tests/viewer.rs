@@ -1,0 +1,193 @@
+//! The browser viewer in a real headless Chromium (Debian's `chromium`),
+//! driven over the DevTools protocol: the page served by reliefd shows a
+//! frame equal to a Render of the same camera, follows an edit on disk,
+//! shows a broken file's error while the image stays, and a drag moves the
+//! tab's own camera, or the scene camera in follow mode.
+
+#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
+
+use std::time::Duration;
+
+use base64::Engine as _;
+use relief_proto::v1 as pb;
+use relief_proto::v1::view_service_client::ViewServiceClient;
+use relief_tests::browser::{Browser, chromium_path};
+use relief_tests::daemon::Reliefd;
+use relief_tests::{edit, scenes};
+use tonic::transport::Channel;
+
+/// How long the page may take to show what the daemon serves (first frame
+/// on lavapipe in a debug build, a reload, an error).
+const PAGE_TIMEOUT: Duration = Duration::from_secs(60);
+/// The displayed image against a Render of the same camera and size.
+const MIN_PSNR_DB: f64 = 40.0;
+
+fn psnr(a: &[u8], b: &[u8]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let mse = a.iter().zip(b).map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2)).sum::<f64>() / a.len() as f64;
+    if mse == 0.0 { f64::INFINITY } else { 10.0 * (255.0f64.powi(2) / mse).log10() }
+}
+
+/// The pixels the page's `<img id="view">` shows, through a canvas.
+async fn displayed(page: &Browser) -> (u32, u32, Vec<u8>) {
+    let v = page
+        .eval(
+            "(() => { const img = document.getElementById('view'); const c = document.createElement('canvas');
+               c.width = img.naturalWidth; c.height = img.naturalHeight;
+               const g = c.getContext('2d'); g.drawImage(img, 0, 0);
+               const d = g.getImageData(0, 0, c.width, c.height).data;
+               let s = ''; for (let i = 0; i < d.length; i += 8192) s += String.fromCharCode.apply(null, d.subarray(i, i + 8192));
+               return { w: c.width, h: c.height, rgba: btoa(s) }; })()",
+        )
+        .await
+        .unwrap();
+    let rgba = base64::engine::general_purpose::STANDARD.decode(v["rgba"].as_str().unwrap()).unwrap();
+    (v["w"].as_u64().unwrap() as u32, v["h"].as_u64().unwrap() as u32, rgba)
+}
+
+fn camera_of(v: &serde_json::Value) -> pb::Camera {
+    let f = |k: &str| v[k].as_f64().unwrap_or(0.0);
+    pb::Camera {
+        lon_deg: f("lonDeg"),
+        lat_deg: f("latDeg"),
+        altitude_m: f("altitudeM"),
+        heading_deg: f("headingDeg"),
+        pitch_deg: f("pitchDeg"),
+        roll_deg: f("rollDeg"),
+        vertical_fov_deg: f("verticalFovDeg"),
+    }
+}
+
+async fn scene_camera(channel: &Channel) -> pb::Camera {
+    ViewServiceClient::new(channel.clone()).get_camera(pb::GetCameraRequest {}).await.unwrap().into_inner()
+}
+
+async fn open(daemon: &Reliefd) -> Browser {
+    let page = Browser::start(1000, 640).await.unwrap();
+    page.navigate(&format!("{}/", daemon.url())).await.unwrap();
+    page.wait_for("document.body.dataset.ready === '1'", PAGE_TIMEOUT).await.unwrap();
+    page
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
+    if chromium_path().is_none() {
+        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "[effects]\nlighting = {}\n").unwrap(), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let page = open(&daemon).await;
+    assert_eq!(page.eval("document.getElementById('scene-name').textContent").await.unwrap(), "hill");
+    assert_eq!(page.eval("document.getElementById('generation').textContent").await.unwrap(), "1");
+
+    // What the page shows is a Render of the same camera and size.
+    let frame = page.eval("window.relief.lastFrame").await.unwrap();
+    let (w, h, shown) = displayed(&page).await;
+    assert_eq!((u64::from(w), u64::from(h)), (frame["width"].as_u64().unwrap(), frame["height"].as_u64().unwrap()));
+    let reference = ViewServiceClient::new(channel.clone())
+        .max_decoding_message_size(64 << 20)
+        .render(pb::RenderRequest {
+            camera: Some(camera_of(&frame["camera"])),
+            width: w,
+            height: h,
+            format: pb::ImageFormat::Rgba8 as i32,
+            quality: None,
+        })
+        .await
+        .unwrap()
+        .into_inner();
+    let db = psnr(&shown, &reference.image);
+    assert!(db >= MIN_PSNR_DB, "the page shows {db:.1} dB from a Render of its camera");
+
+    // A DEM edited on disk: the page's generation advances and its image
+    // changes, pushed by the daemon.
+    let before = page.eval("window.relief.lastFrame.image").await.unwrap();
+    edit::rewrite_window(&dir.path().join("hill.tif"), 150, 150, 64, 64, |_, _, h| h + 900.0).unwrap();
+    page.wait_for("window.relief.generation >= 2 && Number(window.relief.lastFrame.generation) >= 2", PAGE_TIMEOUT)
+        .await
+        .unwrap();
+    assert_eq!(page.eval("document.getElementById('generation').textContent").await.unwrap(), "2");
+    assert_ne!(page.eval("window.relief.lastFrame.image").await.unwrap(), before, "the edit shows");
+    let change = page.eval("document.getElementById('last-change').textContent").await.unwrap();
+    assert!(change.as_str().unwrap().contains("dem"), "{change}");
+
+    // A corrupted file: its error in the panel, the image stays.
+    let shown_before = page.eval("document.getElementById('view').src").await.unwrap();
+    std::fs::write(dir.path().join("hill.tif"), b"II*\0 this is not a TIFF any more").unwrap();
+    let error_cell = "document.querySelector('tr[data-source-id=\"dem\"] td.error').textContent";
+    page.wait_for(&format!("{error_cell}.includes('hill.tif')"), PAGE_TIMEOUT).await.unwrap();
+    assert_eq!(page.eval("document.getElementById('view').src").await.unwrap(), shown_before);
+    assert_eq!(page.eval("Number(window.relief.lastFrame.generation)").await.unwrap(), 2);
+
+    // The cursor readout: longitude, latitude and height under the mouse.
+    page.mouse("mouseMoved", 500.0, 400.0, "none").await.unwrap();
+    page.wait_for("/\\d+\\.\\d{6}/.test(document.getElementById('cursor').textContent)", PAGE_TIMEOUT).await.unwrap();
+
+    let errors: Vec<String> = page.errors().into_iter().filter(|e| e.starts_with("exception")).collect();
+    assert!(errors.is_empty(), "the page threw: {errors:?}");
+    drop(page);
+    daemon.stop(&["hill.tif"]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() {
+    if chromium_path().is_none() {
+        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let start = scene_camera(&channel).await;
+    let (tab, other) = (open(&daemon).await, open(&daemon).await);
+    let heading = "window.relief.lastFrame.camera.headingDeg ?? 0";
+    let other_heading = other.eval(heading).await.unwrap();
+
+    // Its own camera: the tab turns, the other tab and the scene do not.
+    tab.drag((400.0, 300.0), (520.0, 300.0), 6).await.unwrap();
+    tab.wait_for(&format!("Math.abs(({heading}) - {}) > 5", start.heading_deg), PAGE_TIMEOUT).await.unwrap();
+    assert_eq!(scene_camera(&channel).await, start);
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    assert_eq!(other.eval(heading).await.unwrap(), other_heading);
+
+    // Follow mode: the tab shows the scene camera, and a drag moves it for
+    // every follower; GetCamera over gRPC says so.
+    tab.eval("document.getElementById('follow').click()").await.unwrap();
+    tab.wait_for(&format!("Math.abs(({heading}) - {}) < 1e-9", start.heading_deg), PAGE_TIMEOUT).await.unwrap();
+    tab.drag((400.0, 300.0), (400.0, 380.0), 6).await.unwrap();
+    let mut moved = start;
+    for _ in 0..400 {
+        moved = scene_camera(&channel).await;
+        if moved != start {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(25)).await;
+    }
+    assert_ne!(moved, start, "the drag did not move the scene camera");
+    // The drag tilts: vertical mouse motion changes the pitch.
+    tab.wait_for("window.relief.lastFrame && !!window.relief.lastFrame.camera", PAGE_TIMEOUT).await.unwrap();
+    let settled = async {
+        loop {
+            let now = scene_camera(&channel).await;
+            let shown = camera_of(&tab.eval("window.relief.lastFrame.camera").await.unwrap());
+            if (shown.pitch_deg - now.pitch_deg).abs() < 1e-9 && (shown.lon_deg - now.lon_deg).abs() < 1e-12 {
+                return now;
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    };
+    let now = tokio::time::timeout(PAGE_TIMEOUT, settled).await.expect("the page shows the scene camera");
+    assert!((now.pitch_deg - start.pitch_deg).abs() > 1.0, "{start:?} -> {now:?}");
+
+    // Fly to a source.
+    tab.eval("document.querySelector('button[data-fly-to=\"tint\"]').click()").await.unwrap();
+    tab.wait_for("Math.abs(window.relief.lastFrame.camera.pitchDeg + 35) < 1e-9", PAGE_TIMEOUT).await.unwrap();
+    for page in [&tab, &other] {
+        let errors: Vec<String> = page.errors().into_iter().filter(|e| e.starts_with("exception")).collect();
+        assert!(errors.is_empty(), "the page threw: {errors:?}");
+    }
+    drop((tab, other));
+    daemon.stop(&[]).unwrap();
+}
