@@ -176,11 +176,12 @@ async fn fps(daemon: &Reliefd, n: usize, own_cameras: bool, secs: u64) -> anyhow
     Ok((mean, min, rendered as f64 / elapsed, rendered))
 }
 
+/// Milliseconds from the start of each edit.
 struct EditToFrame {
-    grpc_ms: Vec<f64>,
-    page_received_ms: Vec<f64>,
-    page_shown_ms: Vec<f64>,
-    generation_ms: Vec<f64>,
+    grpc: Vec<f64>,
+    page_received: Vec<f64>,
+    page_shown: Vec<f64>,
+    daemon: Vec<f64>,
 }
 
 async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) -> anyhow::Result<EditToFrame> {
@@ -203,13 +204,12 @@ async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) ->
     let mut stream = views(&channel).stream_frames(request).await?.into_inner();
     let mut generation = stream.next().await.ok_or_else(|| anyhow::anyhow!("no first frame"))??.generation;
     let mut rng = relief_examples::Lcg(7);
-    let mut out =
-        EditToFrame { grpc_ms: vec![], page_received_ms: vec![], page_shown_ms: vec![], generation_ms: vec![] };
+    let mut out = EditToFrame { grpc: vec![], page_received: vec![], page_shown: vec![], daemon: vec![] };
     let events = edit::Events::follow(channel.clone()).await?;
     for _ in 0..edits {
         tokio::time::sleep(Duration::from_millis(300)).await;
         let (x, y) = (rng.range(100.0, 800.0) as usize, rng.range(100.0, 450.0) as usize);
-        let lift = rng.range(50.0, 400.0);
+        let lift = rng.range(50.0, 400.0) as f32;
         let started = Instant::now();
         let started_epoch = since_epoch_ms();
         edit::rewrite_window(dem, x, y, 64, 64, |_, _, h| if h > -1000.0 { h + lift } else { h })?;
@@ -221,10 +221,10 @@ async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) ->
                 break f;
             }
         };
-        out.grpc_ms.push(started.elapsed().as_secs_f64() * 1e3);
+        out.grpc.push(started.elapsed().as_secs_f64() * 1e3);
         generation = frame.generation;
         if let Some((_, g)) = events.generations().into_iter().find(|(n, _)| *n == generation) {
-            out.generation_ms.push(g.elapsed_ms);
+            out.daemon.push(g.elapsed_ms);
         }
         if let Some(page) = &page {
             let expr = format!(
@@ -234,8 +234,8 @@ async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) ->
             loop {
                 let v = page.eval(&expr).await?;
                 if let Some([r, s]) = v.as_array().map(|a| [a[0].as_f64(), a[1].as_f64()]) {
-                    out.page_received_ms.push(r.unwrap_or(f64::NAN) - started_epoch);
-                    out.page_shown_ms.push(s.unwrap_or(f64::NAN) - started_epoch);
+                    out.page_received.push(r.unwrap_or(f64::NAN) - started_epoch);
+                    out.page_shown.push(s.unwrap_or(f64::NAN) - started_epoch);
                     break;
                 }
                 anyhow::ensure!(Instant::now() < deadline, "the page did not show generation {generation}");
@@ -276,11 +276,11 @@ async fn run() -> anyhow::Result<()> {
     println!("\n## Edit to frame (64 x 64 DEM window, 1280 x 720, the scene camera), ms\n");
     println!("| viewer | edits | p50 | p95 | max |\n|---|---|---|---|---|");
     let e = edit_to_frame(&daemon, &manifest.with_file_name("dem.tif"), edits).await?;
-    row("daemon: read, rebuild and publish (GenerationEvent.elapsed_ms)", e.generation_ms);
-    row("gRPC StreamFrames viewer: frame received", e.grpc_ms);
-    if !e.page_received_ms.is_empty() {
-        row("browser page: frame received by its script", e.page_received_ms);
-        row("browser page: image decoded and shown", e.page_shown_ms);
+    row("daemon: read, rebuild and publish (GenerationEvent.elapsed_ms)", e.daemon);
+    row("gRPC StreamFrames viewer: frame received", e.grpc);
+    if !e.page_received.is_empty() {
+        row("browser page: frame received by its script", e.page_received);
+        row("browser page: image decoded and shown", e.page_shown);
     }
 
     let secs = env("RELIEF_BENCH_FPS_SECS", 10);

@@ -198,7 +198,7 @@ impl Browser {
     /// A mouse event at (x, y) CSS pixels: `kind` is mousePressed,
     /// mouseMoved or mouseReleased.
     pub async fn mouse(&self, kind: &str, x: f64, y: f64, button: &str) -> anyhow::Result<()> {
-        let buttons = if kind == "mouseReleased" || button == "none" { 0 } else { 1 };
+        let buttons = i32::from(kind != "mouseReleased" && button != "none");
         self.send(
             "Input.dispatchMouseEvent",
             json!({ "type": kind, "x": x, "y": y, "button": button, "buttons": buttons, "clickCount": 1 }),

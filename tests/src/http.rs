@@ -87,7 +87,7 @@ impl Events {
                 continue;
             }
             if let Some(v) = line.strip_prefix("event:") {
-                name = v.trim().to_owned();
+                v.trim().clone_into(&mut name);
                 seen = true;
             } else if let Some(v) = line.strip_prefix("data:") {
                 if !data.is_empty() {

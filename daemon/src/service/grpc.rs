@@ -28,7 +28,7 @@ impl SceneService for Grpc {
     type WatchStream = ReceiverStream<Result<pb::SceneEvent, Status>>;
 
     async fn watch(&self, r: Request<pb::WatchRequest>) -> Answer<Self::WatchStream> {
-        Ok(Response::new(self.0.scene.watch(r.get_ref())))
+        Ok(Response::new(self.0.scene.watch(r.into_inner())))
     }
 
     async fn wait_for_generation(&self, r: Request<pb::WaitForGenerationRequest>) -> Answer<pb::SceneState> {

@@ -158,7 +158,7 @@ async fn state(State(c): Shared) -> Reply<pb::SceneState> {
 
 async fn events(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse, HttpError> {
     let from = param(&q, "from")?.unwrap_or(0);
-    Ok(sse("scene", c.scene.watch(&pb::WatchRequest { from_generation: from })))
+    Ok(sse("scene", c.scene.watch(pb::WatchRequest { from_generation: from })))
 }
 
 async fn wait(State(c): Shared, Query(q): Params) -> Reply<pb::SceneState> {
@@ -336,11 +336,11 @@ async fn asset(uri: Uri) -> Response {
         Some(a) => {
             ([(header::CONTENT_TYPE, a.content_type), (header::CACHE_CONTROL, "no-cache")], a.body).into_response()
         }
-        None => not_found(Method::GET, uri).await,
+        None => not_found(&Method::GET, &uri),
     }
 }
 
-async fn not_found(method: Method, uri: Uri) -> Response {
+fn not_found(method: &Method, uri: &Uri) -> Response {
     HttpError(Status::not_found(format!("no route {method} {}; GET /api lists the calls", uri.path()))).into_response()
 }
 
@@ -374,11 +374,7 @@ pub fn router(calls: Arc<Calls>, grpc: Router) -> Router {
                 .get(header::CONTENT_TYPE)
                 .and_then(|v| v.to_str().ok())
                 .is_some_and(|v| v.starts_with("application/grpc"));
-            if is_grpc {
-                grpc.oneshot(request).await
-            } else {
-                Ok(not_found(request.method().clone(), request.uri().clone()).await)
-            }
+            if is_grpc { grpc.oneshot(request).await } else { Ok(not_found(request.method(), request.uri())) }
         }
     });
     router.fallback_service(rest).with_state(calls)

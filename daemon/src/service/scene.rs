@@ -37,7 +37,7 @@ impl SceneCalls {
     }
 
     /// The current state, then one event per change after `from_generation`.
-    pub fn watch(&self, request: &WatchRequest) -> ReceiverStream<Result<SceneEvent, Status>> {
+    pub fn watch(&self, request: WatchRequest) -> ReceiverStream<Result<SceneEvent, Status>> {
         let from = request.from_generation;
         // Subscribe before taking the snapshot, so no event falls between.
         let mut events = self.scene.events();
@@ -90,6 +90,7 @@ impl SceneCalls {
         }
     }
 
+    #[expect(clippy::unused_self, reason = "a call like the others; sources with parameters will need the scene")]
     pub fn set_source_parameter(&self, r: &SetSourceParameterRequest) -> Result<SceneState, Status> {
         Err(Status::unimplemented(format!(
             "SetSourceParameter: source '{}' has no runtime parameters in this reliefd",
