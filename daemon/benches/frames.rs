@@ -126,7 +126,11 @@ async fn watchers(
                     Ok(Some(Ok(_))) => {
                         counter.fetch_add(1, Ordering::Relaxed);
                     }
-                    Ok(_) => return,
+                    Ok(Some(Err(e))) => {
+                        eprintln!("a viewer's stream failed: {e}");
+                        return;
+                    }
+                    Ok(None) => return,
                     Err(_) => {}
                 }
             }
@@ -273,14 +277,16 @@ async fn run() -> anyhow::Result<()> {
     println!("device: {:?} passes, generation {}", probe.into_inner().passes.len(), 1);
 
     let edits = env("RELIEF_BENCH_EDITS", 25) as usize;
-    println!("\n## Edit to frame (64 x 64 DEM window, 1280 x 720, the scene camera), ms\n");
-    println!("| viewer | edits | p50 | p95 | max |\n|---|---|---|---|---|");
-    let e = edit_to_frame(&daemon, &manifest.with_file_name("dem.tif"), edits).await?;
-    row("daemon: read, rebuild and publish (GenerationEvent.elapsed_ms)", e.daemon);
-    row("gRPC StreamFrames viewer: frame received", e.grpc);
-    if !e.page_received.is_empty() {
-        row("browser page: frame received by its script", e.page_received);
-        row("browser page: image decoded and shown", e.page_shown);
+    if edits > 0 {
+        println!("\n## Edit to frame (64 x 64 DEM window, 1280 x 720, the scene camera), ms\n");
+        println!("| viewer | edits | p50 | p95 | max |\n|---|---|---|---|---|");
+        let e = edit_to_frame(&daemon, &manifest.with_file_name("dem.tif"), edits).await?;
+        row("daemon: read, rebuild and publish (GenerationEvent.elapsed_ms)", e.daemon);
+        row("gRPC StreamFrames viewer: frame received", e.grpc);
+        if !e.page_received.is_empty() {
+            row("browser page: frame received by its script", e.page_received);
+            row("browser page: image decoded and shown", e.page_shown);
+        }
     }
 
     let secs = env("RELIEF_BENCH_FPS_SECS", 10);

@@ -164,6 +164,17 @@ impl Browser {
         self.call(method, params, true).await
     }
 
+    /// Downloads the page starts land in `dir`.
+    pub async fn allow_downloads(&self, dir: &std::path::Path) -> anyhow::Result<()> {
+        self.call(
+            "Browser.setDownloadBehavior",
+            json!({ "behavior": "allow", "downloadPath": dir.display().to_string() }),
+            false,
+        )
+        .await?;
+        Ok(())
+    }
+
     pub async fn navigate(&self, url: &str) -> anyhow::Result<()> {
         self.send("Page.navigate", json!({ "url": url })).await?;
         Ok(())

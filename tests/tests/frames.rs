@@ -284,3 +284,43 @@ async fn bad_views_and_gestures_are_refused_by_field() {
     assert_eq!(next(&mut s).await.width, 160);
     daemon.stop(&[]).unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_camera_moving_faster_than_frames_render_still_gets_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let request = pb::StreamFramesRequest { width: 320, height: 180, max_fps: 60.0, ..Default::default() };
+    let mut stream = views(&channel).stream_frames(request).await.unwrap().into_inner();
+    let first = next(&mut stream).await;
+    // A new scene camera every 10 ms for 4 s: every view the stream passes
+    // through is left before its frame could be drawn.
+    let mover = tokio::spawn({
+        let channel = channel.clone();
+        async move {
+            let mut client = views(&channel);
+            for k in 0..400 {
+                let c = camera(10.2 + f64::from(k) * 1e-4, 45.1, 9000.0, 0.0, -45.0);
+                client.set_camera(pb::SetCameraRequest { camera: Some(c) }).await.unwrap();
+                tokio::time::sleep(Duration::from_millis(10)).await;
+            }
+        }
+    });
+    let mut during = Vec::new();
+    while !mover.is_finished() {
+        if let Ok(Some(Ok(f))) = tokio::time::timeout(Duration::from_millis(200), stream.next()).await {
+            during.push(f.camera.unwrap().lon_deg);
+        }
+    }
+    // Frames kept coming, each of a newer camera than the last.
+    assert!(during.len() >= 3, "{} frames while the camera moved", during.len());
+    let rest = 10.2 + 399.0 * 1e-4;
+    assert_eq!(first.camera.unwrap().lon_deg, 10.25);
+    assert!(during.windows(2).all(|w| w[1] > w[0]) && (10.2..=rest).contains(&during[0]), "{during:?}");
+    // And the stream ends on the camera where it came to rest.
+    let mut f = next(&mut stream).await;
+    while (f.camera.unwrap().lon_deg - rest).abs() > 1e-12 {
+        f = next(&mut stream).await;
+    }
+    daemon.stop(&[]).unwrap();
+}

@@ -190,6 +190,29 @@ async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() 
     let now = tokio::time::timeout(PAGE_TIMEOUT, settled).await.expect("the page shows the scene camera");
     assert!((now.pitch_deg - start.pitch_deg).abs() > 1.0, "{start:?} -> {now:?}");
 
+    // The screenshot button saves a PNG of the view at full resolution.
+    let downloads = tempfile::tempdir().unwrap();
+    tab.allow_downloads(downloads.path()).await.unwrap();
+    tab.eval("document.getElementById('screenshot').click()").await.unwrap();
+    let (w, h) = {
+        let size = tab.eval("[window.relief.lastFrame.width, window.relief.lastFrame.height]").await.unwrap();
+        (size[0].as_u64().unwrap() as u32, size[1].as_u64().unwrap() as u32)
+    };
+    let mut saved = None;
+    for _ in 0..600 {
+        saved = std::fs::read_dir(downloads.path())
+            .unwrap()
+            .filter_map(Result::ok)
+            .map(|e| e.path())
+            .find(|p| p.extension().is_some_and(|x| x == "png"));
+        if saved.is_some() {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let saved = image::open(saved.expect("a screenshot saved within 60 s")).unwrap();
+    assert!(saved.width() >= w && saved.height() >= h, "{}x{} against a {w}x{h} view", saved.width(), saved.height());
+
     // Fly to a source.
     tab.eval("document.querySelector('button[data-fly-to=\"tint\"]').click()").await.unwrap();
     tab.wait_for("Math.abs(window.relief.lastFrame.camera.pitchDeg + 35) < 1e-9", PAGE_TIMEOUT).await.unwrap();

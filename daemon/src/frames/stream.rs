@@ -110,6 +110,25 @@ pub fn start(hub: &Arc<FrameHub>, spec: StreamSpec, shutdown: CancellationToken)
     Ok(rx)
 }
 
+/// The newest thing a subscription holds: its view's frame, or why it failed.
+fn newest(sub: &mut Subscription) -> super::Published {
+    sub.frames.borrow_and_update().clone()
+}
+
+/// Waits for a new frame of `previous`, forever when there is none.
+async fn previous_changed(previous: &mut Option<Subscription>) -> bool {
+    match previous {
+        Some(p) => p.frames.changed().await.is_ok(),
+        None => std::future::pending().await,
+    }
+}
+
+/// Sends the newest frame whenever the viewer has room, following the
+/// camera. A camera that moves faster than frames render would leave every
+/// view it passes through before its frame is ready: the stream keeps the
+/// oldest view still waiting for its frame (`previous`) until the current
+/// one has one, so frames keep coming (each of a recent camera) however fast
+/// the camera moves.
 async fn run(
     hub: Arc<FrameHub>,
     spec: StreamSpec,
@@ -120,10 +139,17 @@ async fn run(
 ) {
     let interval = Duration::from_secs_f64(1.0 / spec.max_fps);
     let mut last_sent: Option<(Weak<HubFrame>, Instant)> = None;
+    let mut previous: Option<Subscription> = None;
+    let is_new = |frame: &Arc<HubFrame>, last: &Option<(Weak<HubFrame>, Instant)>| {
+        last.as_ref().is_none_or(|(w, _)| !std::ptr::eq(w.as_ptr(), Arc::as_ptr(frame)))
+    };
     loop {
-        let newest = sub.frames.borrow_and_update().clone();
-        let unsent = match newest {
-            Some(Ok(frame)) => last_sent.as_ref().is_none_or(|(w, _)| !std::ptr::eq(w.as_ptr(), Arc::as_ptr(&frame))),
+        let candidate = match newest(&mut sub) {
+            Some(current) => Some(current),
+            None => previous.as_mut().and_then(newest),
+        };
+        let unsent = match candidate {
+            Some(Ok(frame)) => is_new(&frame, &last_sent),
             Some(Err(e)) => {
                 let _ = tx.send(Err(e)).await;
                 return;
@@ -143,8 +169,11 @@ async fn run(
                     () = shutdown.cancelled() => return,
                 }
             }
-            let newest = sub.frames.borrow_and_update().clone();
-            let Some(Ok(frame)) = newest else { continue };
+            // Either way the view left has done its part.
+            let frame = match (newest(&mut sub), previous.take().as_mut().and_then(newest)) {
+                (Some(Ok(frame)), _) | (_, Some(Ok(frame))) => frame,
+                _ => continue,
+            };
             if spec.png && !frame.is_png_encoded() {
                 let job = Arc::clone(&frame);
                 // An encoding error shows when the transport asks for it.
@@ -159,6 +188,7 @@ async fn run(
         }
         tokio::select! {
             r = sub.frames.changed() => if r.is_err() { return },
+            alive = previous_changed(&mut previous) => if !alive { previous = None },
             alive = cameras.changed() => {
                 if !alive {
                     return;
@@ -166,7 +196,14 @@ async fn run(
                 let key = spec.key(cameras.current());
                 if key != *sub.key() {
                     match hub.subscribe(key, false) {
-                        Ok(s) => sub = s,
+                        Ok(next) => {
+                            let left = std::mem::replace(&mut sub, next);
+                            // The view left is kept while it waits for its
+                            // first frame, unless an older one already is.
+                            if previous.is_none() && left.frames.borrow().is_none() {
+                                previous = Some(left);
+                            }
+                        }
                         Err(e) => {
                             let _ = tx.send(Err(Arc::new(e))).await;
                             return;

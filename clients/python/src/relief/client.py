@@ -1,0 +1,326 @@
+"""The blocking client: every relief.v1 call as a typed method.
+
+    with relief.connect("127.0.0.1:50051") as client:
+        state = client.state()
+        frame = client.render(camera=relief.Camera(10.25, 45.1, 9000), size=(640, 360))
+        frame.save("view.png")
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from types import TracebackType
+from typing import Any, Generic, TypeVar, overload
+
+import grpc
+
+from relief import _channel, _convert
+from relief._proto.relief.v1 import relief_pb2 as pb
+from relief._proto.relief.v1 import relief_pb2_grpc as pb_grpc
+from relief.errors import ReliefError, Unavailable, from_rpc_error
+from relief.types import (
+    Camera,
+    Event,
+    Frame,
+    Gesture,
+    ImageFormat,
+    Pick,
+    Quality,
+    SceneState,
+    Tile,
+    View,
+)
+
+T = TypeVar("T")
+TileT = TypeVar("TileT", bound=Tile)
+
+
+class Stream(Generic[T]):
+    """The messages of a server stream as relief's types: an iterator, and a
+    context manager that cancels the call on exit. `close()` ends it early;
+    the iteration then stops quietly."""
+
+    def __init__(self, call: Any, convert: Callable[[Any], T | None], method: str) -> None:
+        self._call = call
+        self._convert = convert
+        self._method = method
+        self._closed = False
+
+    def __iter__(self) -> Iterator[T]:
+        return self
+
+    def __next__(self) -> T:
+        while True:
+            try:
+                message = next(self._call)
+            except StopIteration:
+                raise
+            except grpc.RpcError as e:
+                if self._closed and e.code() == grpc.StatusCode.CANCELLED:
+                    raise StopIteration from None
+                raise from_rpc_error(e, self._method) from None
+            item = self._convert(message)
+            if item is not None:
+                return item
+
+    def close(self) -> None:
+        """Cancels the call."""
+        self._closed = True
+        self._call.cancel()
+
+    def __enter__(self) -> Stream[T]:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        if not self._closed:
+            try:
+                self._call.cancel()
+            except Exception:  # noqa: BLE001 - the interpreter may be shutting down
+                pass
+
+
+class Client:
+    """A connection to reliefd. Use `relief.connect()`; close it (or use it
+    as a context manager) when done. Every method raises a ReliefError
+    subclass when the call fails, with the server's message."""
+
+    def __init__(self, address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S) -> None:
+        self.address = _channel.target(address)
+        self.timeout = timeout
+        self._channel = grpc.insecure_channel(self.address, options=_channel.CHANNEL_OPTIONS)
+        self._scene = pb_grpc.SceneServiceStub(self._channel)
+        self._view = pb_grpc.ViewServiceStub(self._channel)
+        self._tiles = pb_grpc.TileServiceStub(self._channel)
+
+    # ------------------------------------------------------------ lifecycle
+
+    def wait_ready(self, timeout: float = 10.0) -> None:
+        """Waits until the channel is connected (Unavailable after `timeout`)."""
+        try:
+            grpc.channel_ready_future(self._channel).result(timeout=timeout)
+        except grpc.FutureTimeoutError:
+            raise Unavailable(f"cannot reach reliefd at {self.address} within {timeout} s", method="connect") from None
+
+    def close(self) -> None:
+        self._channel.close()
+
+    def __enter__(self) -> Client:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"relief.Client({self.address!r})"
+
+    def _unary(self, method: Any, name: str, request: Any, timeout: float | None) -> Any:
+        try:
+            return method(request, timeout=self.timeout if timeout is None else timeout)
+        except grpc.RpcError as e:
+            raise from_rpc_error(e, name) from None
+
+    # ------------------------------------------------------------ scene
+
+    def state(self, *, timeout: float | None = None) -> SceneState:
+        """The whole scene state at the current generation."""
+        r: pb.SceneState = self._unary(self._scene.GetState, "GetState", pb.GetStateRequest(), timeout)
+        return _convert.scene_state(r)
+
+    def wait_for_generation(self, generation: int, timeout: float = 30.0) -> SceneState:
+        """The state once generation `generation` (or a later one) is served;
+        DeadlineExceeded after `timeout` seconds (at most 600)."""
+        min_generation, ms = _channel.wait_request(generation, timeout)
+        request = pb.WaitForGenerationRequest(min_generation=min_generation, timeout_ms=ms)
+        r: pb.SceneState = self._unary(
+            self._scene.WaitForGeneration, "WaitForGeneration", request, _channel.deadline_for_wait(timeout)
+        )
+        return _convert.scene_state(r)
+
+    def events(self, from_generation: int = 0, *, timeout: float | None = None) -> Stream[Event]:
+        """Scene events: a SnapshotEvent first, then one event per change
+        after `from_generation` (GenerationEvent, SourceErrorEvent,
+        ManifestErrorEvent). With `timeout`, the stream ends with
+        DeadlineExceeded once that many seconds have passed."""
+        call = self._scene.Watch(pb.WatchRequest(from_generation=from_generation), timeout=timeout)
+        return Stream(call, _convert.event, "Watch")
+
+    def reload(self, sources: Iterable[str] | None = None, *, timeout: float | None = None) -> SceneState:
+        """Re-reads the named sources (all when None) now; the state after."""
+        request = pb.ReloadRequest(source_ids=list(sources or ()))
+        r: pb.SceneState = self._unary(self._scene.Reload, "Reload", request, timeout)
+        return _convert.scene_state(r)
+
+    def set_source_parameter(
+        self, source_id: str, name: str, value: str, *, timeout: float | None = None
+    ) -> SceneState:
+        """Sets a runtime parameter of a source."""
+        request = pb.SetSourceParameterRequest(source_id=source_id, name=name, value=value)
+        r: pb.SceneState = self._unary(self._scene.SetSourceParameter, "SetSourceParameter", request, timeout)
+        return _convert.scene_state(r)
+
+    # ------------------------------------------------------------ view
+
+    def camera(self, *, timeout: float | None = None) -> Camera:
+        """The scene camera."""
+        r: pb.Camera = self._unary(self._view.GetCamera, "GetCamera", pb.GetCameraRequest(), timeout)
+        return _convert.camera(r)
+
+    def set_camera(self, camera: Camera, *, timeout: float | None = None) -> Camera:
+        """Moves the scene camera; answers the camera as set."""
+        request = pb.SetCameraRequest(camera=_convert.camera_to_pb(camera))
+        r: pb.Camera = self._unary(self._view.SetCamera, "SetCamera", request, timeout)
+        return _convert.camera(r)
+
+    def render(
+        self,
+        camera: Camera | None = None,
+        size: tuple[int, int] = (1280, 720),
+        *,
+        format: ImageFormat | str = ImageFormat.PNG,
+        quality: Quality | None = None,
+        timeout: float = _channel.RENDER_TIMEOUT_S,
+    ) -> Frame:
+        """One frame from `camera` (the scene camera when None), `size` as
+        (width, height) pixels."""
+        request = _convert.render_request(camera, size, format, quality)
+        r: pb.RenderResponse = self._unary(self._view.Render, "Render", request, timeout)
+        return _convert.frame(r)
+
+    def frames(
+        self,
+        camera: Camera | None = None,
+        size: tuple[int, int] = (1280, 720),
+        *,
+        max_fps: float = 10.0,
+        format: ImageFormat | str = ImageFormat.PNG,
+        quality: Quality | None = None,
+        view_id: str | None = None,
+        timeout: float | None = None,
+    ) -> Stream[Frame]:
+        """Frames of the scene camera (or a fixed `camera`, or an open view):
+        one now, then one whenever the generation or the camera changes, at
+        most `max_fps`."""
+        request = _convert.stream_request(camera, size, format, quality, max_fps, view_id)
+        call = self._view.StreamFrames(request, timeout=timeout)
+        return Stream(call, _convert.frame, "StreamFrames")
+
+    def open_view(
+        self, camera: Camera | None = None, *, follow_scene_camera: bool = False, timeout: float | None = None
+    ) -> View:
+        """A view of your own (closed a minute after its last stream)."""
+        request = _convert.open_view_request(camera, follow_scene_camera)
+        r: pb.ViewState = self._unary(self._view.OpenView, "OpenView", request, timeout)
+        return _convert.view(r)
+
+    def update_view(
+        self,
+        view_id: str,
+        *,
+        camera: Camera | None = None,
+        follow_scene_camera: bool | None = None,
+        interactive: bool | None = None,
+        timeout: float | None = None,
+    ) -> View:
+        """Changes what is given of a view; None leaves it."""
+        request = _convert.update_view_request(view_id, camera, follow_scene_camera, interactive)
+        r: pb.ViewState = self._unary(self._view.UpdateView, "UpdateView", request, timeout)
+        return _convert.view(r)
+
+    def navigate(self, gesture: Gesture, *, view_id: str | None = None, timeout: float | None = None) -> Camera:
+        """Moves a view's camera (the scene camera when view_id is None) by
+        a gesture; answers the new camera."""
+        request = _convert.navigate_request(gesture, view_id)
+        r: pb.Camera = self._unary(self._view.Navigate, "Navigate", request, timeout)
+        return _convert.camera(r)
+
+    def pick(self, view_id: str, x: float, y: float, *, timeout: float | None = None) -> Pick:
+        """The point under (x, y) (fractions of the image from the top left)
+        of a view's last frame."""
+        request = pb.PickRequest(view_id=view_id, x=x, y=y)
+        r: pb.PickResponse = self._unary(self._view.Pick, "Pick", request, timeout)
+        return _convert.pick(r)
+
+    # ------------------------------------------------------------ tiles
+
+    @overload
+    def tile(
+        self, source: str, level: int, x: int, y: int, *, quality: Quality | None = ..., timeout: float | None = ...
+    ) -> Tile: ...
+
+    @overload
+    def tile(
+        self,
+        source: str,
+        level: int,
+        x: int,
+        y: int,
+        *,
+        expect: type[TileT],
+        quality: Quality | None = ...,
+        timeout: float | None = ...,
+    ) -> TileT: ...
+
+    def tile(
+        self,
+        source: str,
+        level: int,
+        x: int,
+        y: int,
+        *,
+        expect: type[Tile] | None = None,
+        quality: Quality | None = None,
+        timeout: float | None = None,
+    ) -> Tile:
+        """Tile (level, x, y) of a source (row 0 is the northernmost): a
+        HeightTile, ColorTile, MaskTile, FeatureTile, MeshTile or
+        InstanceTile. With `expect` (one of those classes) any other kind
+        raises a ReliefError."""
+        request = _convert.tile_request(source, level, x, y, quality)
+        r: pb.GetTileResponse = self._unary(self._tiles.GetTile, "GetTile", request, timeout)
+        return _expect(_convert.tile(r), expect)
+
+    def elevation(
+        self,
+        points: Iterable[Sequence[float]],
+        *,
+        source: str | None = None,
+        timeout: float | None = None,
+    ) -> list[float | None]:
+        """Heights at (lon_deg, lat_deg) points from the height layer (or
+        `source`); None where there is no data."""
+        request = _convert.elevation_request(points, source)
+        r: pb.SampleElevationResponse = self._unary(self._tiles.SampleElevation, "SampleElevation", request, timeout)
+        return _convert.elevations(r)
+
+
+def _expect(tile: Tile, expect: type[Tile] | None) -> Tile:
+    if expect is not None and not isinstance(tile, expect):
+        raise ReliefError(
+            f"tile {tile.level}/{tile.x}/{tile.y} of source '{tile.source_id}' holds {tile.kind.value}, "
+            f"not a {expect.__name__}",
+            method="GetTile",
+            code="CLIENT",
+        )
+    return tile
+
+
+def connect(
+    address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S, connect_timeout: float = 10.0
+) -> Client:
+    """A client connected to reliefd at `address` ("HOST:PORT"; RELIEF_SERVER
+    or 127.0.0.1:50051 when None). `timeout` is the default deadline of each
+    call; Unavailable when reliefd is not reachable within `connect_timeout`."""
+    client = Client(address, timeout=timeout)
+    try:
+        client.wait_ready(connect_timeout)
+    except BaseException:
+        client.close()
+        raise
+    return client

@@ -1,0 +1,269 @@
+"""Every call of the blocking client against a real reliefd serving the hill
+scene, checked against the formula the DEM was written from."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+import relief
+from relief.testing import PARCELS, HillScene, hill
+
+PEAK = (10.25, 45.25)
+CAMERA = relief.Camera(lon_deg=10.25, lat_deg=45.12, altitude_m=9000, heading_deg=0, pitch_deg=-45)
+SIZE = (160, 120)
+# Level 9 tiles of the geodetic grid are about 0.35 degrees: one holds the summit.
+LEVEL = 9
+
+
+def summit_tile(state: relief.SceneState) -> tuple[int, int]:
+    return state.grid.tile_at(LEVEL, *PEAK)
+
+
+# ---------------------------------------------------------------- scene
+
+
+def test_state_describes_the_scene(shared_client: relief.Client, shared_scene: HillScene) -> None:
+    state = shared_client.state()
+    assert state.name == "hill"
+    assert state.generation >= 1
+    assert Path(state.manifest).resolve() == shared_scene.manifest.resolve()
+    assert state.manifest_error == ""
+    assert dict(state.layers) == {"height": "dem", "color": "map"}
+    assert {"resampling", "clipmap_levels"} <= set(state.quality)
+    assert [s.id for s in state.sources] == ["dem", "shade", "parcels", "parcels-drawn", "map", "buildings"]
+    dem = state.source("dem")
+    assert dem.kind == "gdal"
+    assert dem.status is relief.SourceStatus.READY and dem.error == ""
+    assert dem.output is relief.PayloadKind.HEIGHT
+    assert dem.active
+    assert dem.files == (str(shared_scene.dem.resolve()),) or dem.files == (str(shared_scene.dem),)
+    assert dem.extent is not None
+    assert (dem.extent.min_x, dem.extent.min_y, dem.extent.max_x, dem.extent.max_y) == pytest.approx(
+        (10.0, 45.0, 10.5, 45.5)
+    )
+    assert dem.version >= 1
+    assert state.source("map").inputs == ("shade", "parcels-drawn")
+    assert state.source("map").output is relief.PayloadKind.COLOR
+    assert state.source("parcels").output is relief.PayloadKind.FEATURES
+    assert state.source("buildings").output is relief.PayloadKind.MESH
+    assert state.grid.kind == "geodetic" and state.grid.crs == "EPSG:4326"
+    assert state.grid.tile_size > 0
+    assert isinstance(state.counters, relief.Counters)
+    assert state.counters.cache_budget_bytes > 0
+    assert all(isinstance(e, relief.EffectState) for e in state.effects)
+    with pytest.raises(KeyError, match="no source has id 'nope'"):
+        state.source("nope")
+    # Plain frozen dataclasses all the way down.
+    assert dataclasses.is_dataclass(state) and dataclasses.is_dataclass(dem)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        state.name = "x"  # type: ignore[misc]
+
+
+def test_grid_helpers_find_the_tile_of_a_point(shared_client: relief.Client) -> None:
+    grid = shared_client.state().grid
+    col, row = grid.tile_at(LEVEL, *PEAK)
+    extent = grid.tile_extent(LEVEL, col, row)
+    assert extent.contains(*PEAK)
+    cols, rows = grid.tiles_at(LEVEL)
+    assert cols == grid.level0_columns * 2**LEVEL and rows == grid.level0_rows * 2**LEVEL
+
+
+def test_wait_for_a_served_generation_answers_at_once(shared_client: relief.Client) -> None:
+    state = shared_client.state()
+    again = shared_client.wait_for_generation(state.generation, timeout=5)
+    assert again.generation >= state.generation
+
+
+def test_events_start_with_a_snapshot(shared_client: relief.Client) -> None:
+    with shared_client.events(timeout=30) as events:
+        first = next(events)
+    assert isinstance(first, relief.SnapshotEvent)
+    assert first.state.name == "hill"
+    assert first.generation == first.state.generation
+
+
+def test_reload_rereads_sources(shared_client: relief.Client) -> None:
+    state = shared_client.reload()
+    assert state.name == "hill"
+    assert shared_client.reload(["dem"]).source("dem").status is relief.SourceStatus.READY
+
+
+def test_set_source_parameter_is_not_offered_by_this_reliefd(shared_client: relief.Client) -> None:
+    with pytest.raises(relief.Unimplemented, match="source 'dem'"):
+        shared_client.set_source_parameter("dem", "brightness", "1.2")
+
+
+# ---------------------------------------------------------------- tiles
+
+
+def test_height_tiles_hold_the_hill(shared_client: relief.Client) -> None:
+    state = shared_client.state()
+    col, row = summit_tile(state)
+    tile = shared_client.tile("dem", LEVEL, col, row)
+    assert isinstance(tile, relief.HeightTile)
+    assert (tile.source_id, tile.level, tile.x, tile.y) == ("dem", LEVEL, col, row)
+    assert tile.kind is relief.PayloadKind.HEIGHT
+    assert tile.crs == "EPSG:4326"
+    assert tile.generation >= 1 and tile.content_hash != 0
+    n = state.grid.tile_size
+    assert tile.heights.dtype == np.float32
+    assert tile.heights.shape == (n + 1, n + 1)
+    # Sample (i, j) sits on the corner grid of the tile's extent.
+    e = tile.extent
+    lons = e.min_x + np.arange(n + 1) * (e.width / n)
+    lats = e.max_y - np.arange(n + 1) * (e.height / n)
+    grid_lon, grid_lat = np.meshgrid(lons, lats)
+    margin = 0.01
+    inside = (grid_lon > 10.0 + margin) & (grid_lon < 10.5 - margin) & (grid_lat > 45.0 + margin) & (grid_lat < 45.5 - margin)
+    outside = (grid_lon < 10.0 - margin) | (grid_lon > 10.5 + margin) | (grid_lat < 45.0 - margin) | (grid_lat > 45.5 + margin)
+    assert inside.any() and outside.any()
+    expected = hill(grid_lon, grid_lat)
+    assert np.nanmax(np.abs(tile.heights[inside] - expected[inside])) < 5.0
+    assert np.isnan(tile.heights[outside]).all(), "nodata outside the DEM is NaN"
+    # The typed form says what it answers.
+    typed: relief.HeightTile = shared_client.tile("dem", LEVEL, col, row, expect=relief.HeightTile)
+    assert typed.content_hash == tile.content_hash
+    with pytest.raises(relief.ReliefError, match="not a ColorTile"):
+        shared_client.tile("dem", LEVEL, col, row, expect=relief.ColorTile)
+
+
+def test_colour_tiles_decode_to_rgba(shared_client: relief.Client) -> None:
+    state = shared_client.state()
+    col, row = summit_tile(state)
+    tile = shared_client.tile("map", LEVEL, col, row, expect=relief.ColorTile)
+    assert tile.kind is relief.PayloadKind.COLOR
+    assert tile.rgba.dtype == np.uint8 and tile.rgba.ndim == 3 and tile.rgba.shape[2] == 4
+    assert tile.rgba.shape[0] in (state.grid.tile_size, state.grid.tile_size + 2)
+    assert tile.png.startswith(b"\x89PNG")
+    # The parcels are drawn in red over grey shading.
+    red = (tile.rgba[..., 0].astype(int) - tile.rgba[..., 1].astype(int)) > 60
+    assert red.any(), "the summit parcel is drawn on the map"
+
+
+def test_feature_tiles_are_geojson(shared_client: relief.Client) -> None:
+    col, row = summit_tile(shared_client.state())
+    tile = shared_client.tile("parcels", LEVEL, col, row, expect=relief.FeatureTile)
+    assert tile.geojson["type"] == "FeatureCollection"
+    names = {f["properties"]["name"] for f in tile.features}
+    assert "summit" in names
+    summit = next(f for f in tile.features if f["properties"]["name"] == "summit")
+    assert summit["properties"]["height"] == pytest.approx(30.0)
+    assert summit["geometry"]["type"] in ("Polygon", "MultiPolygon")
+
+
+def test_mesh_tiles_hold_the_extruded_parcels(shared_client: relief.Client) -> None:
+    col, row = summit_tile(shared_client.state())
+    tile = shared_client.tile("buildings", LEVEL, col, row, expect=relief.MeshTile)
+    assert tile.positions.dtype == np.float64 and tile.positions.ndim == 2 and tile.positions.shape[1] == 3
+    assert tile.indices.dtype == np.uint32 and tile.indices.ndim == 2 and tile.indices.shape[1] == 3
+    assert len(tile.positions) > 0 and len(tile.indices) > 0
+    assert int(tile.indices.max()) < len(tile.positions)
+    assert tile.parts and all(isinstance(p, relief.MeshPart) for p in tile.parts)
+    assert sum(p.triangle_count for p in tile.parts) <= len(tile.indices)
+    # The summit parcel's roof: the ground there (about 1950 to 2000 m) plus 30 m.
+    summit_ids = {i for i, (name, _, _) in enumerate(PARCELS) if name == "summit"}
+    summit_parts = [p for p in tile.parts if p.feature_id in summit_ids or p.feature_id - 1 in summit_ids]
+    assert summit_parts, [p.feature_id for p in tile.parts]
+    roof = tile.positions[:, 2].max()
+    assert 1900.0 < roof < 2100.0
+
+
+def test_elevation_follows_the_formula_and_says_none_off_the_data(
+    shared_client: relief.Client, shared_scene: HillScene
+) -> None:
+    points = [PEAK, (10.1, 45.4), (10.4, 45.1), (30.0, 10.0)]
+    heights = shared_client.elevation(points)
+    assert len(heights) == 4
+    for (lon, lat), h in zip(points[:3], heights[:3]):
+        assert h is not None and h == pytest.approx(shared_scene.height(lon, lat), abs=1.0)
+    assert heights[3] is None
+    assert shared_client.elevation([PEAK], source="dem")[0] == pytest.approx(2000.0, abs=1.0)
+    assert shared_client.elevation([]) == []
+
+
+# ---------------------------------------------------------------- view
+
+
+def test_render_answers_a_png_frame(shared_client: relief.Client, tmp_path: Path) -> None:
+    frame = shared_client.render(CAMERA, size=SIZE)
+    assert (frame.width, frame.height) == SIZE
+    assert frame.format is relief.ImageFormat.PNG
+    assert frame.image.startswith(b"\x89PNG")
+    assert frame.generation >= 1
+    assert frame.camera == CAMERA
+    assert frame.passes and all(p.elapsed_ms >= 0 for p in frame.passes)
+    assert "encode png" in frame.pass_ms
+    pixels = frame.to_numpy()
+    assert pixels.shape == (SIZE[1], SIZE[0], 4) and pixels.dtype == np.uint8
+    assert pixels[..., :3].std() > 1.0, "not a blank image"
+    path = frame.save(tmp_path / "view.png")
+    with Image.open(path) as img:
+        assert img.size == SIZE
+        assert np.array_equal(np.asarray(img.convert("RGBA")), pixels)
+
+
+def test_render_answers_raw_rgba_too(shared_client: relief.Client, tmp_path: Path) -> None:
+    png = shared_client.render(CAMERA, size=SIZE)
+    raw = shared_client.render(CAMERA, size=SIZE, format="rgba8")
+    assert raw.format is relief.ImageFormat.RGBA8
+    assert len(raw.image) == SIZE[0] * SIZE[1] * 4
+    diff = np.abs(raw.to_numpy().astype(int) - png.to_numpy().astype(int))
+    assert diff.max() <= 2, "the same view, whichever way it travels"
+    assert raw.png().startswith(b"\x89PNG")
+    with Image.open(raw.save(tmp_path / "raw.png")) as img:
+        assert img.size == SIZE
+
+
+def test_frames_stream_the_current_view(shared_client: relief.Client) -> None:
+    with shared_client.frames(CAMERA, size=SIZE, max_fps=5, timeout=120) as frames:
+        first = next(frames)
+    assert isinstance(first, relief.Frame)
+    assert (first.width, first.height) == SIZE
+    assert first.camera == CAMERA
+    assert first.to_numpy().shape == (SIZE[1], SIZE[0], 4)
+
+
+def test_views_navigate_and_pick(shared_client: relief.Client) -> None:
+    view = shared_client.open_view(CAMERA)
+    assert view.view_id and view.camera == CAMERA and not view.follow_scene_camera
+    updated = shared_client.update_view(view.view_id, interactive=True)
+    assert updated.interactive
+    updated = shared_client.update_view(view.view_id, interactive=False)
+    assert not updated.interactive
+    with shared_client.frames(size=SIZE, view_id=view.view_id, timeout=120) as frames:
+        first = next(frames)
+    assert first.camera == CAMERA
+    picked = shared_client.pick(view.view_id, 0.5, 0.5)
+    assert picked.hit
+    assert 10.0 < picked.lon_deg < 10.5 and 45.0 < picked.lat_deg < 45.5
+    assert picked.ground_height_m is not None
+    assert picked.ground_height_m == pytest.approx(hill(picked.lon_deg, picked.lat_deg), abs=5.0)
+    assert picked.distance_m > 0
+    sky = shared_client.pick(view.view_id, 0.5, 0.0)
+    assert isinstance(sky.hit, bool)
+    moved = shared_client.navigate(relief.Orbit(heading_deg=30.0), view_id=view.view_id)
+    assert math.isclose((moved.heading_deg - CAMERA.heading_deg) % 360.0, 30.0, abs_tol=1.0)
+    closer = shared_client.navigate(relief.Zoom(factor=0.5), view_id=view.view_id)
+    assert closer.altitude_m < moved.altitude_m
+    shared_client.navigate(relief.Move(forward=0.1, turn_deg=5.0), view_id=view.view_id)
+    shared_client.navigate(relief.Pan(0.5, 0.5, 0.45, 0.5), view_id=view.view_id)
+
+
+def test_the_scene_camera_can_be_set_and_flown(relief_client: relief.Client) -> None:
+    start = relief_client.camera()
+    assert start.lon_deg == pytest.approx(10.25) and start.altitude_m == pytest.approx(9000.0)
+    assert start.pitch_deg == pytest.approx(-45.0)
+    wanted = relief.Camera(10.3, 45.2, 5000.0, heading_deg=90.0, pitch_deg=-20.0)
+    assert relief_client.set_camera(wanted) == wanted
+    assert relief_client.camera() == wanted
+    frame = relief_client.render(size=SIZE)
+    assert frame.camera == wanted
+    flown = relief_client.navigate(relief.FlyTo("dem"))
+    assert 10.0 <= flown.lon_deg <= 10.5
+    assert relief_client.camera() == flown
