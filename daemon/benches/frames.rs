@@ -186,6 +186,8 @@ struct EditToFrame {
     page_received: Vec<f64>,
     page_shown: Vec<f64>,
     daemon: Vec<f64>,
+    /// The frame's passes (name, milliseconds of each edit's frame).
+    passes: Vec<(String, Vec<f64>)>,
 }
 
 async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) -> anyhow::Result<EditToFrame> {
@@ -208,7 +210,8 @@ async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) ->
     let mut stream = views(&channel).stream_frames(request).await?.into_inner();
     let mut generation = stream.next().await.ok_or_else(|| anyhow::anyhow!("no first frame"))??.generation;
     let mut rng = relief_examples::Lcg(7);
-    let mut out = EditToFrame { grpc: vec![], page_received: vec![], page_shown: vec![], daemon: vec![] };
+    let mut out =
+        EditToFrame { grpc: vec![], page_received: vec![], page_shown: vec![], daemon: vec![], passes: vec![] };
     let events = edit::Events::follow(channel.clone()).await?;
     for _ in 0..edits {
         tokio::time::sleep(Duration::from_millis(300)).await;
@@ -226,6 +229,12 @@ async fn edit_to_frame(daemon: &Reliefd, dem: &std::path::Path, edits: usize) ->
             }
         };
         out.grpc.push(started.elapsed().as_secs_f64() * 1e3);
+        for p in &frame.passes {
+            match out.passes.iter_mut().find(|(n, _)| *n == p.pass) {
+                Some((_, v)) => v.push(p.elapsed_ms),
+                None => out.passes.push((p.pass.clone(), vec![p.elapsed_ms])),
+            }
+        }
         generation = frame.generation;
         if let Some((_, g)) = events.generations().into_iter().find(|(n, _)| *n == generation) {
             out.daemon.push(g.elapsed_ms);
@@ -273,8 +282,10 @@ async fn run() -> anyhow::Result<()> {
         })
         .unwrap_or_default();
     println!("machine: {cpu}, {} cores", std::thread::available_parallelism().map_or(0, std::num::NonZero::get));
-    let probe = views(&channel).render(pb::RenderRequest { width: 64, height: 36, ..Default::default() }).await?;
-    println!("device: {:?} passes, generation {}", probe.into_inner().passes.len(), 1);
+    // Warm up: the device opened, the first tiles built.
+    views(&channel).render(pb::RenderRequest { width: 64, height: 36, ..Default::default() }).await?;
+    let gpu = std::path::Path::new("/dev/nvidia0").exists() || std::path::Path::new("/dev/dri").exists();
+    println!("renderer: {}", if gpu { "a GPU (wgpu's first adapter)" } else { "Mesa lavapipe (no GPU here)" });
 
     let edits = env("RELIEF_BENCH_EDITS", 25) as usize;
     if edits > 0 {
@@ -286,6 +297,9 @@ async fn run() -> anyhow::Result<()> {
         if !e.page_received.is_empty() {
             row("browser page: frame received by its script", e.page_received);
             row("browser page: image decoded and shown", e.page_shown);
+        }
+        for (pass, ms) in e.passes {
+            row(&format!("of which the frame's pass '{pass}'"), ms);
         }
     }
 

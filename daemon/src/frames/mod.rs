@@ -91,6 +91,8 @@ struct Slot {
     tx: watch::Sender<Published>,
     /// The generation the slot was last rendered (or failed) at.
     done_at: Mutex<Option<u64>>,
+    /// The device is drawing it now.
+    drawing: std::sync::atomic::AtomicBool,
 }
 
 /// Counters for the scene state and the benchmarks.
@@ -123,6 +125,16 @@ pub struct Subscription {
 impl Subscription {
     pub fn key(&self) -> &ViewKey {
         &self.slot.key
+    }
+
+    /// The view has no frame yet.
+    pub fn is_waiting(&self) -> bool {
+        self.frames.borrow().is_none()
+    }
+
+    /// The device is drawing the view now.
+    pub fn is_drawing(&self) -> bool {
+        self.slot.drawing.load(std::sync::atomic::Ordering::Relaxed)
     }
 }
 
@@ -172,7 +184,7 @@ impl FrameHub {
             }
         }
         let (tx, frames) = watch::channel(None);
-        let slot = Arc::new(Slot { key, tx, done_at: Mutex::new(None) });
+        let slot = Arc::new(Slot { key, tx, done_at: Mutex::new(None), drawing: false.into() });
         slots.push(Arc::clone(&slot));
         drop(guard);
         self.wake.notify_one();
@@ -219,6 +231,7 @@ impl FrameHub {
                 continue;
             };
             let (viewer, key) = (Arc::clone(&self.viewer), slot.key);
+            slot.drawing.store(true, std::sync::atomic::Ordering::Relaxed);
             let job = tokio::task::spawn_blocking(move || {
                 let rendered = viewer.draw(Some(key.camera), key.width, key.height, key.clipmap, key.quality)?;
                 Ok::<_, ViewError>(HubFrame::new(rendered))
@@ -244,6 +257,7 @@ impl FrameHub {
                     Err(Arc::new(ViewError::NoDevice(format!("the render task failed: {e}"))))
                 }
             };
+            slot.drawing.store(false, std::sync::atomic::Ordering::Relaxed);
             slot.tx.send_replace(Some(published));
         }
     }

@@ -170,10 +170,8 @@ async fn run(
                 }
             }
             // Either way the view left has done its part.
-            let frame = match (newest(&mut sub), previous.take().as_mut().and_then(newest)) {
-                (Some(Ok(frame)), _) | (_, Some(Ok(frame))) => frame,
-                _ => continue,
-            };
+            let left = previous.take().as_mut().and_then(newest);
+            let ((Some(Ok(frame)), _) | (_, Some(Ok(frame)))) = (newest(&mut sub), left) else { continue };
             if spec.png && !frame.is_png_encoded() {
                 let job = Arc::clone(&frame);
                 // An encoding error shows when the transport asks for it.
@@ -199,8 +197,11 @@ async fn run(
                         Ok(next) => {
                             let left = std::mem::replace(&mut sub, next);
                             // The view left is kept while it waits for its
-                            // first frame, unless an older one already is.
-                            if previous.is_none() && left.frames.borrow().is_none() {
+                            // first frame: the one being drawn, else the
+                            // oldest waiting (it is next in turn).
+                            let keep = left.is_waiting()
+                                && (left.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
+                            if keep {
                                 previous = Some(left);
                             }
                         }
