@@ -123,6 +123,29 @@ async fn previous_changed(previous: &mut Option<Subscription>) -> bool {
     }
 }
 
+/// Moves the stream to the view of its camera now. The view left is kept
+/// while it waits for its first frame: the one being drawn, else the
+/// oldest waiting (it is next in turn).
+fn follow(
+    hub: &FrameHub,
+    spec: &StreamSpec,
+    cameras: &mut Cameras,
+    sub: &mut Subscription,
+    previous: &mut Option<Subscription>,
+) -> Result<(), ViewError> {
+    let key = spec.key(cameras.current());
+    if key == *sub.key() {
+        return Ok(());
+    }
+    let left = std::mem::replace(sub, hub.subscribe(key, false)?);
+    let keep = left.is_waiting()
+        && (left.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
+    if keep {
+        *previous = Some(left);
+    }
+    Ok(())
+}
+
 /// Sends the newest frame whenever the viewer has room, following the
 /// camera. A camera that moves faster than frames render would leave every
 /// view it passes through before its frame is ready: the stream keeps the
@@ -157,9 +180,20 @@ async fn run(
             None => false,
         };
         if unsent {
-            // Room first, then the rate limit, then the newest frame.
+            // Room first (following the camera while the viewer is slow),
+            // then the rate limit, then the newest frame.
             let permit = tokio::select! {
                 p = tx.reserve() => match p { Ok(p) => p, Err(_) => return },
+                alive = cameras.changed() => {
+                    if !alive {
+                        return;
+                    }
+                    if let Err(e) = follow(&hub, &spec, &mut cameras, &mut sub, &mut previous) {
+                        let _ = tx.send(Err(Arc::new(e))).await;
+                        return;
+                    }
+                    continue;
+                }
                 () = shutdown.cancelled() => return,
             };
             if let Some((_, at)) = &last_sent {
@@ -191,25 +225,9 @@ async fn run(
                 if !alive {
                     return;
                 }
-                let key = spec.key(cameras.current());
-                if key != *sub.key() {
-                    match hub.subscribe(key, false) {
-                        Ok(next) => {
-                            let left = std::mem::replace(&mut sub, next);
-                            // The view left is kept while it waits for its
-                            // first frame: the one being drawn, else the
-                            // oldest waiting (it is next in turn).
-                            let keep = left.is_waiting()
-                                && (left.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
-                            if keep {
-                                previous = Some(left);
-                            }
-                        }
-                        Err(e) => {
-                            let _ = tx.send(Err(Arc::new(e))).await;
-                            return;
-                        }
-                    }
+                if let Err(e) = follow(&hub, &spec, &mut cameras, &mut sub, &mut previous) {
+                    let _ = tx.send(Err(Arc::new(e))).await;
+                    return;
                 }
             }
             () = tx.closed() => return,
