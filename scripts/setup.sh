@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian packages relief needs, once (Chromium and curl are for
-# the tests of the browser viewer and the HTTP transport). Safe to run again: it only
+# the tests of the browser viewer and the HTTP transport; python3-venv for the
+# Python client's tests). Safe to run again: it only
 # calls apt-get when something is missing. Retries once, because an install on
 # this kind of machine has been seen to fail half way (STACK.md).
 set -euo pipefail
@@ -9,6 +10,7 @@ packages=(
   libgdal-dev gdal-bin python3-gdal libproj-dev proj-bin
   mesa-vulkan-drivers libvulkan1 pkg-config
   chromium curl
+  python3-venv
 )
 
 missing=()

@@ -1,18 +1,27 @@
 #!/usr/bin/env bash
-# Builds everything and runs every test, then prints one closing line with
-# the totals over all test binaries ("N passed, N failed, N ignored").
+# Builds everything and runs every test: the Rust workspace, then the Python
+# client's tests against the reliefd just built. Prints one closing line with
+# the totals over all of them ("N passed, N failed, N skipped").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Mesa's lavapipe wants a private runtime folder (it only warns without one).
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
 
 log=$(mktemp)
-trap 'rm -f "$log"' EXIT
+pylog=$(mktemp)
+trap 'rm -f "$log" "$pylog"' EXIT
 cargo build --workspace --bins
 status=0
 cargo test --workspace 2>&1 | tee "$log" || status=$?
 # Benches must build (they never run in CI: timings are not assertions).
 cargo test --workspace --benches --no-run
-awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) g += $i } }
-     END { printf "%d passed, %d failed, %d skipped\n", p, f, g }' "$log"
+# The Python client (clients/python) and its example, against this reliefd.
+RELIEF_BIN=target/debug/reliefd bash clients/python/scripts/test.sh 2>&1 | tee "$pylog" || status=$?
+{
+  awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) g += $i } }
+       END { printf "%d %d %d\n", p, f, g }' "$log"
+  # pytest's summary: "==== 3 failed, 38 passed, 1 skipped in 9.1s ====".
+  awk '/^=+ .* in [0-9.]+s/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^(failed|errors?)/) f += $i; if ($(i+1) ~ /^skipped/) g += $i } }
+       END { printf "%d %d %d\n", p, f, g }' "$pylog"
+} | awk '{ p += $1; f += $2; g += $3 } END { printf "%d passed, %d failed, %d skipped\n", p, f, g }'
 exit "$status"

@@ -28,6 +28,7 @@ def test_a_saved_dem_edit_reaches_heights_and_frames(relief_client: relief.Clien
     before = client.state()
     assert before.source("dem").status is relief.SourceStatus.READY, before.source("dem").error
     [peak_before] = client.elevation([PEAK])
+    assert peak_before is not None, "the summit has data"
     assert peak_before == pytest.approx(relief_scene.height(*PEAK), abs=1.0)
     frame_before = client.render(CAMERA, size=SIZE)
 

@@ -54,8 +54,11 @@ impl Pose {
         if !(-90.0..=90.0).contains(&self.pitch_deg) {
             return bad("pitch_deg", format!("{} is not from -90 to 90", self.pitch_deg));
         }
-        if !(-360.0..=360.0).contains(&self.heading_deg) || !(-180.0..=180.0).contains(&self.roll_deg) {
-            return bad("heading_deg", "heading is from -360 to 360, roll from -180 to 180".into());
+        if !(-360.0..=360.0).contains(&self.heading_deg) {
+            return bad("heading_deg", format!("{} is not from -360 to 360", self.heading_deg));
+        }
+        if !(-180.0..=180.0).contains(&self.roll_deg) {
+            return bad("roll_deg", format!("{} is not from -180 to 180", self.roll_deg));
         }
         if !(1.0..=170.0).contains(&self.vertical_fov_deg) {
             return bad("vertical_fov_deg", format!("{} is not from 1 to 170 degrees", self.vertical_fov_deg));

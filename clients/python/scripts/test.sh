@@ -15,8 +15,8 @@ cd "$(dirname "$0")/../../.."
 repo=$(pwd)
 venv=target/python
 
-# Mesa's lavapipe wants a private runtime folder (it only warns without one).
-export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
+# (Without XDG_RUNTIME_DIR, relief.testing gives each reliefd a private one
+# for Mesa's lavapipe and removes it afterwards.)
 # Bytecode caches beside the venv, not in the work tree.
 export PYTHONPYCACHEPREFIX="$repo/$venv/pycache"
 export PIP_DISABLE_PIP_VERSION_CHECK=1
@@ -38,5 +38,6 @@ rm -rf "$work/relief/build" "$work/relief/src/"*.egg-info
 "$venv/bin/python" -m pip install --quiet "$work/relief[test]"
 
 status=0
-"$venv/bin/python" -m pytest -p no:cacheprovider -ra clients/python/tests examples/python "$@" || status=$?
+"$venv/bin/python" -m pytest -p no:cacheprovider -ra --rootdir "$repo" \
+  clients/python/tests examples/python "$@" || status=$?
 exit "$status"

@@ -18,7 +18,7 @@ REPO = Path(__file__).resolve().parents[3]
 
 @pytest.fixture(scope="module")
 def shared_scene(tmp_path_factory: pytest.TempPathFactory) -> HillScene:
-    return write_hill_scene(tmp_path_factory.mktemp("shared") / "scene")
+    return write_hill_scene(tmp_path_factory.mktemp("shared") / "scene", extra_manifest="[effects]\nlighting = {}\n")
 
 
 @pytest.fixture(scope="module")

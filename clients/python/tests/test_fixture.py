@@ -67,6 +67,19 @@ class Collector:
         self._thread.join(5.0)
 
 
+def until(client: relief.Client, check: Callable[[], bool], timeout: float = 30.0) -> None:
+    """Waits, generation by generation, until `check()` holds."""
+    deadline = time.monotonic() + timeout
+    while not check():
+        left = deadline - time.monotonic()
+        assert left > 0, "not reached in time"
+        try:
+            client.wait_for_generation(client.state().generation + 1, timeout=left)
+        except relief.DeadlineExceeded:
+            assert check(), "not reached in time"
+            return
+
+
 def test_the_fixture_serves_the_hill_scene(
     relief_client: relief.Client, relief_scene: HillScene, reliefd: Reliefd
 ) -> None:
@@ -136,9 +149,15 @@ def test_raster_window_edits_become_a_generation_with_dirty_extents(
         after = relief_client.wait_for_generation(changed.generation, timeout=10)
         assert after.source("dem").version > before.source("dem").version
         assert relief_client.elevation([PEAK])[0] == pytest.approx(relief_scene.height(*PEAK) + 250.0, abs=1.0)
-        # A second edit, written whole: the generation after it is the new data.
+        # A second edit, written whole: the next generation that names the
+        # DEM serves the new data.
         write_window(relief_scene.dem, col - 1, row - 1, np.full((2, 2), 100.0))
-        relief_client.wait_for_generation(after.generation + 1, timeout=30)
+        again = events.wait_for(
+            lambda e: isinstance(e, relief.GenerationEvent)
+            and e.generation > changed.generation
+            and "dem" in e.changed_sources
+        )
+        relief_client.wait_for_generation(again.generation, timeout=10)
         assert relief_client.elevation([PEAK])[0] == pytest.approx(100.0, abs=1.0)
     finally:
         events.close()
@@ -157,11 +176,14 @@ def test_shapefile_edits_in_place_reach_feature_tiles(relief_client: relief.Clie
     summit = next(i for i, (name, _, _) in enumerate(PARCELS) if name == "summit")
     x, y = move_vertex(relief_scene.parcels, summit, 0, -0.01, 0.0)
     assert (x, y) == pytest.approx((10.22, 45.23))
+
+    def west_edge() -> float:
+        ring = names()["summit"]["geometry"]
+        assert isinstance(ring, dict)
+        return float(np.asarray(ring["coordinates"], dtype=float).reshape(-1, 2)[:, 0].min())
+
     state = relief_client.wait_for_generation(state.generation + 1, timeout=30)
-    ring = names()["summit"]["geometry"]
-    assert isinstance(ring, dict)
-    coords = np.asarray(ring["coordinates"], dtype=float).reshape(-1, 2)
-    assert coords[:, 0].min() == pytest.approx(10.22)
+    until(relief_client, lambda: west_edge() == pytest.approx(10.22))
     # Add a feature, as QGIS appends one.
     fid = add_feature(
         relief_scene.parcels,
@@ -171,7 +193,7 @@ def test_shapefile_edits_in_place_reach_feature_tiles(relief_client: relief.Clie
     assert fid == len(PARCELS)
     assert feature_count(relief_scene.parcels) == len(PARCELS) + 1
     relief_client.wait_for_generation(state.generation + 1, timeout=30)
-    assert "hut" in names()
+    until(relief_client, lambda: "hut" in names())
     assert relief_client.state().source("parcels").status is relief.SourceStatus.READY
 
 
@@ -189,8 +211,9 @@ def test_a_broken_file_is_a_source_error_and_the_last_good_version_stays(
         assert state.source("dem").status is relief.SourceStatus.ERROR
         assert state.source("dem").error
         assert relief_client.elevation([PEAK])[0] == pytest.approx(2000.0, abs=1.0), "last good version"
+        # Restored as it was: the source is healthy again (its data did not
+        # change, so no generation needs to name it).
         relief_scene.dem.write_bytes(good)
-        events.wait_for(lambda e: isinstance(e, relief.GenerationEvent) and "dem" in e.changed_sources)
         deadline = time.monotonic() + 30
         while relief_client.state().source("dem").status is not relief.SourceStatus.READY:
             assert time.monotonic() < deadline, relief_client.state().source("dem").error

@@ -1,5 +1,5 @@
 """`mypy --strict` over the package (the generated stubs excluded by the
-configuration in pyproject.toml)."""
+configuration in pyproject.toml), its tests and the example users copy."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1]
+EXAMPLES = PACKAGE.parents[1] / "examples" / "python"
 
 
 def _cache_dir() -> str:
@@ -37,6 +38,8 @@ def test_the_package_is_mypy_strict_clean() -> None:
         "--cache-dir",
         _cache_dir(),
         "src/relief",
+        "tests",
+        *(str(p) for p in sorted(EXAMPLES.glob("*.py"))),
     ]
     result = subprocess.run(command, cwd=PACKAGE, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, f"{' '.join(command)}\n{result.stdout}{result.stderr}"

@@ -106,7 +106,11 @@ impl Views {
     }
 
     pub fn get(&self, id: &str) -> Result<Arc<OpenView>, ViewError> {
-        let view = self.open_views().get(id).cloned().ok_or_else(|| ViewError::UnknownView(id.to_owned()))?;
+        let mut open = self.open_views();
+        // Idle views go here too, with the frame each holds.
+        open.retain(|_, v| !v.idle());
+        let view = open.get(id).cloned().ok_or_else(|| ViewError::UnknownView(id.to_owned()))?;
+        drop(open);
         view.touch();
         Ok(view)
     }

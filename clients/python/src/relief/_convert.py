@@ -77,7 +77,10 @@ _INSTANCE = {
     pb.INSTANCE_KIND_BILLBOARD: InstanceKind.BILLBOARD,
 }
 
-_FORMAT_TO_PB = {ImageFormat.PNG: pb.IMAGE_FORMAT_PNG, ImageFormat.RGBA8: pb.IMAGE_FORMAT_RGBA8}
+_FORMAT_TO_PB: dict[ImageFormat, pb.ImageFormat] = {
+    ImageFormat.PNG: pb.IMAGE_FORMAT_PNG,
+    ImageFormat.RGBA8: pb.IMAGE_FORMAT_RGBA8,
+}
 
 # ---------------------------------------------------------------- to relief.v1
 
@@ -113,7 +116,7 @@ def quality_to_pb(q: Quality | None) -> pb.QualityOverrides | None:
     return out
 
 
-def image_format(f: ImageFormat | str) -> int:
+def image_format(f: ImageFormat | str) -> pb.ImageFormat:
     try:
         return _FORMAT_TO_PB[ImageFormat(f)]
     except ValueError:
@@ -129,7 +132,7 @@ def render_request(
     camera: Camera | None, size: tuple[int, int], fmt: ImageFormat | str, quality: Quality | None
 ) -> pb.RenderRequest:
     width, height = _size(size)
-    r = pb.RenderRequest(width=width, height=height, format=image_format(fmt))  # type: ignore[arg-type]
+    r = pb.RenderRequest(width=width, height=height, format=image_format(fmt))
     if camera is not None:
         r.camera.CopyFrom(camera_to_pb(camera))
     q = quality_to_pb(quality)
@@ -150,7 +153,7 @@ def stream_request(
     r = pb.StreamFramesRequest(
         width=width,
         height=height,
-        format=image_format(fmt),  # type: ignore[arg-type]
+        format=image_format(fmt),
         max_fps=max_fps,
         view_id=view_id or "",
     )

@@ -32,10 +32,11 @@ from relief.types import (
     Quality,
     SceneState,
     Tile,
+    TileBase,
     View,
 )
 
-__all__ = ["AsyncClient", "AsyncStream", "connect"]
+__all__ = ["AsyncClient", "AsyncStream", "Connecting", "connect"]
 
 T = TypeVar("T")
 TileT = TypeVar("TileT", bound=Tile)
@@ -259,7 +260,7 @@ class AsyncClient:
         x: int,
         y: int,
         *,
-        expect: type[Tile] | None = None,
+        expect: type[TileBase] | None = None,
         quality: Quality | None = None,
         timeout: float | None = None,
     ) -> Tile:
@@ -281,7 +282,7 @@ class AsyncClient:
         return _convert.elevations(r)
 
 
-class _Connecting:
+class Connecting:
     """What `connect()` answers: `async with` it, or await it."""
 
     def __init__(self, address: str | None, timeout: float, connect_timeout: float) -> None:
@@ -316,8 +317,8 @@ class _Connecting:
 
 def connect(
     address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S, connect_timeout: float = 10.0
-) -> _Connecting:
+) -> Connecting:
     """An asyncio client connected to reliefd at `address`:
     `async with relief.aio.connect(addr) as client:` or
     `client = await relief.aio.connect(addr)`."""
-    return _Connecting(address, timeout, connect_timeout)
+    return Connecting(address, timeout, connect_timeout)

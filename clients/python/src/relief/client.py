@@ -28,6 +28,7 @@ from relief.types import (
     Quality,
     SceneState,
     Tile,
+    TileBase,
     View,
 )
 
@@ -274,7 +275,7 @@ class Client:
         x: int,
         y: int,
         *,
-        expect: type[Tile] | None = None,
+        expect: type[TileBase] | None = None,
         quality: Quality | None = None,
         timeout: float | None = None,
     ) -> Tile:
@@ -300,7 +301,7 @@ class Client:
         return _convert.elevations(r)
 
 
-def _expect(tile: Tile, expect: type[Tile] | None) -> Tile:
+def _expect(tile: Tile, expect: type[TileBase] | None) -> Tile:
     if expect is not None and not isinstance(tile, expect):
         raise ReliefError(
             f"tile {tile.level}/{tile.x}/{tile.y} of source '{tile.source_id}' holds {tile.kind.value}, "
