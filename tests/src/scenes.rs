@@ -2,6 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
+use relief_proto::v1 as pb;
+
 use crate::fixtures;
 
 /// The hill DEM (`dem`) and an "orthophoto" tinted by height (`tint`), with
@@ -18,4 +20,17 @@ pub fn hill(dir: &Path, effects: &str) -> anyhow::Result<PathBuf> {
             "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[[source]]\nid = \"tint\"\nkind = \"gdal\"\npath = \"tint.tif\"\n\n[layers]\nheight = \"dem\"\ncolor = \"tint\"\n{effects}\n[camera]\nlon_deg = 10.25\nlat_deg = 45.1\naltitude_m = 9000\npitch_deg = -45\n"
         ),
     )
+}
+
+/// A camera with no roll and a 50 degree field of view.
+pub fn camera(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> pb::Camera {
+    pb::Camera {
+        lon_deg: lon,
+        lat_deg: lat,
+        altitude_m: alt,
+        heading_deg: heading,
+        pitch_deg: pitch,
+        roll_deg: 0.0,
+        vertical_fov_deg: 50.0,
+    }
 }

@@ -12,24 +12,13 @@ use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_tests::daemon::Reliefd;
+use relief_tests::scenes::camera;
 use relief_tests::{edit, fixtures, scenes};
 use tokio_stream::StreamExt;
 use tonic::transport::Channel;
 
 /// How long a test waits for a frame (lavapipe, two cores, debug build).
 const FRAME_TIMEOUT: Duration = Duration::from_secs(60);
-
-fn camera(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> pb::Camera {
-    pb::Camera {
-        lon_deg: lon,
-        lat_deg: lat,
-        altitude_m: alt,
-        heading_deg: heading,
-        pitch_deg: pitch,
-        roll_deg: 0.0,
-        vertical_fov_deg: 50.0,
-    }
-}
 
 fn views(channel: &Channel) -> ViewServiceClient<Channel> {
     ViewServiceClient::new(channel.clone()).max_decoding_message_size(64 << 20)
