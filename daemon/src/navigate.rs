@@ -62,6 +62,15 @@ fn pixel_of((fx, fy): (f64, f64), width: u32, height: u32) -> (f64, f64) {
     )
 }
 
+/// The world point a frame drew at a fraction of its image, from its depth;
+/// None for sky.
+fn drawn_at(frame: &HubFrame, at: (f64, f64)) -> Option<DVec3> {
+    let fr = &frame.rendered.frame;
+    let (px, py) = pixel_of(at, fr.width, fr.height);
+    let depth = fr.depth[py as usize * fr.width as usize + px as usize];
+    fr.view.world_at(px, py, fr.width, fr.height, depth)
+}
+
 /// Where a gesture's rays come from: the last frame's view and depth, or
 /// the camera's own view over the ground level.
 struct Scene<'a> {
@@ -91,15 +100,9 @@ impl Scene<'_> {
     /// The ground drawn under a fraction of the image: from the frame's
     /// depth, else where the ray meets the ground level.
     fn point(&self, at: (f64, f64)) -> Option<DVec3> {
-        if let Some(f) = self.frame {
-            let fr = &f.rendered.frame;
-            let (px, py) = self.pixel(at);
-            let depth = fr.depth[py as usize * fr.width as usize + px as usize];
-            if let Some(p) = fr.view.world_at(px, py, fr.width, fr.height, depth) {
-                return Some(p);
-            }
-        }
-        self.surface.intersect(self.view.eye, self.ray(at), self.ground_m)
+        self.frame
+            .and_then(|f| drawn_at(f, at))
+            .or_else(|| self.surface.intersect(self.view.eye, self.ray(at), self.ground_m))
     }
 }
 
@@ -176,11 +179,8 @@ pub fn navigate(
 /// The point of the scene drawn at a fraction of `frame`, None for sky.
 /// Blocking (it samples the height layer there).
 pub fn pick(snap: &SceneSnapshot, frame: &HubFrame, at: (f64, f64)) -> Result<Option<Picked>, ViewError> {
-    let at = fraction("x", at)?;
+    let Some(world) = drawn_at(frame, fraction("x", at)?) else { return Ok(None) };
     let fr = &frame.rendered.frame;
-    let (px, py) = pixel_of(at, fr.width, fr.height);
-    let depth = fr.depth[py as usize * fr.width as usize + px as usize];
-    let Some(world) = fr.view.world_at(px, py, fr.width, fr.height, depth) else { return Ok(None) };
     let surface = Surface::new(snap.grid.clone());
     let [x, y, h] = surface.grid_point(world);
     let (lon, lat) = to_geodetic(snap, x, y).map_err(|e| bad("x", e))?;

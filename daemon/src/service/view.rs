@@ -76,11 +76,16 @@ fn frame_request(
             return Err(invalid_field(field, format!("{v} is not from 1 to {MAX_IMAGE_SIDE} pixels")));
         }
     }
-    let camera = camera.map(convert::camera_from);
-    if let Some(c) = &camera {
-        crate::camera::pose(&snap, c).map_err(|e| Status::invalid_argument(e.to_string()))?;
-    }
+    let camera = camera.map(|c| checked_camera(&snap, c)).transpose()?;
     Ok(FrameRequest { camera, width, height, png, clipmap, quality })
+}
+
+/// A request's camera in relief's types, checked against the scene (every
+/// field in range, placeable in the grid's CRS).
+fn checked_camera(snap: &crate::graph::SceneSnapshot, c: &Camera) -> Result<crate::view::Camera, Status> {
+    let camera = convert::camera_from(c);
+    crate::camera::pose(snap, &camera).map_err(|e| Status::invalid_argument(e.to_string()))?;
+    Ok(camera)
 }
 
 /// A frame as relief.v1 answers it, the PNG encoded now if not yet.
@@ -184,11 +189,7 @@ impl ViewCalls {
     pub fn open_view(&self, r: &OpenViewRequest) -> Result<ViewState, Status> {
         let scene_camera = self.viewer().camera();
         let camera = match &r.camera {
-            Some(c) => {
-                let c = convert::camera_from(c);
-                crate::camera::pose(&self.scene.snapshot(), &c).map_err(|e| Status::invalid_argument(e.to_string()))?;
-                c
-            }
+            Some(c) => checked_camera(&self.scene.snapshot(), c)?,
             None => scene_camera,
         };
         let settings = ViewSettings { camera, follow_scene_camera: r.follow_scene_camera, interactive: false };
@@ -198,15 +199,7 @@ impl ViewCalls {
 
     pub fn update_view(&self, r: &UpdateViewRequest) -> Result<ViewState, Status> {
         let view = self.hub.views.get(&r.view_id).map_err(|e| status(&e))?;
-        let camera = r
-            .camera
-            .as_ref()
-            .map(|c| {
-                let c = convert::camera_from(c);
-                crate::camera::pose(&self.scene.snapshot(), &c).map(|_| c)
-            })
-            .transpose()
-            .map_err(|e| Status::invalid_argument(e.to_string()))?;
+        let camera = r.camera.as_ref().map(|c| checked_camera(&self.scene.snapshot(), c)).transpose()?;
         view.update(|s| {
             if let Some(c) = camera {
                 s.camera = c;
