@@ -1,7 +1,7 @@
 # The two commands the README starts with. Each installs what is missing
 # (Debian packages through apt-get, then the Rust build) and runs.
 
-.PHONY: demo test setup bench
+.PHONY: demo test setup bench qgis-plugin
 
 setup:
 	bash scripts/setup.sh
@@ -12,6 +12,11 @@ demo: setup
 
 test: setup
 	bash scripts/test.sh
+
+# The QGIS plugin's installable zip (QGIS: Plugins > Manage and Install
+# Plugins > Install from ZIP): target/qgis/relief_qgis.zip.
+qgis-plugin:
+	python3 clients/qgis/scripts/package.py
 
 bench: setup
 	cargo bench -p relief-daemon --bench pyramid

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian packages relief needs, once (Chromium and curl are for
 # the tests of the browser viewer and the HTTP transport; python3-venv for the
-# Python client's tests). Safe to run again: it only
+# Python client's tests; qgis and python3-qgis for the QGIS plugin's tests,
+# which run PyQGIS headless). Safe to run again: it only
 # calls apt-get when something is missing. Retries once, because an install on
 # this kind of machine has been seen to fail half way (STACK.md).
 set -euo pipefail
@@ -11,6 +12,7 @@ packages=(
   mesa-vulkan-drivers libvulkan1 pkg-config
   chromium curl
   python3-venv
+  qgis python3-qgis
 )
 
 missing=()

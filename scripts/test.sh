@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Builds everything and runs every test: the Rust workspace, then the Python
-# client's tests against the reliefd just built. Prints one closing line with
-# the totals over all of them ("N passed, N failed, N skipped").
+# Builds everything and runs every test: the Rust workspace, then the
+# Python client's tests and the QGIS plugin's tests against the reliefd
+# just built. Prints one closing line with the totals over all of them
+# ("N passed, N failed, N skipped").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # Mesa's lavapipe wants a private runtime folder (it only warns without one).
@@ -17,6 +18,8 @@ cargo test --workspace 2>&1 | tee "$log" || status=$?
 cargo test --workspace --benches --no-run
 # The Python client (clients/python) and its example, against this reliefd.
 RELIEF_BIN=target/debug/reliefd bash clients/python/scripts/test.sh 2>&1 | tee "$pylog" || status=$?
+# The QGIS plugin (clients/qgis) in headless PyQGIS, against this reliefd.
+RELIEF_BIN=target/debug/reliefd bash clients/qgis/scripts/test.sh 2>&1 | tee -a "$pylog" || status=$?
 {
   awk '/^test result:/ { for (i = 1; i <= NF; i++) { if ($(i+1) ~ /^passed/) p += $i; if ($(i+1) ~ /^failed/) f += $i; if ($(i+1) ~ /^ignored/) g += $i } }
        END { printf "%d %d %d\n", p, f, g }' "$log"

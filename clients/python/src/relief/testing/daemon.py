@@ -62,7 +62,8 @@ def find_reliefd() -> Path:
 
 
 class Reliefd:
-    """`reliefd serve MANIFEST --listen 127.0.0.1:0`, as a context manager.
+    """`reliefd serve MANIFEST --listen 127.0.0.1:0` (or `listen`), as a
+    context manager.
 
         with Reliefd(manifest) as daemon, daemon.connect() as client:
             ...
@@ -76,10 +77,14 @@ class Reliefd:
         args: tuple[str, ...] = (),
         env: dict[str, str] | None = None,
         start_timeout: float = 60.0,
+        listen: str = "127.0.0.1:0",
     ) -> None:
         self.manifest = Path(manifest)
         self.binary = Path(binary) if binary is not None else find_reliefd()
         self.args = args
+        #: Where it listens: port 0 takes a free one; give the `address` of
+        #: a stopped daemon to start it again where its clients look.
+        self.listen = listen
         self.start_timeout = start_timeout
         self._env = dict(os.environ if env is None else env)
         self._env.setdefault("RUST_LOG", os.environ.get("RELIEF_TEST_LOG", "info"))
@@ -97,14 +102,17 @@ class Reliefd:
 
     def start(self) -> Reliefd:
         """Starts reliefd and waits for its `listening on` line."""
-        if self._process is not None:
+        if self._process is not None and self._process.poll() is None:
             raise RuntimeError("reliefd is already started")
+        # Started again after stop(): a fresh process, the log goes on.
+        self._ready.clear()
+        self.address = ""
         if not self._env.get("XDG_RUNTIME_DIR"):
             # Mesa's lavapipe wants a private runtime folder.
             self._runtime_dir = tempfile.TemporaryDirectory(prefix="reliefd-xdg-")
             os.chmod(self._runtime_dir.name, 0o700)
             self._env["XDG_RUNTIME_DIR"] = self._runtime_dir.name
-        command = [str(self.binary), "serve", str(self.manifest), "--listen", "127.0.0.1:0", *self.args]
+        command = [str(self.binary), "serve", str(self.manifest), "--listen", self.listen, *self.args]
         self._process = subprocess.Popen(
             command,
             stdin=subprocess.DEVNULL,
@@ -174,6 +182,7 @@ class Reliefd:
         if self._runtime_dir is not None:
             self._runtime_dir.cleanup()
             self._runtime_dir = None
+            self._env.pop("XDG_RUNTIME_DIR", None)
         code = process.returncode
         return int(code) if code is not None else 0
 

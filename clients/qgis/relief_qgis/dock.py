@@ -1,0 +1,236 @@
+"""The dock: the live frame, the scene's generation and sources, and the
+controls (daemon address, Follow map, Reload now, pitch and heading). It
+only shows and asks: the plugin wires it to the daemon link."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from qgis.PyQt.QtCore import QSize, Qt, QTimer, pyqtSignal
+from qgis.PyQt.QtGui import QImage, QPixmap
+from qgis.PyQt.QtWidgets import (
+    QCheckBox,
+    QDockWidget,
+    QFormLayout,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QPushButton,
+    QSizePolicy,
+    QSlider,
+    QTreeWidget,
+    QTreeWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
+
+#: How each relief.v1.SourceStatus reads in the list.
+STATUS_TEXT = {
+    "SOURCE_STATUS_READY": "ready",
+    "SOURCE_STATUS_ERROR": "error (last good version shown)",
+    "SOURCE_STATUS_FAILED": "failed (nothing to show)",
+}
+
+
+class _Frame(QLabel):
+    """The frame, scaled to fit and keeping its aspect; says when its size
+    settles so the stream can be asked for frames of that size."""
+
+    resized = pyqtSignal(QSize)
+
+    def __init__(self) -> None:
+        super().__init__("waiting for the first frame")
+        self.setAlignment(Qt.AlignCenter)
+        self.setMinimumSize(160, 90)
+        self.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Expanding)
+        self._image = QImage()
+        self._settle = QTimer(self)
+        self._settle.setSingleShot(True)
+        self._settle.setInterval(300)
+        self._settle.timeout.connect(lambda: self.resized.emit(self.size()))
+
+    def show_image(self, image: QImage) -> None:
+        self._image = image
+        self._paint()
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
+        super().resizeEvent(event)
+        self._paint()
+        self._settle.start()
+
+    def _paint(self) -> None:
+        if not self._image.isNull():
+            pixmap = QPixmap.fromImage(self._image)
+            self.setPixmap(pixmap.scaled(self.size(), Qt.KeepAspectRatio, Qt.SmoothTransformation))
+
+
+class ReliefDock(QDockWidget):
+    """The relief dock. Signals say what the user asked for."""
+
+    address_changed = pyqtSignal(str)
+    follow_toggled = pyqtSignal(bool)
+    reload_clicked = pyqtSignal()
+    #: Pitch (degrees, negative: below the horizon) and heading, as set.
+    pitch_changed = pyqtSignal(float)
+    heading_changed = pyqtSignal(float)
+    frame_size_changed = pyqtSignal(int, int)
+    #: A slider is held (True) or let go (False).
+    dragging = pyqtSignal(bool)
+
+    def __init__(self, address: str, parent: Optional[QWidget] = None) -> None:
+        super().__init__("relief 3D view", parent)
+        self.setObjectName("ReliefDock")
+        #: The generation of the frame shown, and frames shown so far.
+        self.frame_generation = 0
+        self.frames_shown = 0
+        self._quiet = False
+
+        body = QWidget()
+        layout = QVBoxLayout(body)
+
+        self.banner = QLabel()
+        self.banner.setWordWrap(True)
+        self.banner.setStyleSheet("background: #b3261e; color: white; padding: 4px;")
+        self.banner.hide()
+        layout.addWidget(self.banner)
+
+        self.frame = _Frame()
+        self.frame.resized.connect(lambda s: self.frame_size_changed.emit(s.width(), s.height()))
+        layout.addWidget(self.frame, 1)
+
+        self.generation_label = QLabel("not connected")
+        layout.addWidget(self.generation_label)
+        self.message = QLabel()
+        self.message.setWordWrap(True)
+        self.message.setStyleSheet("color: #b3261e;")
+        self.message.hide()
+        layout.addWidget(self.message)
+
+        self.sources = QTreeWidget()
+        self.sources.setHeaderLabels(["Source", "Kind", "Status"])
+        self.sources.setRootIsDecorated(False)
+        self.sources.setMaximumHeight(140)
+        layout.addWidget(self.sources)
+
+        form = QFormLayout()
+        self.pitch = QSlider(Qt.Horizontal)
+        self.pitch.setRange(5, 90)
+        self.pitch.setValue(45)
+        self.pitch.setToolTip("How far below the horizon the camera looks")
+        self.pitch_label = QLabel()
+        form.addRow(self.pitch_label, self.pitch)
+        self.heading = QSlider(Qt.Horizontal)
+        self.heading.setRange(0, 359)
+        self.heading.setToolTip("The camera's heading, clockwise from north")
+        self.heading_label = QLabel()
+        form.addRow(self.heading_label, self.heading)
+        self.pitch.valueChanged.connect(self._pitch_moved)
+        self.heading.valueChanged.connect(self._heading_moved)
+        for slider in (self.pitch, self.heading):
+            slider.sliderPressed.connect(lambda: self.dragging.emit(True))
+            slider.sliderReleased.connect(lambda: self.dragging.emit(False))
+        self._label_sliders()
+        layout.addLayout(form)
+
+        row = QHBoxLayout()
+        self.follow = QCheckBox("Follow map")
+        self.follow.setToolTip("The map's centre, scale and rotation drive the camera")
+        self.follow.toggled.connect(self._follow_toggled)
+        row.addWidget(self.follow)
+        self.reload_button = QPushButton("Reload now")
+        self.reload_button.setToolTip("Ask reliefd to read every source's files again now")
+        self.reload_button.clicked.connect(self.reload_clicked)
+        row.addWidget(self.reload_button)
+        layout.addLayout(row)
+
+        address_row = QHBoxLayout()
+        address_row.addWidget(QLabel("reliefd"))
+        self.address = QLineEdit(address)
+        self.address.setToolTip("host:port of reliefd (its gRPC port also speaks HTTP)")
+        self.address.editingFinished.connect(lambda: self.address_changed.emit(self.address.text().strip()))
+        address_row.addWidget(self.address)
+        layout.addLayout(address_row)
+
+        self.setWidget(body)
+
+    # ------------------------------------------------------------ showing
+
+    def show_frame(self, image: QImage, generation: int, camera: dict) -> None:
+        self.frame.show_image(image)
+        self.frame_generation = generation
+        self.frames_shown += 1
+        self._show_camera(camera)
+
+    def show_reachable(self, up: bool, message: str) -> None:
+        self.banner.setText(message)
+        self.banner.setVisible(not up)
+        if not up:
+            self.generation_label.setText("not connected")
+
+    def show_state(self, state: dict) -> None:
+        name = state.get("name") or "scene"
+        text = f"{name}: generation {int(state.get('generation', 0))}"
+        if state.get("manifestError"):
+            text += f"; manifest not taken: {state['manifestError']}"
+        self.generation_label.setText(text)
+        self.sources.clear()
+        for source in state.get("sources") or []:
+            status = STATUS_TEXT.get(str(source.get("status")), str(source.get("status", "")))
+            if not source.get("active"):
+                status += ", not used"
+            item = QTreeWidgetItem([str(source.get("id", "")), str(source.get("kind", "")), status])
+            error = str(source.get("error") or "")
+            if error:
+                item.setText(2, f"{status}: {error}")
+                item.setToolTip(2, error)
+                item.setForeground(2, Qt.red)
+            self.sources.addTopLevelItem(item)
+        for column in range(3):
+            self.sources.resizeColumnToContents(column)
+
+    def show_message(self, message: str) -> None:
+        """What the daemon said when it refused a request (empty: none)."""
+        self.message.setText(message)
+        self.message.setVisible(bool(message))
+
+    def _show_camera(self, camera: dict) -> None:
+        """The sliders follow the camera the frame was drawn from, without
+        asking for anything."""
+        self._quiet = True
+        try:
+            if "pitchDeg" in camera and not self.pitch.isSliderDown():
+                self.pitch.setValue(int(round(-float(camera["pitchDeg"]))))
+            if "headingDeg" in camera and not self.heading.isSliderDown():
+                self.heading.setValue(int(round(float(camera["headingDeg"]))) % 360)
+        finally:
+            self._quiet = False
+        self._label_sliders()
+
+    # ------------------------------------------------------------ asking
+
+    def pitch_deg(self) -> float:
+        return -float(self.pitch.value())
+
+    def _label_sliders(self) -> None:
+        self.pitch_label.setText(f"Pitch {self.pitch.value()}° down")
+        self.heading_label.setText(f"Heading {self.heading.value()}°")
+
+    def _pitch_moved(self, value: int) -> None:
+        self._label_sliders()
+        if not self._quiet:
+            self.pitch_changed.emit(-float(value))
+
+    def _heading_moved(self, value: int) -> None:
+        self._label_sliders()
+        if not self._quiet:
+            self.heading_changed.emit(float(value))
+
+    def _follow_toggled(self, on: bool) -> None:
+        # Following, the map's rotation sets the heading.
+        self.heading.setEnabled(not on)
+        self.heading.setToolTip(
+            "Follow map sets the heading from the map's rotation"
+            if on
+            else "The camera's heading, clockwise from north"
+        )
+        self.follow_toggled.emit(on)
