@@ -24,3 +24,4 @@ bench: setup
 	cargo bench -p relief-daemon --bench rasterize
 	cargo bench -p relief-daemon --bench render
 	cargo bench -p relief-daemon --bench frames
+	bash clients/qgis/scripts/bench.sh

@@ -43,6 +43,9 @@ class ReliefPlugin:
         self.state: dict = {}
         #: Reloads asked for after commits, and follow cameras sent.
         self.reloads_requested = 0
+        #: Ask for a reload when a layer the scene reads is committed (off:
+        #: the daemon's file watcher alone takes the edit, after it settles).
+        self.reload_on_commit = True
         self.cameras_sent = 0
         self._camera: dict = {}
         self._follow_serial = 0
@@ -167,7 +170,7 @@ class ReliefPlugin:
         watched = self._layers.get(layer_id)
         path = layer_file(watched[0]) if watched is not None else None
         ids = sources_reading(self.state, path) if path else []
-        if ids and self.link is not None:
+        if ids and self.link is not None and self.reload_on_commit:
             self.reloads_requested += 1
             self.link.reload(ids, self._state)
 

@@ -1,52 +1,21 @@
-"""Headless PyQGIS for the plugin's tests: one QgsApplication (offscreen Qt,
-settings in a temporary folder), a host window with a real map canvas
-standing in for the QGIS desktop around the plugin, the plugin installed
-from the zip `make qgis-plugin` builds and started the way QGIS starts
-plugins (qgis.utils), and a real reliefd serving relief.testing's hill
-scene (its parcels shapefile is the layer the tests edit)."""
+"""Fixtures for the plugin's tests in headless QGIS (see headless.py) and
+a real reliefd serving relief.testing's hill scene (its parcels shapefile
+is the layer the tests edit)."""
 
 from __future__ import annotations
 
-import atexit
-import os
-import shutil
 import sys
-import tempfile
-import time
 import traceback
-import zipfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import TracebackType
 from typing import Any
 
 import pytest
+from headless import PLUGIN, PLUGIN_ZIP, Host, start_plugin as _start, stop_plugin, wait_for  # noqa: F401
+from qgis.core import QgsProject, QgsVectorLayer
 
-os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
-_SETTINGS = tempfile.mkdtemp(prefix="relief-qgis-settings-")
-atexit.register(shutil.rmtree, _SETTINGS, True)
-
-from qgis.core import QgsApplication, QgsProject, QgsVectorLayer  # noqa: E402
-from qgis.gui import QgsLayerTreeMapCanvasBridge, QgsMapCanvas  # noqa: E402
-from qgis.PyQt.QtCore import QCoreApplication, QSettings, Qt  # noqa: E402
-from qgis.PyQt.QtTest import QTest  # noqa: E402
-from qgis.PyQt.QtWidgets import QDockWidget, QMainWindow, QMenu  # noqa: E402
-
-from relief.testing import HillScene, Reliefd, write_hill_scene  # noqa: E402
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "scripts"))
-import package  # noqa: E402
-
-PLUGIN = "relief_qgis"
-
-QCoreApplication.setOrganizationName("relief-tests")
-QCoreApplication.setApplicationName("relief-qgis-tests")
-QSettings.setDefaultFormat(QSettings.IniFormat)
-QSettings.setPath(QSettings.IniFormat, QSettings.UserScope, _SETTINGS)
-_APP = QgsApplication([], True)
-_APP.initQgis()
-
+from relief.testing import HillScene, Reliefd, write_hill_scene
 
 # An exception in a slot would make PyQt abort the process: keep it and
 # fail the test it happened in instead (QGIS shows such errors the same way).
@@ -68,66 +37,12 @@ def no_slot_errors() -> Iterator[None]:
 
 
 def wait_until(condition: Callable[[], Any], timeout: float, what: str) -> Any:
-    """Runs Qt's event loop until `condition()` is truthy (returns it) or
-    `timeout` seconds pass (fails, saying `what` did not happen)."""
-    deadline = time.monotonic() + timeout
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            pytest.fail(f"{what}: not within {timeout} s")
-        QTest.qWait(20)
-
-
-class Host:
-    """The part of QGIS's QgisInterface the plugin calls, over a real main
-    window and a real map canvas fed from the project's layer tree."""
-
-    def __init__(self) -> None:
-        self.window = QMainWindow()
-        self.canvas = QgsMapCanvas(self.window)
-        self.window.setCentralWidget(self.canvas)
-        self.bridge = QgsLayerTreeMapCanvasBridge(QgsProject.instance().layerTreeRoot(), self.canvas)
-        self.menus: dict[str, QMenu] = {}
-        self.window.resize(1200, 800)
-        self.window.show()
-
-    def mainWindow(self) -> QMainWindow:  # noqa: N802 (QGIS's names)
-        return self.window
-
-    def mapCanvas(self) -> QgsMapCanvas:  # noqa: N802
-        return self.canvas
-
-    def addDockWidget(self, area: Qt.DockWidgetArea, dock: QDockWidget) -> None:  # noqa: N802
-        self.window.addDockWidget(area, dock)
-
-    def removeDockWidget(self, dock: QDockWidget) -> None:  # noqa: N802
-        self.window.removeDockWidget(dock)
-
-    def addPluginToMenu(self, name: str, action: Any) -> None:  # noqa: N802
-        if name not in self.menus:
-            self.menus[name] = self.window.menuBar().addMenu(name)
-        self.menus[name].addAction(action)
-
-    def removePluginMenu(self, name: str, action: Any) -> None:  # noqa: N802
-        if name in self.menus:
-            self.menus[name].removeAction(action)
-
-    def close(self) -> None:
-        self.window.close()
-        self.window.deleteLater()
-
-
-# The plugin as QGIS installs it: the zip `make qgis-plugin` builds,
-# unpacked into a plugins folder on sys.path (the tests of its modules
-# import this copy too).
-_PLUGINS = Path(tempfile.mkdtemp(prefix="relief-qgis-plugins-"))
-atexit.register(shutil.rmtree, _PLUGINS, True)
-PLUGIN_ZIP = package.build(_PLUGINS / f"{PLUGIN}.zip")
-with zipfile.ZipFile(PLUGIN_ZIP) as _z:
-    _z.extractall(_PLUGINS / "plugins")
-sys.path.insert(0, str(_PLUGINS / "plugins"))
+    """Runs Qt's event loop until `condition()` is truthy (returns it);
+    fails the test, saying `what` did not happen, after `timeout` seconds."""
+    value = wait_for(condition, timeout)
+    if not value:
+        pytest.fail(f"{what}: not within {timeout} s")
+    return value
 
 
 @pytest.fixture
@@ -150,7 +65,6 @@ def host() -> Iterator[Host]:
     import qgis.utils
 
     h = Host()
-    qgis.utils.iface = h
     try:
         yield h
     finally:
@@ -161,28 +75,20 @@ def host() -> Iterator[Host]:
 
 @pytest.fixture
 def start_plugin(host: Host) -> Iterator[Callable[[str], Any]]:
-    """Starts the plugin with qgis.utils, as QGIS does, talking to the
-    given address; unloads it afterwards."""
-    import qgis.utils
-    from qgis.core import QgsSettings
-
+    """Starts the plugin as QGIS does, talking to the given address;
+    unloads it afterwards."""
     started = []
 
     def start(address: str) -> Any:
-        QgsSettings().setValue(f"{PLUGIN}/address", address)
-        qgis.utils.plugin_paths = [str(_PLUGINS / "plugins")]
-        qgis.utils.updateAvailablePlugins()
-        assert PLUGIN in qgis.utils.available_plugins, "QGIS does not find the plugin's metadata"
-        assert qgis.utils.loadPlugin(PLUGIN), "QGIS could not load the plugin"
-        assert qgis.utils.startPlugin(PLUGIN), "QGIS could not start the plugin"
-        started.append(True)
-        return qgis.utils.plugins[PLUGIN]
+        plugin = _start(host, address)
+        started.append(plugin)
+        return plugin
 
     try:
         yield start
     finally:
         if started:
-            qgis.utils.unloadPlugin(PLUGIN)
+            stop_plugin()
 
 
 @pytest.fixture

@@ -179,6 +179,9 @@ class Reliefd:
                 raise RuntimeError(f"reliefd did not stop within {timeout} s of SIGTERM; killed\n{self.log_text()}")
         for t in self._threads:
             t.join(5.0)
+        for pipe in (process.stdout, process.stderr):
+            if pipe is not None:
+                pipe.close()
         if self._runtime_dir is not None:
             self._runtime_dir.cleanup()
             self._runtime_dir = None
