@@ -83,6 +83,8 @@ pub struct Scene {
     reads_retried: AtomicU64,
     /// Effects the last frame computed, and what its pass cost (ms).
     effects_ran: RwLock<BTreeMap<String, f64>>,
+    /// The renderer's passes as of the last frame.
+    passes: RwLock<Vec<relief_renderer::PassStats>>,
 }
 
 /// How many events a slow Watch subscriber may fall behind before it is
@@ -119,6 +121,7 @@ impl Scene {
                 refresh_lock: Mutex::new(()),
                 reads_retried: AtomicU64::new(0),
                 effects_ran: RwLock::new(BTreeMap::new()),
+                passes: RwLock::new(Vec::new()),
             },
             open_errors,
         ))
@@ -146,6 +149,17 @@ impl Scene {
     /// the scene state shows that nothing else was.
     pub fn set_effects_ran(&self, ran: BTreeMap<String, f64>) {
         *self.effects_ran.write().expect("scene lock is never poisoned") = ran;
+    }
+
+    pub fn set_passes(&self, passes: Vec<relief_renderer::PassStats>) {
+        *self.passes.write().expect("scene lock is never poisoned") = passes;
+    }
+
+    /// The renderer's passes as of the last frame; every pass unbuilt
+    /// before the first.
+    pub fn passes(&self) -> Vec<relief_renderer::PassStats> {
+        let passes = self.passes.read().expect("scene lock is never poisoned").clone();
+        if passes.is_empty() { relief_renderer::PassCounters::default().stats().to_vec() } else { passes }
     }
 
     pub fn effects_ran(&self) -> BTreeMap<String, f64> {

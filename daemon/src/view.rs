@@ -5,7 +5,9 @@ use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::ops::Range;
 use std::sync::{Arc, Mutex};
 
-use relief_renderer::{ClipmapConfig, Frame, Gpu, RenderError, RenderSettings, Renderer, Surface, TerrainSamples};
+use relief_renderer::{
+    ClipmapConfig, Frame, Gpu, PassCounters, PassStats, RenderError, RenderSettings, Renderer, Surface, TerrainSamples,
+};
 use relief_source::{Extent, Payload, Quality, TileKey};
 use tokio::sync::{Semaphore, watch};
 
@@ -161,6 +163,25 @@ struct Renderers {
     by_config: HashMap<ClipmapConfig, (Renderer, u64)>,
     /// (generation, extents it dirtied), oldest first.
     dirt: VecDeque<(u64, Vec<Extent>)>,
+    /// Each pass's runs and time since start, over every renderer; built
+    /// where some renderer now has it.
+    passes: PassCounters,
+}
+
+impl Renderers {
+    /// Adds a frame's passes to the totals; built where a renderer has it.
+    fn count_passes(&mut self, frame: &Frame) -> Vec<PassStats> {
+        for &(name, ms) in &frame.passes {
+            if relief_renderer::PASSES.contains(&name) {
+                self.passes.add_run(name, ms);
+            }
+        }
+        for &name in relief_renderer::PASSES {
+            let built = self.by_config.values().any(|(r, _)| r.counters().is_built(name));
+            self.passes.set_built(name, built);
+        }
+        self.passes.stats().to_vec()
+    }
 }
 
 /// A rendered frame and what it shows.
@@ -168,6 +189,8 @@ pub struct Rendered {
     pub frame: Frame,
     pub generation: u64,
     pub camera: Camera,
+    /// Every pass as of this frame (built, runs, milliseconds since start).
+    pub passes: Vec<PassStats>,
 }
 
 pub struct Viewer {
@@ -186,7 +209,12 @@ impl Viewer {
         let camera = watch::Sender::new(default_camera(&scene.snapshot()));
         let viewer = Arc::new(Self {
             scene: Arc::clone(scene),
-            renderers: Mutex::new(Renderers { gpu: None, by_config: HashMap::new(), dirt: VecDeque::new() }),
+            renderers: Mutex::new(Renderers {
+                gpu: None,
+                by_config: HashMap::new(),
+                dirt: VecDeque::new(),
+                passes: PassCounters::default(),
+            }),
             camera,
             permits: Semaphore::new(MAX_RENDERS_IN_FLIGHT),
             frames: std::sync::atomic::AtomicU64::new(0),
@@ -315,12 +343,15 @@ impl Viewer {
         let frame = renderer.render(&terrain, &pose, &RenderSettings { width, height, lighting })?;
         let mut ran = BTreeMap::new();
         if lighting {
-            let draw = frame.passes.iter().find(|(p, _)| p.starts_with("draw")).map_or(0.0, |(_, ms)| *ms);
-            ran.insert("lighting".to_owned(), draw);
+            // Lighting is shaded in the terrain pass.
+            let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
+            ran.insert("lighting".to_owned(), terrain_ms);
         }
         self.scene.set_effects_ran(ran);
+        let passes = r.count_passes(&frame);
+        self.scene.set_passes(passes.clone());
         self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        Ok(Rendered { frame, generation: snap.generation, camera })
+        Ok(Rendered { frame, generation: snap.generation, camera, passes })
     }
 
     /// What the device is, once a frame has opened it.

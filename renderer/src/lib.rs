@@ -11,12 +11,17 @@ mod clipmap;
 mod error;
 mod gpu;
 mod navigate;
+mod passes;
 mod renderer;
 mod surface;
+mod target;
+mod uniforms;
 
 pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
 pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
 pub use error::RenderError;
 pub use gpu::Gpu;
-pub use renderer::{Frame, MAX_LEVELS, RenderSettings, Renderer};
+pub use passes::terrain::MAX_LEVELS;
+pub use passes::{ALL as PASSES, PassCounters, PassStats};
+pub use renderer::{Frame, RenderSettings, Renderer};
 pub use surface::Surface;

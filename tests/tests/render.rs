@@ -53,8 +53,13 @@ async fn render_returns_the_frame_the_generation_and_its_passes() {
     assert_eq!((frame.width, frame.height, frame.image.len()), (320, 240, 320 * 240 * 4));
     assert_eq!(frame.generation, 1);
     assert_eq!(sky_pixels(&frame), 0);
+    // The passes the scene calls for ran, each timed; then the read-back.
     let passes: Vec<&str> = frame.passes.iter().map(|p| p.pass.as_str()).collect();
-    assert_eq!(passes, ["update", "upload", "draw and read back"]);
+    assert_eq!(passes, ["terrain", "read back"]);
+    assert!(frame.passes.iter().all(|p| p.elapsed_ms > 0.0), "{:?}", frame.passes);
+    // Every pass the renderer knows is counted in the answer: built, runs, time.
+    let terrain = frame.pass_counters.iter().find(|p| p.name == "terrain").unwrap();
+    assert!(terrain.built && terrain.runs >= 1 && terrain.total_ms >= frame.passes[0].elapsed_ms, "{terrain:?}");
     // The hill's top is tinted (demo colours: rock and snow above 1500 m),
     // its foot green: the colour layer is draped.
     let centre = &frame.image[(120 * 320 + 160) * 4..][..4];
@@ -65,6 +70,9 @@ async fn render_returns_the_frame_the_generation_and_its_passes() {
     let lighting = state.effects.iter().find(|e| e.name == "lighting").unwrap();
     assert!(lighting.ran && lighting.last_cost_ms > 0.0, "{lighting:?}");
     assert_eq!(state.effects.len(), 1, "no other effect was computed");
+    // GetState counts the passes as the render answer did.
+    let counted = state.passes.iter().find(|p| p.name == "terrain").unwrap();
+    assert!(counted.built && counted.runs >= terrain.runs, "{counted:?}");
 
     // The CLI: camera set / get, and a PNG of the current camera.
     let (code, out, err) = relief(&daemon, &["camera", "set", "10.3,45.2,7000,270,-30,0", "--fov", "40"]).unwrap();

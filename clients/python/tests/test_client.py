@@ -204,6 +204,9 @@ def test_render_answers_a_png_frame(shared_client: relief.Client, tmp_path: Path
     lighting = shared_client.state().effects[0]
     assert lighting.ran and lighting.last_cost_ms > 0
     assert shared_client.state().counters.frames_rendered >= 1
+    terrain = next(p for p in frame.pass_counters if p.name == "terrain")
+    assert terrain.built and terrain.runs >= 1 and terrain.total_ms > 0
+    assert next(p for p in shared_client.state().passes if p.name == "terrain").runs >= terrain.runs
     pixels = frame.to_numpy()
     assert pixels.shape == (SIZE[1], SIZE[0], 4) and pixels.dtype == np.uint8
     assert pixels[..., :3].std() > 1.0, "not a blank image"

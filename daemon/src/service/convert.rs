@@ -119,6 +119,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
         .collect();
     let c = store.counters();
     let frames = hub.counters();
+    let passes = pass_states(&scene.passes());
     pb::SceneState {
         name: m.name.clone(),
         generation: snap.generation,
@@ -152,6 +153,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
         }),
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),
+        passes,
     }
 }
 
@@ -274,4 +276,12 @@ pub fn camera_to(c: &crate::view::Camera) -> pb::Camera {
 /// RGBA8 rows as a PNG.
 pub fn png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, tonic::Status> {
     crate::png::encode(rgba, width, height).map_err(tonic::Status::internal)
+}
+
+/// The renderer's passes in relief.v1.
+pub fn pass_states(passes: &[relief_renderer::PassStats]) -> Vec<pb::PassState> {
+    passes
+        .iter()
+        .map(|p| pb::PassState { name: p.name.into(), built: p.built, runs: p.runs, total_ms: p.total_ms })
+        .collect()
 }

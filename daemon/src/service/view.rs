@@ -108,6 +108,7 @@ fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
         image,
         passes,
         camera: Some(convert::camera_to(&frame.rendered.camera)),
+        pass_counters: convert::pass_states(&frame.rendered.passes),
     })
 }
 

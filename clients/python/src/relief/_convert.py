@@ -39,6 +39,7 @@ from relief.types import (
     Move,
     Orbit,
     Pan,
+    PassState,
     PassTiming,
     PayloadKind,
     Pick,
@@ -296,6 +297,7 @@ def scene_state(s: pb.SceneState) -> SceneState:
         ),
         manifest=s.manifest,
         manifest_error=s.manifest_error,
+        passes=pass_states(s.passes),
     )
 
 
@@ -341,7 +343,12 @@ def frame(r: pb.RenderResponse) -> Frame:
         camera=camera(r.camera),
         # `pass` is a Python keyword: the field is only reachable by name.
         passes=tuple(PassTiming(name=str(getattr(p, "pass")), elapsed_ms=p.elapsed_ms) for p in r.passes),
+        pass_counters=pass_states(r.pass_counters),
     )
+
+
+def pass_states(passes: Iterable[pb.PassState]) -> tuple[PassState, ...]:
+    return tuple(PassState(name=p.name, built=p.built, runs=p.runs, total_ms=p.total_ms) for p in passes)
 
 
 def view(v: pb.ViewState) -> View:

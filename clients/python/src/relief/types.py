@@ -140,6 +140,18 @@ class EffectState:
 
 
 @dataclass(frozen=True)
+class PassState:
+    """One pass of the renderer (terrain, buildings, ...): built only when
+    the scene calls for it."""
+
+    name: str
+    built: bool
+    #: Frames it ran in since start, and their milliseconds in total.
+    runs: int
+    total_ms: float
+
+
+@dataclass(frozen=True)
 class Counters:
     tiles_generated: int
     cache_hits: int
@@ -208,6 +220,8 @@ class SceneState:
     manifest: str
     #: Why the last edit of the manifest was not taken; empty when it was.
     manifest_error: str
+    #: The renderer's passes: built or not, runs and time since start.
+    passes: tuple[PassState, ...] = ()
 
     def source(self, source_id: str) -> SourceState:
         """The source with this id (KeyError when there is none)."""
@@ -296,6 +310,8 @@ class Frame:
     image: bytes = field(repr=False)
     camera: Camera
     passes: tuple[PassTiming, ...]
+    #: Every pass of the renderer as of this frame (as SceneState.passes).
+    pass_counters: tuple[PassState, ...] = ()
 
     def to_numpy(self) -> npt.NDArray[np.uint8]:
         """The pixels, H x W x 4 uint8 (straight RGBA)."""

@@ -231,7 +231,7 @@ class GridInfo(_message.Message):
     def __init__(self, kind: _Optional[str] = ..., crs: _Optional[str] = ..., tile_size: _Optional[int] = ..., extent: _Optional[_Union[Extent, _Mapping]] = ..., level0_columns: _Optional[int] = ..., level0_rows: _Optional[int] = ...) -> None: ...
 
 class SceneState(_message.Message):
-    __slots__ = ("name", "generation", "grid", "sources", "effects", "layers", "quality", "counters", "manifest", "manifest_error")
+    __slots__ = ("name", "generation", "grid", "sources", "effects", "layers", "quality", "counters", "manifest", "manifest_error", "passes")
     class LayersEntry(_message.Message):
         __slots__ = ("key", "value")
         KEY_FIELD_NUMBER: _ClassVar[int]
@@ -256,6 +256,7 @@ class SceneState(_message.Message):
     COUNTERS_FIELD_NUMBER: _ClassVar[int]
     MANIFEST_FIELD_NUMBER: _ClassVar[int]
     MANIFEST_ERROR_FIELD_NUMBER: _ClassVar[int]
+    PASSES_FIELD_NUMBER: _ClassVar[int]
     name: str
     generation: int
     grid: GridInfo
@@ -266,7 +267,20 @@ class SceneState(_message.Message):
     counters: Counters
     manifest: str
     manifest_error: str
-    def __init__(self, name: _Optional[str] = ..., generation: _Optional[int] = ..., grid: _Optional[_Union[GridInfo, _Mapping]] = ..., sources: _Optional[_Iterable[_Union[SourceState, _Mapping]]] = ..., effects: _Optional[_Iterable[_Union[EffectState, _Mapping]]] = ..., layers: _Optional[_Mapping[str, str]] = ..., quality: _Optional[_Mapping[str, str]] = ..., counters: _Optional[_Union[Counters, _Mapping]] = ..., manifest: _Optional[str] = ..., manifest_error: _Optional[str] = ...) -> None: ...
+    passes: _containers.RepeatedCompositeFieldContainer[PassState]
+    def __init__(self, name: _Optional[str] = ..., generation: _Optional[int] = ..., grid: _Optional[_Union[GridInfo, _Mapping]] = ..., sources: _Optional[_Iterable[_Union[SourceState, _Mapping]]] = ..., effects: _Optional[_Iterable[_Union[EffectState, _Mapping]]] = ..., layers: _Optional[_Mapping[str, str]] = ..., quality: _Optional[_Mapping[str, str]] = ..., counters: _Optional[_Union[Counters, _Mapping]] = ..., manifest: _Optional[str] = ..., manifest_error: _Optional[str] = ..., passes: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ...) -> None: ...
+
+class PassState(_message.Message):
+    __slots__ = ("name", "built", "runs", "total_ms")
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    BUILT_FIELD_NUMBER: _ClassVar[int]
+    RUNS_FIELD_NUMBER: _ClassVar[int]
+    TOTAL_MS_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    built: bool
+    runs: int
+    total_ms: float
+    def __init__(self, name: _Optional[str] = ..., built: _Optional[bool] = ..., runs: _Optional[int] = ..., total_ms: _Optional[float] = ...) -> None: ...
 
 class DirtyRegion(_message.Message):
     __slots__ = ("source_id", "extents")
@@ -376,7 +390,7 @@ class PassTiming(_message.Message):
     def __init__(self, elapsed_ms: _Optional[float] = ..., **kwargs) -> None: ...
 
 class RenderResponse(_message.Message):
-    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera")
+    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters")
     GENERATION_FIELD_NUMBER: _ClassVar[int]
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
@@ -384,6 +398,7 @@ class RenderResponse(_message.Message):
     IMAGE_FIELD_NUMBER: _ClassVar[int]
     PASSES_FIELD_NUMBER: _ClassVar[int]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
+    PASS_COUNTERS_FIELD_NUMBER: _ClassVar[int]
     generation: int
     width: int
     height: int
@@ -391,7 +406,8 @@ class RenderResponse(_message.Message):
     image: bytes
     passes: _containers.RepeatedCompositeFieldContainer[PassTiming]
     camera: Camera
-    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ...) -> None: ...
+    pass_counters: _containers.RepeatedCompositeFieldContainer[PassState]
+    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ...) -> None: ...
 
 class StreamFramesRequest(_message.Message):
     __slots__ = ("width", "height", "format", "max_fps", "quality", "camera", "view_id")

@@ -1,0 +1,188 @@
+//! The coarse base under the clipmap: every sample of tile level 0 as one
+//! vertex buffer, uploaded once and refreshed where data changed; each
+//! frame draws the cells the levels do not cover, short of the horizon.
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use relief_source::{Extent, geodesy};
+use wgpu::util::DeviceExt;
+
+use crate::camera::{Pose, View};
+use crate::clipmap::{Clipmap, TerrainSamples};
+use crate::surface::Surface;
+use crate::uniforms::split;
+
+/// A vertex of the base or of a reference mesh: its position split into
+/// two f32s (high and low parts, "double-single"), so the shader subtracts
+/// the eye in two steps and keeps centimetres on a planet; w of `high` is
+/// the validity.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+pub struct BaseVertex {
+    pub high: [f32; 4],
+    pub low: [f32; 4],
+    pub normal: [f32; 4],
+    pub color: [f32; 4],
+}
+
+/// The coarse grid of the whole scene under the clipmap: every sample of
+/// tile level 0, uploaded once; each frame draws every 1st, 2nd or 4th of
+/// them, as the view needs, short of the horizon.
+#[derive(Debug)]
+pub struct Base {
+    cols: i64,
+    rows: i64,
+    world: Vec<DVec3>,
+    vertices: wgpu::Buffer,
+    /// Ground size of one cell, metres (at the equator on the planet).
+    cell_m: f64,
+}
+
+impl Base {
+    /// The vertices of samples `xs` x `ys` of tile level 0 (row-major),
+    /// with their world positions.
+    fn vertices(
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        xs: std::ops::Range<i64>,
+        ys: std::ops::Range<i64>,
+    ) -> Option<(Vec<DVec3>, Vec<BaseVertex>)> {
+        let heights = source.heights(0, xs.clone(), ys.clone())?;
+        let colors = source.colors(0, xs.clone(), ys.clone())?;
+        let (mut world, mut vertices) = (Vec::with_capacity(heights.len()), Vec::with_capacity(heights.len()));
+        let samples = ys.flat_map(|gy| xs.clone().map(move |gx| (gx, gy)));
+        for (((gx, gy), h), color) in samples.zip(heights).zip(colors) {
+            let (x, y) = surface.sample_point(0, gx, gy);
+            let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 });
+            let up = surface.enu(x, y)[2].as_vec3();
+            let (high, low) = split(p);
+            let valid = if surface.on_grid(0, gx, gy) { 1.0 } else { crate::clipmap::OFF_GRID };
+            vertices.push(BaseVertex {
+                high: [high[0], high[1], high[2], valid],
+                low: [low[0], low[1], low[2], 0.0],
+                normal: [up.x, up.y, up.z, 0.0],
+                color: color.map(|v| f32::from(v) / 255.0),
+            });
+            world.push(p);
+        }
+        Some((world, vertices))
+    }
+
+    pub fn fill(device: &wgpu::Device, surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
+        let (cells_x, cells_y) = surface.grid().samples_at(0);
+        let (cols, rows) = (cells_x + 1, cells_y + 1);
+        let (world, vertices) = Self::vertices(surface, source, 0..cols, 0..rows)?;
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("base vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+        });
+        Some(Self { cols, rows, world, vertices, cell_m: surface.step(0) * surface.metres_per_unit() })
+    }
+
+    /// Fetches again the samples inside `area` (grid units) and writes
+    /// only their rows' spans of the vertex buffer. False when not ready.
+    pub fn refresh(
+        &mut self,
+        queue: &wgpu::Queue,
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        area: &Extent,
+    ) -> bool {
+        let (x0, y0) = surface.sample_coords(0, area.min_x, area.max_y);
+        let (x1, y1) = surface.sample_coords(0, area.max_x, area.min_y);
+        let xs = (x0.floor() as i64).clamp(0, self.cols)..(x1.ceil() as i64 + 1).clamp(0, self.cols);
+        let ys = (y0.floor() as i64).clamp(0, self.rows)..(y1.ceil() as i64 + 1).clamp(0, self.rows);
+        if xs.is_empty() || ys.is_empty() {
+            return true;
+        }
+        let Some((world, vertices)) = Self::vertices(surface, source, xs.clone(), ys.clone()) else { return false };
+        let width = (xs.end - xs.start) as usize;
+        for (k, gy) in ys.enumerate() {
+            let first = (gy * self.cols + xs.start) as usize;
+            self.world[first..first + width].copy_from_slice(&world[k * width..(k + 1) * width]);
+            let offset = (first * size_of::<BaseVertex>()) as u64;
+            queue.write_buffer(&self.vertices, offset, bytemuck::cast_slice(&vertices[k * width..(k + 1) * width]));
+        }
+        true
+    }
+
+    /// The base's cells for this frame, and how far it is sunk. On the
+    /// planet the stride is the coarsest whose flat cells sag (chord below
+    /// the arc) less than a pixel at the horizon, and cells past the horizon
+    /// are left out; cells under the coarsest level are left out too.
+    #[allow(clippy::too_many_arguments)]
+    pub fn cells(
+        &self,
+        device: &wgpu::Device,
+        surface: &Surface,
+        clipmap: &Clipmap,
+        active: &[u8],
+        view: &View,
+        pose: &Pose,
+        pixel_angle: f64,
+    ) -> Option<((wgpu::Buffer, wgpu::Buffer, u32), f64)> {
+        let base = self;
+        let planet = surface.is_planet();
+        let radius = geodesy::WGS84_A;
+        let height = pose.position[2].max(1.0);
+        let horizon = (2.0 * radius * height + height * height).sqrt();
+        // The nearest base cell is about where the coarsest level ends.
+        let nearest = active.first().and_then(|&t| clipmap.level(t)).map_or(height, |level| {
+            let reach = (level.n / 2) as f64 * surface.step(level.tile_level) * surface.metres_per_unit();
+            reach.hypot(height)
+        });
+        let stride: i64 = if planet {
+            [4, 2, 1]
+                .into_iter()
+                .find(|&s| (s as f64 * base.cell_m).powi(2) / (8.0 * radius) / nearest < pixel_angle)
+                .unwrap_or(1)
+        } else {
+            4
+        };
+        let cell = stride as f64 * base.cell_m;
+        // The coarsest level's window in tile-level-0 samples.
+        let covered = active.first().and_then(|&t| clipmap.level(t)).map(|level| {
+            let scale = f64::from(1u32 << level.tile_level);
+            (level.origin.0 as f64 / scale, level.origin.1 as f64 / scale, (level.n - 1) as f64 / scale)
+        });
+        let total_x = (base.cols - 1) as f64;
+        let shifts: &[f64] = if planet { &[-1.0, 0.0, 1.0] } else { &[0.0] };
+        let mut indices = Vec::new();
+        for j in (0..base.rows - 1).step_by(stride as usize) {
+            for i in (0..base.cols - 1).step_by(stride as usize) {
+                let (i1, j1) = ((i + stride).min(base.cols - 1), (j + stride).min(base.rows - 1));
+                if planet {
+                    let centre = base.world[(i64::midpoint(j, j1) * base.cols + i64::midpoint(i, i1)) as usize];
+                    if (centre - view.eye).length() > horizon + cell {
+                        continue;
+                    }
+                }
+                let (cx, cy, size) = (i as f64, j as f64, stride as f64);
+                let inside = covered.is_some_and(|(x0, y0, side)| {
+                    shifts.iter().any(|s| {
+                        let x = cx + s * total_x;
+                        x >= x0 && x + size <= x0 + side && cy >= y0 && cy + size <= y0 + side
+                    })
+                });
+                if inside {
+                    continue;
+                }
+                let corner = |i: i64, j: i64| (j * base.cols + i) as u32;
+                let (a, b, c, d) = (corner(i, j), corner(i1, j), corner(i, j1), corner(i1, j1));
+                indices.extend([a, c, d, a, d, b]);
+            }
+        }
+        if indices.is_empty() {
+            return None;
+        }
+        let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("base cells"),
+            contents: bytemuck::cast_slice(&indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        // Sunk a little below the levels, so where both are drawn the
+        // clipmap is on top: 0.3% of a drawn cell.
+        Some(((base.vertices.clone(), index_buffer, indices.len() as u32), 0.003 * cell))
+    }
+}

@@ -1,0 +1,315 @@
+//! The terrain pass: geometry clipmaps (the levels, `levels.rs`) over the
+//! coarse base (`base.rs`), coloured by the colour layer and lit by the
+//! `lighting` effect, drawn with reversed-Z depth.
+
+mod base;
+mod levels;
+
+use relief_source::Extent;
+use wgpu::util::DeviceExt;
+
+use self::base::{Base, BaseVertex};
+pub use self::levels::MAX_LEVELS;
+use self::levels::{LevelUniform, Levels};
+use crate::camera::{Pose, View};
+use crate::clipmap::{COLOR_DETAIL, Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
+use crate::error::RenderError;
+use crate::gpu::Gpu;
+use crate::surface::Surface;
+use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
+
+/// Vertices, indices and their count.
+type Mesh = (wgpu::Buffer, wgpu::Buffer, u32);
+
+pub struct TerrainPass {
+    clipmap: Clipmap,
+    level_pipeline: wgpu::RenderPipeline,
+    base_pipeline: wgpu::RenderPipeline,
+    levels_buffer: wgpu::Buffer,
+    levels: Levels,
+    bind_group: wgpu::BindGroup,
+    base: Option<Base>,
+}
+
+/// What a frame of the terrain draws: the base's cells (and how far the
+/// base is sunk) and each active level's cells.
+pub struct TerrainDraw {
+    base: Option<Mesh>,
+    pub base_sink: f64,
+    levels: Vec<Option<(i64, i64)>>,
+    pub update: UpdateStats,
+}
+
+impl TerrainPass {
+    /// Builds the pass: pipelines, level textures and their bind group
+    /// (reading the renderer's `frame` uniform).
+    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer, config: ClipmapConfig) -> Result<Self, RenderError> {
+        config.validate().map_err(|message| RenderError::Request { field: "quality", message })?;
+        if config.levels > MAX_LEVELS {
+            return Err(RenderError::Request { field: "quality", message: format!("at most {MAX_LEVELS} levels") });
+        }
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("terrain"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("terrain.wgsl").into()),
+        });
+        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
+        let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let uniform = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let texture = |filterable| wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("terrain"),
+            entries: &[
+                entry(0, both, uniform),
+                entry(1, wgpu::ShaderStages::VERTEX, uniform),
+                entry(2, wgpu::ShaderStages::VERTEX, texture(false)),
+                entry(3, wgpu::ShaderStages::FRAGMENT, texture(true)),
+                entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("terrain"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let base_attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
+        let pipeline = |label, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some(label),
+                layout: Some(&pipeline_layout),
+                vertex: wgpu::VertexState {
+                    module: &shader,
+                    entry_point: Some(vs),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    buffers,
+                },
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: wgpu::StencilState::default(),
+                    bias: wgpu::DepthBiasState::default(),
+                }),
+                multisample: wgpu::MultisampleState::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &shader,
+                    entry_point: Some(fs),
+                    compilation_options: wgpu::PipelineCompilationOptions::default(),
+                    targets: &[Some(COLOR_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let level_pipeline = pipeline("levels", "vs_level", "fs_level", &[]);
+        let base_pipeline = pipeline(
+            "base",
+            "vs_base",
+            "fs_base",
+            &[Some(wgpu::VertexBufferLayout {
+                array_stride: size_of::<BaseVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &base_attributes,
+            })],
+        );
+        let layers = config.levels as u32;
+        let array = |label, side: usize, format| {
+            let side = side as u32;
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: side, height: side, depth_or_array_layers: layers },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            })
+        };
+        let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
+        let colors = array("level colours", COLOR_DETAIL as usize * config.n, wgpu::TextureFormat::Rgba8Unorm);
+        let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("levels"),
+            size: (size_of::<LevelUniform>() * MAX_LEVELS) as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        // Repeat: the colour textures are toroidal.
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("colours"),
+            address_mode_u: wgpu::AddressMode::Repeat,
+            address_mode_v: wgpu::AddressMode::Repeat,
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            ..Default::default()
+        });
+        let array_view = |t: &wgpu::Texture| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        };
+        let (positions_view, colors_view) = (array_view(&positions), array_view(&colors));
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("terrain"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: levels_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&positions_view) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&colors_view) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&sampler) },
+            ],
+        });
+        Ok(Self {
+            clipmap: Clipmap::new(config),
+            level_pipeline,
+            base_pipeline,
+            levels_buffer,
+            levels: Levels::new(positions, colors, config.levels),
+            bind_group,
+            base: None,
+        })
+    }
+
+    pub fn clipmap(&self) -> &Clipmap {
+        &self.clipmap
+    }
+
+    /// The scene rebuilt tiles in `area`: refresh those samples only, in
+    /// the levels and in the base (which is filled anew if not ready).
+    pub fn invalidate(&mut self, gpu: &Gpu, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
+        self.clipmap.invalidate(surface, source, area);
+        if let Some(base) = &mut self.base
+            && !base.refresh(&gpu.queue, surface, source, area)
+        {
+            self.base = None;
+        }
+    }
+
+    /// Brings the clipmap to the camera and the device up to date; what to
+    /// draw.
+    pub fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        pose: &Pose,
+        view: &View,
+        pixel_angle: f64,
+    ) -> TerrainDraw {
+        let update = self.clipmap.update(surface, source, pose, pixel_angle);
+        if self.base.is_none() {
+            self.base = Base::fill(&gpu.device, surface, source);
+        }
+        self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
+        let uniforms: Vec<LevelUniform> = Levels::uniforms(surface, &self.clipmap, &update.active, pose, view);
+        gpu.queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&uniforms));
+        let (base, sink) = self
+            .base
+            .as_ref()
+            .and_then(|b| b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle))
+            .unzip();
+        let levels = self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active);
+        TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update }
+    }
+
+    /// Draws the base, then the levels.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &TerrainDraw) {
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        if let Some(mesh) = &draw.base {
+            self.record_mesh(pass, mesh);
+        }
+        pass.set_pipeline(&self.level_pipeline);
+        for (slot, key) in draw.levels.iter().enumerate() {
+            let (indices, count) = self.levels.cells(*key);
+            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..*count, 0, slot as u32..slot as u32 + 1);
+        }
+    }
+
+    /// Draws a mesh of base vertices (the base, or the full reference mesh).
+    pub fn record_mesh(&self, pass: &mut wgpu::RenderPass<'_>, (vertices, indices, count): &Mesh) {
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&self.base_pipeline);
+        pass.set_vertex_buffer(0, vertices.slice(..));
+        pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..*count, 0, 0..1);
+    }
+
+    /// The brute-force reference: every sample of `area` (grid units) at
+    /// tile level `level` as one mesh, f64 positions made eye-relative on
+    /// the CPU, to draw without the clipmap. None when the data is not
+    /// ready.
+    pub fn full_mesh(
+        device: &wgpu::Device,
+        surface: &Surface,
+        source: &dyn TerrainSamples,
+        level: u8,
+        area: &Extent,
+        view: &View,
+    ) -> Option<Mesh> {
+        let (x0, y0) = surface.sample_coords(level, area.min_x, area.max_y);
+        let (x1, y1) = surface.sample_coords(level, area.max_x, area.min_y);
+        let (xs, ys) = (x0.floor() as i64..x1.ceil() as i64 + 1, y0.floor() as i64..y1.ceil() as i64 + 1);
+        let (Some(heights), Some(colors)) =
+            (source.heights(level, xs.clone(), ys.clone()), source.colors(level, xs.clone(), ys.clone()))
+        else {
+            return None;
+        };
+        let (cols, rows) = ((xs.end - xs.start) as usize, (ys.end - ys.start) as usize);
+        let mut world = Vec::with_capacity(cols * rows);
+        for (j, gy) in ys.clone().enumerate() {
+            for (i, gx) in xs.clone().enumerate() {
+                let (x, y) = surface.sample_point(level, gx, gy);
+                let h = heights[j * cols + i];
+                world.push(surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }));
+            }
+        }
+        let at = |i: usize, j: usize| world[j.min(rows - 1) * cols + i.min(cols - 1)];
+        let vertices: Vec<BaseVertex> = (0..rows * cols)
+            .map(|k| {
+                let (i, j) = (k % cols, k / cols);
+                let east = at(i + 1, j) - at(i.saturating_sub(1), j);
+                let south = at(i, j + 1) - at(i, j.saturating_sub(1));
+                let n = south.cross(east).normalize_or_zero().as_vec3();
+                let p = (world[k] - view.eye).as_vec3();
+                BaseVertex {
+                    high: [p.x, p.y, p.z, 1.0],
+                    low: [0.0; 4],
+                    normal: [n.x, n.y, n.z, 0.0],
+                    color: colors[k].map(|v| f32::from(v) / 255.0),
+                }
+            })
+            .collect();
+        let mut indices = Vec::with_capacity((cols - 1) * (rows - 1) * 6);
+        for j in 0..rows - 1 {
+            for i in 0..cols - 1 {
+                let a = (j * cols + i) as u32;
+                let (b, c, d) = (a + 1, a + cols as u32, a + cols as u32 + 1);
+                indices.extend([a, c, d, a, d, b]);
+            }
+        }
+        Some((
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("full mesh vertices"),
+                contents: bytemuck::cast_slice(&vertices),
+                usage: wgpu::BufferUsages::VERTEX,
+            }),
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("full mesh cells"),
+                contents: bytemuck::cast_slice(&indices),
+                usage: wgpu::BufferUsages::INDEX,
+            }),
+            indices.len() as u32,
+        ))
+    }
+}

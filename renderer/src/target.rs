@@ -1,0 +1,125 @@
+//! Where a frame is drawn: a colour and a reversed-Z depth texture the
+//! passes draw into in turn, then read back.
+
+use crate::error::RenderError;
+use crate::gpu::Gpu;
+
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The sky: what no pass draws over.
+const CLEAR: wgpu::Color = wgpu::Color { r: 0.02, g: 0.03, b: 0.07, a: 1.0 };
+
+pub struct Target {
+    pub width: u32,
+    pub height: u32,
+    color: wgpu::Texture,
+    depth: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+}
+
+impl Target {
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
+        let texture = |format| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: None,
+                size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        };
+        let (color, depth) = (texture(COLOR_FORMAT), texture(DEPTH_FORMAT));
+        let color_view = color.create_view(&wgpu::TextureViewDescriptor::default());
+        let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
+        Self { width, height, color, depth, color_view, depth_view }
+    }
+
+    /// A render pass over the target: the first pass of a frame clears it
+    /// to the sky and the far plane, later ones draw over what is there.
+    pub fn begin<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: &str, first: bool) -> wgpu::RenderPass<'e> {
+        let (color, depth) = if first {
+            (wgpu::LoadOp::Clear(CLEAR), wgpu::LoadOp::Clear(0.0))
+        } else {
+            (wgpu::LoadOp::Load, wgpu::LoadOp::Load)
+        };
+        encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &self.color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: color, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &self.depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+    }
+
+    /// Colour (RGBA8, rows from the top) and depth, copied back.
+    pub fn read_back(&self, gpu: &Gpu) -> Result<(Vec<u8>, Vec<f32>), RenderError> {
+        let device = &gpu.device;
+        let (w, h) = (self.width, self.height);
+        let row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: u64::from(row * h),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        let (color_buffer, depth_buffer) = (buffer("colour read-back"), buffer("depth read-back"));
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read back") });
+        for (texture, target, aspect) in [
+            (&self.color, &color_buffer, wgpu::TextureAspect::All),
+            (&self.depth, &depth_buffer, wgpu::TextureAspect::DepthOnly),
+        ] {
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: target,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(row),
+                        rows_per_image: Some(h),
+                    },
+                },
+                wgpu::Extent3d { width: w, height: h, depth_or_array_layers: 1 },
+            );
+        }
+        gpu.queue.submit([encoder.finish()]);
+        for b in [&color_buffer, &depth_buffer] {
+            b.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        }
+        wait(gpu)?;
+        let unpad = |b: &wgpu::Buffer| -> Result<Vec<u8>, RenderError> {
+            let view = b.slice(..).get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
+            let mut out = Vec::with_capacity((w * h * 4) as usize);
+            for y in 0..h as usize {
+                out.extend_from_slice(&view[y * row as usize..y * row as usize + (w * 4) as usize]);
+            }
+            Ok(out)
+        };
+        let rgba = unpad(&color_buffer)?;
+        let depth = bytemuck::cast_slice::<u8, f32>(&unpad(&depth_buffer)?).to_vec();
+        Ok((rgba, depth))
+    }
+}
+
+/// Waits until the device has done all it was given.
+pub fn wait(gpu: &Gpu) -> Result<(), RenderError> {
+    gpu.device
+        .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
+        .map(|_| ())
+        .map_err(|e| RenderError::Device(e.to_string()))
+}
