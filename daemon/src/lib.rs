@@ -13,6 +13,7 @@ pub mod navigate;
 pub mod png;
 pub mod registry;
 pub mod scene;
+pub mod scene_tiles;
 pub mod service;
 pub mod tiles;
 pub mod view;

@@ -21,6 +21,7 @@ pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
 pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
 pub use error::RenderError;
 pub use gpu::Gpu;
+pub use passes::buildings::MeshTiles;
 pub use passes::terrain::MAX_LEVELS;
 pub use passes::{ALL as PASSES, PassCounters, PassStats};
 pub use renderer::{Frame, RenderSettings, Renderer};

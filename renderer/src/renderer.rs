@@ -12,6 +12,7 @@ use crate::camera::{Pose, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
+use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
 use crate::passes::terrain::TerrainPass;
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
@@ -49,6 +50,8 @@ pub struct Renderer {
     surface: Surface,
     frame_buffer: wgpu::Buffer,
     terrain: TerrainPass,
+    /// Built the first time a frame has buildings to draw.
+    buildings: Option<BuildingsPass>,
     counters: PassCounters,
 }
 
@@ -58,7 +61,7 @@ impl Renderer {
         let terrain = TerrainPass::new(&gpu.device, &frame_buffer, config)?;
         let mut counters = PassCounters::default();
         counters.built(passes::TERRAIN);
-        Ok(Self { gpu, surface, frame_buffer, terrain, counters })
+        Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, counters })
     }
 
     pub fn surface(&self) -> &Surface {
@@ -83,10 +86,23 @@ impl Renderer {
         self.terrain.invalidate(&self.gpu, &self.surface, source, area);
     }
 
-    /// Renders the view from `pose`.
+    /// Renders the view from `pose`: the terrain alone.
     pub fn render(
         &mut self,
         source: &dyn TerrainSamples,
+        pose: &Pose,
+        settings: &RenderSettings,
+    ) -> Result<Frame, RenderError> {
+        self.render_scene(source, None, pose, settings)
+    }
+
+    /// Renders the view from `pose`: the terrain, then the buildings when
+    /// the scene has them (`meshes`). A pass the scene does not call for
+    /// is never built.
+    pub fn render_scene(
+        &mut self,
+        source: &dyn TerrainSamples,
+        meshes: Option<&dyn MeshTiles>,
         pose: &Pose,
         settings: &RenderSettings,
     ) -> Result<Frame, RenderError> {
@@ -102,10 +118,31 @@ impl Renderer {
         self.run(&target, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
+        if let Some(meshes) = meshes {
+            let started = Instant::now();
+            let device = &self.gpu.device;
+            let buildings = self.buildings.get_or_insert_with(|| BuildingsPass::new(device));
+            self.counters.built(passes::BUILDINGS);
+            let (terrain, surface) = (&self.terrain, &self.surface);
+            let ground = |x: f64, y: f64| terrain.drawn_height(surface, &draw, pose, x, y);
+            let drawn =
+                DrawnTerrain { surface, clipmap: terrain.clipmap(), active: &draw.update.active, ground: &ground };
+            let shown = buildings.prepare(device, &self.frame_buffer, &drawn, meshes);
+            let buildings = self.buildings.as_ref().expect("built above");
+            self.run(&target, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
+            passes.push((passes::BUILDINGS, self.counters.ran(passes::BUILDINGS, started)));
+        }
+
         let started = Instant::now();
         let (rgba, depth) = target.read_back(&self.gpu)?;
         passes.push(("read back", started.elapsed().as_secs_f64() * 1e3));
         Ok(Frame { width: settings.width, height: settings.height, rgba, depth, passes, update: draw.update, view })
+    }
+
+    /// The drawn terrain's height over grid point (x, y) in the last frame
+    /// (what buildings are lifted onto); None off the levels.
+    pub fn drawn_height(&self, pose: &Pose, active: &[u8], x: f64, y: f64) -> Option<f64> {
+        crate::passes::terrain::drawn_height(&self.surface, self.terrain.clipmap(), active, pose, x, y)
     }
 
     /// The brute-force reference: every sample of `area` (grid units) at

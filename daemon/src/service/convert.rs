@@ -222,7 +222,12 @@ pub fn mesh(m: &relief_source::MeshTile) -> pb::Mesh {
         parts: m
             .parts
             .iter()
-            .map(|p| pb::MeshPart { feature_id: p.feature_id, first_index: p.first_index, index_count: p.index_count })
+            .map(|p| pb::MeshPart {
+                feature_id: p.feature_id,
+                first_index: p.first_index,
+                index_count: p.index_count,
+                rgba: u32::from_be_bytes(p.color),
+            })
             .collect(),
         skipped: skipped(&m.skipped),
     }

@@ -3,6 +3,7 @@
 //! when the scene calls for it; the counters say which were built, how
 //! often each ran and what it took.
 
+pub mod buildings;
 pub mod terrain;
 
 use std::time::Instant;
@@ -10,8 +11,11 @@ use std::time::Instant;
 /// Terrain: the clipmap levels over the coarse base, coloured by the
 /// colour layer, lit by the `lighting` effect.
 pub const TERRAIN: &str = "terrain";
+/// Buildings: the `buildings` layer's meshes, lifted onto the drawn
+/// terrain. Built only for a scene with that layer.
+pub const BUILDINGS: &str = "buildings";
 /// Every pass a renderer knows, in the order a frame runs them.
-pub const ALL: &[&str] = &[TERRAIN];
+pub const ALL: &[&str] = &[TERRAIN, BUILDINGS];
 
 /// One pass's record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -140,6 +140,8 @@ pub struct MeshPart {
     pub feature_id: u64,
     pub first_index: u32,
     pub index_count: u32,
+    /// The feature's colour, straight RGBA8.
+    pub color: [u8; 4],
 }
 
 /// Triangle meshes (extruded buildings). Positions are grid-CRS x and y

@@ -8,7 +8,11 @@ use relief_source::{
     SourceInfo, SourceSpec, TileKey,
 };
 
+use crate::colors::{by_value, kml_color, parse_color, rgba8};
 use crate::placement::{AltitudeMode, AttributeOr, Ground, check_inputs};
+
+/// Buildings without a colour of their own: a light warm grey.
+const DEFAULT_COLOR: [f64; 4] = [0.85, 0.82, 0.76, 1.0];
 
 pub const EXTRUDE_KIND: &str = "extrude";
 /// Footprints, then (optional) the terrain the buildings stand on.
@@ -23,11 +27,16 @@ pub struct Extrude {
     /// Tiles coarser than this level stay empty: a building a few metres
     /// wide is less than a texel there, and meshing it costs for nothing.
     min_level: u8,
+    /// `color`: every building's colour unless `color_by` or a KML style
+    /// gives one.
+    color: [f64; 4],
+    /// `color_by`: colour by this attribute's value (a fixed palette).
+    color_by: Option<String>,
 }
 
 impl Extrude {
     pub fn open(spec: &SourceSpec) -> Result<Self, SourceError> {
-        spec.only_options(&["height_attribute", "height", "min_level"])?;
+        spec.only_options(&["height_attribute", "height", "min_level", "color", "color_by"])?;
         check_inputs(spec, EXTRUDE_KIND)?;
         let height = AttributeOr::from_spec(spec, "height")?;
         if height.value.is_some_and(|h| h <= 0.0) {
@@ -38,7 +47,20 @@ impl Extrude {
             Some(l) if (0.0..=f64::from(relief_source::MAX_LEVEL)).contains(&l) && l.fract() == 0.0 => l as u8,
             Some(l) => return Err(SourceError::option("min_level", format!("{l} is not a level of the grid"))),
         };
-        Ok(Self { id: spec.id.clone(), inputs: spec.inputs.clone(), height, min_level })
+        let color = spec.text("color")?.map(|c| parse_color("color", c)).transpose()?.unwrap_or(DEFAULT_COLOR);
+        let color_by = spec.text("color_by")?.map(str::to_owned);
+        Ok(Self { id: spec.id.clone(), inputs: spec.inputs.clone(), height, min_level, color, color_by })
+    }
+
+    /// A building's colour: by `color_by`'s value, else its KML style's
+    /// fill (made opaque), else `color`.
+    fn color_of(&self, feature: &Feature) -> [u8; 4] {
+        if let Some(value) = self.color_by.as_ref().and_then(|a| feature.properties.get(a)) {
+            let c = by_value(value);
+            return rgba8([c[0], c[1], c[2], 1.0]);
+        }
+        let kml = feature.properties.get("fill_color").and_then(|c| kml_color(c));
+        rgba8(kml.map_or(self.color, |c| [c[0], c[1], c[2], 1.0]))
     }
 
     /// The roof height of `feature` (metres, same datum as the ground), given
@@ -158,6 +180,9 @@ impl Source for Extrude {
             info.details.insert("height".into(), h.to_string());
         }
         info.details.insert("min_level".into(), self.min_level.to_string());
+        if let Some(a) = &self.color_by {
+            info.details.insert("color_by".into(), a.clone());
+        }
         info.details.insert("ground".into(), self.inputs.get(1).cloned().unwrap_or_else(|| "0 m".into()));
         info
     }
@@ -223,7 +248,8 @@ impl Source for Extrude {
             }
             let index_count = mesh.indices.len() as u32 - first_index;
             if index_count > 0 {
-                mesh.parts.push(MeshPart { feature_id: feature.id, first_index, index_count });
+                let color = self.color_of(feature);
+                mesh.parts.push(MeshPart { feature_id: feature.id, first_index, index_count, color });
             }
         }
         Ok(Payload::Mesh(mesh))

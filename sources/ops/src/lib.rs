@@ -3,6 +3,7 @@
 //! Ops never read files: their inputs arrive as tiles through
 //! `GenerateContext::inputs`, so they depend on `relief-source` only.
 
+mod colors;
 mod extrude;
 mod hillshade;
 mod instances;

@@ -3,7 +3,10 @@
 //! `lighting` effect, drawn with reversed-Z depth.
 
 mod base;
+mod ground;
 mod levels;
+
+pub use self::ground::drawn_height;
 
 use relief_source::Extent;
 use wgpu::util::DeviceExt;
@@ -182,6 +185,12 @@ impl TerrainPass {
 
     pub fn clipmap(&self) -> &Clipmap {
         &self.clipmap
+    }
+
+    /// The height of the terrain as the last prepared frame draws it over
+    /// grid point (x, y); None off the levels.
+    pub fn drawn_height(&self, surface: &Surface, draw: &TerrainDraw, pose: &Pose, x: f64, y: f64) -> Option<f64> {
+        ground::drawn_height(surface, &self.clipmap, &draw.update.active, pose, x, y)
     }
 
     /// The scene rebuilt tiles in `area`: refresh those samples only, in

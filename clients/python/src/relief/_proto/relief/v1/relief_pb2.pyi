@@ -610,14 +610,16 @@ class Mesh(_message.Message):
     def __init__(self, positions_f64_le: _Optional[bytes] = ..., indices_u32_le: _Optional[bytes] = ..., parts: _Optional[_Iterable[_Union[MeshPart, _Mapping]]] = ..., skipped: _Optional[_Iterable[_Union[SkippedFeature, _Mapping]]] = ...) -> None: ...
 
 class MeshPart(_message.Message):
-    __slots__ = ("feature_id", "first_index", "index_count")
+    __slots__ = ("feature_id", "first_index", "index_count", "rgba")
     FEATURE_ID_FIELD_NUMBER: _ClassVar[int]
     FIRST_INDEX_FIELD_NUMBER: _ClassVar[int]
     INDEX_COUNT_FIELD_NUMBER: _ClassVar[int]
+    RGBA_FIELD_NUMBER: _ClassVar[int]
     feature_id: int
     first_index: int
     index_count: int
-    def __init__(self, feature_id: _Optional[int] = ..., first_index: _Optional[int] = ..., index_count: _Optional[int] = ...) -> None: ...
+    rgba: int
+    def __init__(self, feature_id: _Optional[int] = ..., first_index: _Optional[int] = ..., index_count: _Optional[int] = ..., rgba: _Optional[int] = ...) -> None: ...
 
 class Instance(_message.Message):
     __slots__ = ("feature_id", "x", "y", "z", "kind", "model", "scale", "rotation_deg")

@@ -1,0 +1,171 @@
+//! The scene's tiles as the renderer asks for them: terrain samples from
+//! the height and colour layers, building meshes from the `buildings`
+//! layer, each answered from the tile store (built in parallel when
+//! missing).
+
+use std::collections::HashMap;
+use std::ops::Range;
+use std::sync::Arc;
+
+use relief_renderer::{MeshTiles, TerrainSamples};
+use relief_source::{Payload, Quality, TileKey};
+
+use crate::graph::SceneSnapshot;
+use crate::tiles::TileStore;
+
+/// The scene's tiles as the renderer asks for them.
+pub struct SceneTerrain<'a> {
+    store: &'a TileStore,
+    snap: &'a SceneSnapshot,
+    quality: Quality,
+    height: Option<usize>,
+    color: Option<usize>,
+    max_level: u8,
+}
+
+impl<'a> SceneTerrain<'a> {
+    pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Self {
+        let layer = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
+        let height = layer("height");
+        // Refine down to the finest data's own sample spacing (heights or
+        // imagery: colour is stored per vertex, so a fine orthophoto over a
+        // coarse DEM needs the finer levels too), one level past.
+        let resolution = [height, layer("color")]
+            .into_iter()
+            .flatten()
+            .filter_map(|i| snap.slots[i].source.as_ref().and_then(|s| s.info().resolution))
+            .reduce(f64::min);
+        let max_level = resolution.map_or(12, |r| {
+            let mut level = 0u8;
+            while level < 20 && snap.grid.sample_step(level) > r {
+                level += 1;
+            }
+            (level + 1).min(relief_source::MAX_LEVEL - 1)
+        });
+        Self { store, snap, quality, height, color: layer("color"), max_level }
+    }
+}
+
+impl SceneTerrain<'_> {
+    /// One value per corner sample of the block from source `index`'s tiles
+    /// (`default` without that layer), the tiles built in parallel first.
+    fn read<T: Copy>(
+        &self,
+        index: Option<usize>,
+        level: u8,
+        xs: Range<i64>,
+        ys: Range<i64>,
+        default: T,
+        value: impl Fn(&Payload, usize, usize) -> Option<T>,
+    ) -> Option<Vec<T>> {
+        let count = ((xs.end - xs.start) * (ys.end - ys.start)).max(0) as usize;
+        let Some(index) = index else { return Some(vec![default; count]) };
+        let grid = &self.snap.grid;
+        let n = i64::from(grid.tile_size());
+        // The tiles the block spans: every tile-size step across it and its
+        // last sample, each with its south-east neighbour, wrapped like the
+        // samples.
+        let mut keys = std::collections::BTreeSet::new();
+        let step = |r: &Range<i64>| (r.start..r.end).step_by(n as usize).chain(std::iter::once(r.end - 1));
+        for gy in step(&ys) {
+            for gx in step(&xs) {
+                keys.insert(grid.corner_sample(level, gx, gy).0);
+                keys.insert(grid.corner_sample(level, gx + 1, gy + 1).0);
+            }
+        }
+        let requests: Vec<(usize, TileKey)> = keys.iter().map(|&k| (index, k)).collect();
+        let mut tiles: HashMap<TileKey, Arc<Payload>> = HashMap::new();
+        for ((_, key), tile) in requests.iter().zip(self.store.build(self.snap, &requests, &self.quality)) {
+            match tile {
+                Ok(t) => {
+                    tiles.insert(*key, Arc::clone(&t.payload));
+                }
+                Err(e) => {
+                    tracing::warn!(level, error = %e, "terrain for the renderer is not ready");
+                    return None;
+                }
+            }
+        }
+        let mut out = Vec::with_capacity(count);
+        for gy in ys {
+            for gx in xs.clone() {
+                let (key, i, j) = grid.corner_sample(level, gx, gy);
+                out.push(tiles.get(&key).and_then(|t| value(t, i, j)).unwrap_or(default));
+            }
+        }
+        Some(out)
+    }
+}
+
+impl TerrainSamples for SceneTerrain<'_> {
+    fn heights(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<f32>> {
+        self.read(self.height, level, xs, ys, 0.0, |tile, i, j| match tile {
+            Payload::Height(t) => Some(t.get(i, j)),
+            _ => None,
+        })
+    }
+
+    /// A corner sits between four texel centres (colour tiles have a
+    /// one-texel border): their mean.
+    fn colors(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<[u8; 4]>> {
+        self.read(self.color, level, xs, ys, [0; 4], |tile, i, j| match tile {
+            Payload::Color(t) => {
+                let mut sum = [0u32; 4];
+                for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let o = ((j + dj) * t.size + i + di) * 4;
+                    for (total, v) in sum.iter_mut().zip(&t.rgba[o..o + 4]) {
+                        *total += u32::from(*v);
+                    }
+                }
+                Some(sum.map(|v| ((v + 2) / 4) as u8))
+            }
+            _ => None,
+        })
+    }
+
+    fn max_level(&self) -> u8 {
+        self.max_level
+    }
+}
+
+/// The `buildings` layer's mesh tiles.
+pub struct SceneBuildings<'a> {
+    store: &'a TileStore,
+    snap: &'a SceneSnapshot,
+    quality: Quality,
+    index: usize,
+    min_level: u8,
+}
+
+impl<'a> SceneBuildings<'a> {
+    /// None when the scene has no `buildings` layer (or its source is not
+    /// loaded): then no buildings pass is built.
+    pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Option<Self> {
+        let index = snap.manifest.layers.get("buildings").and_then(|id| snap.index_of(id))?;
+        let source = snap.slots[index].source.as_ref()?;
+        let min_level = source.info().details.get("min_level").and_then(|l| l.parse().ok()).unwrap_or(0);
+        Some(Self { store, snap, quality, index, min_level })
+    }
+}
+
+impl MeshTiles for SceneBuildings<'_> {
+    fn min_level(&self) -> u8 {
+        self.min_level
+    }
+
+    fn meshes(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>> {
+        let requests: Vec<(usize, TileKey)> = keys.iter().map(|&k| (self.index, k)).collect();
+        self.store
+            .build(self.snap, &requests, &self.quality)
+            .into_iter()
+            .zip(keys)
+            .map(|(tile, key)| match tile {
+                Ok(t) => Some(Arc::clone(&t.payload)),
+                Err(e) => {
+                    tracing::warn!(level = key.level, x = key.x, y = key.y, error = %e, "building meshes are not ready");
+                    None
+                }
+            })
+            .collect()
+    }
+}

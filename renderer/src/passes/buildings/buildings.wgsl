@@ -1,0 +1,63 @@
+// Buildings: meshes in world positions as double-single parts (the eye
+// subtracted in two steps, as for the terrain's base), each building
+// lifted onto the terrain as the frame draws it.
+
+struct Frame {
+    view_proj: mat4x4<f32>,
+    sun: vec4<f32>,
+    light: vec4<f32>,
+    centre: vec4<f32>,
+    eye_high: vec4<f32>,
+    eye_low: vec4<f32>,
+}
+
+// Per building: the lift onto the drawn terrain (xyz, along the local up)
+// and how far its walls reach below their base (xyz).
+struct Lift {
+    offset: vec4<f32>,
+    skirt: vec4<f32>,
+}
+
+struct Lifts {
+    items: array<Lift>,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(1) var<storage, read> lifts: Lifts;
+
+struct Out {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) normal: vec3<f32>,
+    @location(1) color: vec4<f32>,
+}
+
+// high.w: the building's index in its tile; low.w: 1 at the foot of a wall.
+@vertex
+fn vs_building(
+    @location(0) high: vec4<f32>,
+    @location(1) low: vec4<f32>,
+    @location(2) normal: vec4<f32>,
+    @location(3) color: vec4<f32>,
+    @builtin(instance_index) first: u32,
+) -> Out {
+    let lift = lifts.items[first + u32(high.w)];
+    let p = (high.xyz - frame.eye_high.xyz) + (low.xyz - frame.eye_low.xyz) + lift.offset.xyz - lift.skirt.xyz * low.w;
+    var out: Out;
+    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
+    out.normal = normal.xyz;
+    out.color = color;
+    return out;
+}
+
+@fragment
+fn fs_building(in: Out) -> @location(0) vec4<f32> {
+    var light = 1.0;
+    if frame.light.z > 0.5 {
+        let n = normalize(in.normal);
+        light = frame.light.x + frame.light.y * max(dot(n, frame.sun.xyz), 0.0);
+    } else {
+        // Unlit scenes still tell walls from roofs: a fixed sky light.
+        light = 0.55 + 0.45 * abs(dot(normalize(in.normal), normalize(-frame.centre.xyz * frame.centre.w + vec3<f32>(0.0, 0.0, 1.0 - frame.centre.w))));
+    }
+    return vec4<f32>(in.color.rgb * light, 1.0);
+}

@@ -1,0 +1,401 @@
+//! The buildings pass: the scene's `buildings` layer (meshes from
+//! `extrude`), lit, each building in its own colour. Mesh tiles are asked
+//! for where the clipmap is, coarse to fine: each active level at or past
+//! the layer's `min_level` shows the buildings whose centre lies in its
+//! ring (its window less the next finer level's), so every building is
+//! drawn once, from the tile of the level that shows the terrain there.
+//! Each building is lifted onto the terrain as the frame draws it (its
+//! lowest footprint corner on the drawn surface) and its walls reach down
+//! past the drawn surface's lowest point under it, so it neither floats nor
+//! sinks at any level of detail.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use relief_source::{Extent, MeshTile, Payload, TileKey};
+use wgpu::util::DeviceExt;
+
+use crate::clipmap::Clipmap;
+use crate::surface::Surface;
+use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
+use crate::uniforms::split;
+
+/// Footprint corners sampled per building for its lift (evenly spread).
+const LIFT_SAMPLES: usize = 16;
+/// How far walls always reach below the lowest drawn ground, metres.
+const MIN_SKIRT_M: f64 = 0.5;
+
+/// The scene's building meshes, as the renderer asks for them.
+pub trait MeshTiles {
+    /// The coarsest tile level whose tiles hold buildings.
+    fn min_level(&self) -> u8;
+    /// The mesh tiles `keys` (built when needed); None for one not ready.
+    fn meshes(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>>;
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct Vertex {
+    /// World position, high part; w: the building's index in its tile.
+    high: [f32; 4],
+    /// Low part; w: 1 at the foot of a wall.
+    low: [f32; 4],
+    normal: [f32; 4],
+    color: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+struct Lift {
+    offset: [f32; 4],
+    skirt: [f32; 4],
+}
+
+/// One building of a tile: its triangles and what its lift needs.
+struct Building {
+    first_index: u32,
+    index_count: u32,
+    /// The mean of its footprint (grid units): which ring shows it.
+    centre: (f64, f64),
+    /// Footprint corners (grid units), at most LIFT_SAMPLES.
+    corners: Vec<(f64, f64)>,
+    /// Its base in the data (metres).
+    base_m: f64,
+    up: DVec3,
+}
+
+/// A mesh tile on the device.
+struct TileMesh {
+    payload: Arc<Payload>,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    buildings: Vec<Building>,
+}
+
+/// The terrain a frame draws: where its levels are, and its height over a
+/// grid point (what buildings are lifted onto).
+#[derive(Clone, Copy)]
+pub struct DrawnTerrain<'a> {
+    pub surface: &'a Surface,
+    pub clipmap: &'a Clipmap,
+    /// Tile levels drawn, coarse to fine.
+    pub active: &'a [u8],
+    pub ground: &'a dyn Fn(f64, f64) -> Option<f64>,
+}
+
+/// What a frame draws: per tile, its first lift and the buildings shown.
+pub struct BuildingsDraw {
+    tiles: Vec<(TileKey, u32, Vec<usize>)>,
+    bind_group: Option<wgpu::BindGroup>,
+    /// Buildings drawn, and mesh tiles asked for but not ready.
+    pub drawn: usize,
+    pub not_ready: usize,
+}
+
+pub struct BuildingsPass {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    tiles: HashMap<TileKey, TileMesh>,
+    /// Mesh tiles turned into device buffers since the pass was built.
+    pub tiles_built: u64,
+}
+
+impl BuildingsPass {
+    pub fn new(device: &wgpu::Device) -> Self {
+        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("buildings"),
+            source: wgpu::ShaderSource::Wgsl(include_str!("buildings.wgsl").into()),
+        });
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty,
+            count: None,
+        };
+        let buffer = |ty| wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("buildings"),
+            entries: &[
+                entry(0, buffer(wgpu::BufferBindingType::Uniform)),
+                entry(1, buffer(wgpu::BufferBindingType::Storage { read_only: true })),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("buildings"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("buildings"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some("vs_building"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: size_of::<Vertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &attributes,
+                })],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Greater),
+                stencil: wgpu::StencilState::default(),
+                bias: wgpu::DepthBiasState::default(),
+            }),
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("fs_building"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                targets: &[Some(COLOR_FORMAT.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        Self { pipeline, layout, tiles: HashMap::new(), tiles_built: 0 }
+    }
+
+    /// Chooses and fetches the mesh tiles the clipmap's rings call for,
+    /// brings changed ones to the device, and lifts every building shown
+    /// onto the drawn terrain (`ground`: its height over a grid point).
+    pub fn prepare(
+        &mut self,
+        device: &wgpu::Device,
+        frame_buffer: &wgpu::Buffer,
+        terrain: &DrawnTerrain<'_>,
+        meshes: &dyn MeshTiles,
+    ) -> BuildingsDraw {
+        let DrawnTerrain { surface, clipmap, active, ground } = *terrain;
+        let rings = rings(surface, clipmap, active, meshes.min_level());
+        let mut wanted: Vec<(TileKey, usize)> = Vec::new();
+        for (r, ring) in rings.iter().enumerate() {
+            for area in &ring.windows {
+                for key in surface.grid().keys_overlapping(ring.level, area) {
+                    if !wanted.iter().any(|(k, _)| *k == key) {
+                        wanted.push((key, r));
+                    }
+                }
+            }
+        }
+        let keys: Vec<TileKey> = wanted.iter().map(|(k, _)| *k).collect();
+        let fetched = meshes.meshes(&keys);
+        let mut draw = BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0 };
+        let mut lifts: Vec<Lift> = Vec::new();
+        for ((key, r), payload) in wanted.iter().zip(fetched) {
+            let Some(payload) = payload else {
+                draw.not_ready += 1;
+                continue;
+            };
+            let fresh = self.tiles.get(key).is_none_or(|t| !Arc::ptr_eq(&t.payload, &payload));
+            if fresh {
+                let Some(mesh) = TileMesh::new(device, surface, payload) else { continue };
+                self.tiles.insert(*key, mesh);
+                self.tiles_built += 1;
+            }
+            let tile = &self.tiles[key];
+            let ring = &rings[*r];
+            let first = lifts.len() as u32;
+            let mut shown = Vec::new();
+            for (b, building) in tile.buildings.iter().enumerate() {
+                let visible = ring.shows(building.centre);
+                lifts.push(if visible { building.lift(ground) } else { Lift::zeroed() });
+                if visible {
+                    shown.push(b);
+                }
+            }
+            draw.drawn += shown.len();
+            if !shown.is_empty() {
+                draw.tiles.push((*key, first, shown));
+            }
+        }
+        eprintln!(
+            "DEBUG rings {:?} wanted {} drawn {} not_ready {} lifts {}",
+            rings.iter().map(|r| (r.level, r.windows[0])).collect::<Vec<_>>(),
+            wanted.len(),
+            draw.drawn,
+            draw.not_ready,
+            lifts.len()
+        );
+        // Tiles no ring asks for any more are let go.
+        self.tiles.retain(|k, _| keys.contains(k));
+        if !lifts.is_empty() {
+            let lifts_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("building lifts"),
+                contents: bytemuck::cast_slice(&lifts),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+            draw.bind_group = Some(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("buildings"),
+                layout: &self.layout,
+                entries: &[
+                    wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                    wgpu::BindGroupEntry { binding: 1, resource: lifts_buffer.as_entire_binding() },
+                ],
+            }));
+        }
+        draw
+    }
+
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw) {
+        let Some(bind_group) = &draw.bind_group else { return };
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bind_group, &[]);
+        for (key, first, shown) in &draw.tiles {
+            let tile = &self.tiles[key];
+            pass.set_vertex_buffer(0, tile.vertices.slice(..));
+            pass.set_index_buffer(tile.indices.slice(..), wgpu::IndexFormat::Uint32);
+            for &b in shown {
+                let building = &tile.buildings[b];
+                let range = building.first_index..building.first_index + building.index_count;
+                pass.draw_indexed(range, 0, *first..*first + 1);
+            }
+        }
+    }
+}
+
+impl Building {
+    /// Onto the drawn terrain: the base to the lowest drawn ground under
+    /// its corners, the walls down past the highest difference there.
+    fn lift(&self, ground: &dyn Fn(f64, f64) -> Option<f64>) -> Lift {
+        let drawn: Vec<f64> = self.corners.iter().filter_map(|&(x, y)| ground(x, y)).collect();
+        let (low, high) = drawn.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
+        let (offset, skirt) =
+            if drawn.is_empty() { (0.0, MIN_SKIRT_M) } else { (low - self.base_m, MIN_SKIRT_M + (high - low)) };
+        let o = (self.up * offset).as_vec3();
+        let s = (self.up * skirt).as_vec3();
+        Lift { offset: [o.x, o.y, o.z, 0.0], skirt: [s.x, s.y, s.z, 0.0] }
+    }
+}
+
+impl TileMesh {
+    /// The tile's triangles in world positions with flat normals; None for
+    /// a payload that is not a mesh or has no triangles.
+    fn new(device: &wgpu::Device, surface: &Surface, payload: Arc<Payload>) -> Option<Self> {
+        let Payload::Mesh(mesh) = payload.as_ref() else { return None };
+        if mesh.indices.is_empty() {
+            return None;
+        }
+        let (vertices, buildings) = vertices(surface, mesh);
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("building vertices"),
+            contents: bytemuck::cast_slice(&vertices),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("building triangles"),
+            contents: bytemuck::cast_slice(&mesh.indices),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        Some(Self { payload, vertices, indices, buildings })
+    }
+}
+
+/// The device vertices of a mesh tile and its buildings. Normals are the
+/// area-weighted faces round each vertex (`extrude` gives every wall its
+/// own four vertices, so walls stay flat and roofs face up).
+fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>) {
+    let world: Vec<DVec3> = mesh.positions.iter().map(|p| surface.world(p[0], p[1], p[2])).collect();
+    let mut normals = vec![DVec3::ZERO; world.len()];
+    for t in mesh.indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| t[k] as usize);
+        let n = (world[b] - world[a]).cross(world[c] - world[a]);
+        for v in [a, b, c] {
+            normals[v] += n;
+        }
+    }
+    let mut part_of = vec![0u32; world.len()];
+    let mut color_of = vec![[0.8f32, 0.8, 0.8, 1.0]; world.len()];
+    let mut base_of = vec![false; world.len()];
+    let mut buildings = Vec::with_capacity(mesh.parts.len());
+    for (k, part) in mesh.parts.iter().enumerate() {
+        let triangles = &mesh.indices[part.first_index as usize..(part.first_index + part.index_count) as usize];
+        let mut used: Vec<usize> = triangles.iter().map(|&i| i as usize).collect();
+        used.sort_unstable();
+        used.dedup();
+        let base_m = used.iter().map(|&v| mesh.positions[v][2]).fold(f64::INFINITY, f64::min);
+        let mut footprint: Vec<(f64, f64)> = Vec::new();
+        for &v in &used {
+            part_of[v] = k as u32;
+            color_of[v] = part.color.map(|c| f32::from(c) / 255.0);
+            let [x, y, z] = mesh.positions[v];
+            base_of[v] = z == base_m;
+            if z == base_m && !footprint.contains(&(x, y)) {
+                footprint.push((x, y));
+            }
+        }
+        let n = footprint.len().max(1) as f64;
+        let centre = footprint.iter().fold((0.0, 0.0), |(sx, sy), p| (sx + p.0 / n, sy + p.1 / n));
+        let stride = footprint.len().div_ceil(LIFT_SAMPLES).max(1);
+        let corners = footprint.iter().step_by(stride).copied().collect();
+        buildings.push(Building {
+            first_index: part.first_index,
+            index_count: part.index_count,
+            centre,
+            corners,
+            base_m,
+            up: surface.enu(centre.0, centre.1)[2],
+        });
+    }
+    let vertices = world
+        .iter()
+        .enumerate()
+        .map(|(v, &p)| {
+            let (high, low) = split(p);
+            let n = normals[v].normalize_or_zero().as_vec3();
+            Vertex {
+                high: [high[0], high[1], high[2], part_of[v] as f32],
+                low: [low[0], low[1], low[2], if base_of[v] { 1.0 } else { 0.0 }],
+                normal: [n.x, n.y, n.z, 0.0],
+                color: color_of[v],
+            }
+        })
+        .collect();
+    (vertices, buildings)
+}
+
+/// The area one active level shows buildings in: its window less the
+/// next finer level's (grid units; on the planet, also shifted a turn
+/// east and west so a window across the antimeridian is whole).
+struct Ring {
+    level: u8,
+    windows: Vec<Extent>,
+    holes: Vec<Extent>,
+}
+
+impl Ring {
+    fn shows(&self, (x, y): (f64, f64)) -> bool {
+        self.windows.iter().any(|w| w.contains(x, y)) && !self.holes.iter().any(|h| h.contains(x, y))
+    }
+}
+
+fn rings(surface: &Surface, clipmap: &Clipmap, active: &[u8], min_level: u8) -> Vec<Ring> {
+    let window = |t: u8| -> Option<Vec<Extent>> {
+        let level = clipmap.level(t)?;
+        let last = level.n as i64 - 1;
+        let (x0, y0) = surface.sample_point(t, level.origin.0, level.origin.1);
+        let (x1, y1) = surface.sample_point(t, level.origin.0 + last, level.origin.1 + last);
+        let e = Extent::new(x0.min(x1), y0.min(y1), x0.max(x1), y0.max(y1));
+        Some(if surface.is_planet() {
+            [-360.0, 0.0, 360.0].iter().map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y)).collect()
+        } else {
+            vec![e]
+        })
+    };
+    let mut out = Vec::new();
+    for (k, &t) in active.iter().enumerate() {
+        if t < min_level {
+            continue;
+        }
+        let Some(windows) = window(t) else { continue };
+        let holes = active.get(k + 1).and_then(|&f| window(f)).unwrap_or_default();
+        out.push(Ring { level: t, windows, holes });
+    }
+    out
+}

@@ -1,0 +1,261 @@
+//! Buildings on the analytic hill, on a real device: the terrain the CPU
+//! lifts buildings onto is the terrain the GPU draws, and every building
+//! stands on it (touches it, its roof its height above it) at two clipmap
+//! configurations.
+
+#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
+
+use std::sync::Arc;
+
+use relief_renderer::{ClipmapConfig, Frame, MeshTiles, Pose, RenderSettings};
+use relief_source::{MeshPart, MeshTile, Payload, TileKey, geodesy};
+
+mod common;
+
+use common::{Analytic, gpu, hill_scene, pose, save};
+
+const SETTINGS: RenderSettings = RenderSettings { width: 480, height: 320, lighting: true };
+/// Two clipmap configurations: coarse levels (the drawn terrain far from
+/// the data) and the default.
+const CONFIGS: [ClipmapConfig; 2] = [ClipmapConfig { n: 31, levels: 10 }, ClipmapConfig { n: 127, levels: 8 }];
+/// Buildings 40 m square and 25 m high, on the hill's slope.
+const SIDE_DEG: f64 = 0.0005;
+const HEIGHT_M: f64 = 25.0;
+
+/// Heights and the GPU's depth agree to float precision at these
+/// distances (f32 eye-relative positions, reversed-Z depth): 5 cm.
+const GROUND_TOL_M: f64 = 0.05;
+
+/// The geodetic point a pixel shows, or None for sky.
+fn shown(frame: &Frame, px: u32, py: u32) -> Option<(f64, f64, f64)> {
+    let depth = frame.depth[(py * frame.width + px) as usize];
+    let p = frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, depth)?;
+    Some(geodesy::geodetic_from_ecef(p.to_array()))
+}
+
+#[test]
+fn the_terrain_buildings_are_lifted_onto_is_the_terrain_the_device_draws() {
+    let gpu = gpu();
+    for config in CONFIGS {
+        let (mut renderer, source) = hill_scene(&gpu, config);
+        for view in [pose(10.25, 45.2, 6000.0, 0.0, -90.0), pose(10.2, 45.1, 3000.0, 20.0, -25.0)] {
+            let frame = renderer.render(&source, &view, &SETTINGS).unwrap();
+            let (mut worst, mut checked) = (0.0f64, 0);
+            for py in (0..frame.height).step_by(7) {
+                for px in (0..frame.width).step_by(7) {
+                    let Some((lon, lat, h)) = shown(&frame, px, py) else { continue };
+                    let Some(drawn) = renderer.drawn_height(&view, &frame.update.active, lon, lat) else { continue };
+                    if (drawn - h).abs() > 0.1 && std::env::var_os("RELIEF_DEBUG").is_some() {
+                        for &t in frame.update.active.iter().rev() {
+                            let l = renderer.clipmap().level(t).unwrap();
+                            let (sx, sy) = renderer.surface().sample_coords(t, lon, lat);
+                            eprintln!(
+                                "  level {t} fi {:.2} fj {:.2} n {}",
+                                sx - l.origin.0 as f64,
+                                sy - l.origin.1 as f64,
+                                l.n
+                            );
+                        }
+                        let d = frame.depth[(py * frame.width + px) as usize];
+                        eprintln!("({px},{py}) {lon} {lat} h {h} drawn {drawn} depth {d}");
+                    }
+                    worst = worst.max((drawn - h).abs());
+                    checked += 1;
+                }
+            }
+            assert!(checked > 500, "{config:?} {view:?}: only {checked} pixels on the levels");
+            assert!(worst < GROUND_TOL_M, "{config:?} {view:?}: drawn heights differ by {worst} m");
+        }
+    }
+}
+
+/// Buildings on a grid of points on the hill's slope, given in whichever
+/// tile owns each one's centre at every level from `min_level` on (tiles
+/// coarser are empty), built the way `extrude` builds them: the base at
+/// the lowest data height under the footprint, walls and a flat roof.
+struct Town<'a> {
+    source: &'a Analytic,
+    centres: Vec<(f64, f64)>,
+    min_level: u8,
+}
+
+impl<'a> Town<'a> {
+    fn new(source: &'a Analytic, min_level: u8) -> Self {
+        let centres = (0..6)
+            .flat_map(|i| (0..4).map(move |j| (10.1925 + 0.003 * f64::from(i), 45.121 + 0.003 * f64::from(j))))
+            .collect();
+        Self { source, centres, min_level }
+    }
+
+    fn corners((cx, cy): (f64, f64)) -> [(f64, f64); 4] {
+        let h = SIDE_DEG / 2.0;
+        [(cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h)]
+    }
+
+    fn tile(&self, key: TileKey) -> MeshTile {
+        let mut mesh = MeshTile::default();
+        if key.level < self.min_level {
+            return mesh;
+        }
+        let grid = self.source.surface.grid();
+        for (b, &centre) in self.centres.iter().enumerate() {
+            if grid.key_at(key.level, centre.0, centre.1) != Some(key) {
+                continue;
+            }
+            let ring = Self::corners(centre);
+            let base = ring.iter().map(|&(x, y)| (self.source.height)(x, y)).fold(f64::INFINITY, f64::min);
+            let first = mesh.indices.len() as u32;
+            let roof = mesh.positions.len() as u32;
+            mesh.positions.extend(ring.iter().map(|&(x, y)| [x, y, base + HEIGHT_M]));
+            mesh.indices.extend([roof, roof + 1, roof + 2, roof, roof + 2, roof + 3]);
+            for k in 0..4 {
+                let (a, c) = (ring[k], ring[(k + 1) % 4]);
+                let v = mesh.positions.len() as u32;
+                let top = base + HEIGHT_M;
+                mesh.positions.extend([[a.0, a.1, base], [c.0, c.1, base], [c.0, c.1, top], [a.0, a.1, top]]);
+                mesh.indices.extend([v, v + 1, v + 2, v, v + 2, v + 3]);
+            }
+            let index_count = mesh.indices.len() as u32 - first;
+            mesh.parts.push(MeshPart {
+                feature_id: b as u64,
+                first_index: first,
+                index_count,
+                color: [40, 60, 230, 255],
+            });
+        }
+        mesh
+    }
+}
+
+impl MeshTiles for Town<'_> {
+    fn min_level(&self) -> u8 {
+        self.min_level
+    }
+
+    fn meshes(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>> {
+        keys.iter().map(|&k| Some(Arc::new(Payload::Mesh(self.tile(k))))).collect()
+    }
+}
+
+#[test]
+fn buildings_touch_the_drawn_terrain_and_stand_their_height_above_it() {
+    let gpu = gpu();
+    // Buildings from level 9 on: where the terrain is drawn that fine or
+    // finer (within a few kilometres here).
+    let level = 9;
+    for config in CONFIGS {
+        let (mut renderer, source) = hill_scene(&gpu, config);
+        let town = Town::new(&source, level);
+        let view: Pose = pose(10.2, 45.118, 880.0, 0.0, -12.0);
+        // Fine pixels: 40 cm at 300 m, so a building floating more than
+        // that shows.
+        let settings = RenderSettings { width: 1200, height: 800, ..SETTINGS };
+        let bare = renderer.render(&source, &view, &settings).unwrap();
+        let frame = renderer.render_scene(&source, Some(&town), &view, &settings).unwrap();
+        save(&frame, &format!("town-{}.png", config.n));
+        assert_eq!(frame.passes.iter().map(|p| p.0).collect::<Vec<_>>(), ["terrain", "buildings", "read back"]);
+        // Per building: its highest pixel above the drawn terrain's lowest
+        // point under its corners, and that plus the pixel's footprint (a
+        // far roof is seen within a pixel of its edge); and its pixels.
+        let pixel_angle = view.vertical_fov_deg.to_radians() / f64::from(frame.height);
+        let mut seen = vec![(f64::NEG_INFINITY, f64::NEG_INFINITY, 0usize); town.centres.len()];
+        for py in 0..frame.height {
+            for px in 0..frame.width {
+                let i = (py * frame.width + px) as usize;
+                if frame.depth[i] <= bare.depth[i] * 1.000_01 {
+                    continue; // Terrain: no building in front here.
+                }
+                let Some((lon, lat, h)) = shown(&frame, px, py) else { continue };
+                let near = |c: &(f64, f64)| (c.0 - lon).abs().max((c.1 - lat).abs());
+                let (b, c) = town.centres.iter().enumerate().min_by(|a, b| near(a.1).total_cmp(&near(b.1))).unwrap();
+                if near(c) > SIDE_DEG {
+                    continue;
+                }
+                let drawn = |x: f64, y: f64| renderer.drawn_height(&view, &frame.update.active, x, y);
+                let base = Town::corners(*c).iter().filter_map(|&(x, y)| drawn(x, y)).fold(f64::INFINITY, f64::min);
+                let distance =
+                    frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, frame.depth[i]);
+                let footprint = (distance.unwrap() - frame.view.eye).length() * pixel_angle;
+                let s = &mut seen[b];
+                s.0 = s.0.max(h - base);
+                s.1 = s.1.max(h - base + footprint);
+                s.2 += 1;
+            }
+        }
+        let drawn: Vec<_> = seen.iter().filter(|s| s.2 > 15).collect();
+        assert!(drawn.len() >= 8, "{config:?}: only {} buildings in view", drawn.len());
+        for (highest, reach, _) in drawn {
+            // Its roof stands its height above the drawn ground's lowest
+            // corner: not raised, and not sunk (its highest pixel is within
+            // that pixel's footprint of the roof).
+            assert!(*highest < HEIGHT_M + 0.1, "{config:?}: a roof at {highest} m, not {HEIGHT_M}");
+            assert!(
+                *reach > HEIGHT_M - 0.1,
+                "{config:?}: a roof at {highest} m ({reach} with a pixel), not {HEIGHT_M}"
+            );
+        }
+        // Touching: at each building's lowest corner facing the camera, the
+        // pixel of a point two pixels inside the corner a little above the drawn
+        // ground (two pixels' footprint, at least 30 cm) must show the wall
+        // (or something in front of it); a building floating higher than
+        // that would show the ground behind it there instead.
+        let surface = renderer.surface();
+        let (mut probed, mut worst) = (0, 0.0f64);
+        for &centre in &town.centres {
+            let drawn = |(x, y): (f64, f64)| renderer.drawn_height(&view, &frame.update.active, x, y);
+            let Some((corner, ground)) = Town::corners(centre)
+                .into_iter()
+                .filter_map(|c| Some((c, drawn(c)?)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+            else {
+                continue;
+            };
+            let foot = surface.world(corner.0, corner.1, ground);
+            let inward = (surface.world(centre.0, centre.1, ground) - foot).normalize();
+            if inward.dot(frame.view.eye - foot) > 0.0 {
+                continue; // The corner is on the far side.
+            }
+            let footprint = (foot - frame.view.eye).length() * pixel_angle;
+            let lift = (2.0 * footprint).max(0.3);
+            let probe = foot + surface.enu(corner.0, corner.1)[2] * lift + inward * (2.0 * footprint).max(0.5);
+            let Some((px, py)) = project(&frame, probe) else { continue };
+            let i = (py * frame.width + px) as usize;
+            let Some(shown) =
+                frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, frame.depth[i])
+            else {
+                continue;
+            };
+            // Something in front (another building) hides the corner: fine.
+            // The ground behind showing through would be farther.
+            let behind = (shown - frame.view.eye).length() - (probe - frame.view.eye).length();
+            worst = worst.max(behind / (3.0 * footprint + 0.5));
+            probed += 1;
+        }
+        assert!(probed >= 4, "{config:?}: only {probed} lowest corners in view");
+        assert!(worst < 1.0, "{config:?}: a building's foot shows {worst} times the allowance away from the wall");
+    }
+}
+
+/// The pixel a world point falls in, if in the image and in front.
+fn project(frame: &Frame, p: glam::DVec3) -> Option<(u32, u32)> {
+    let v = &frame.view;
+    let d = p - v.eye;
+    let z = d.dot(v.forward);
+    let tan = (v.vertical_fov_deg.to_radians() / 2.0).tan();
+    let aspect = f64::from(frame.width) / f64::from(frame.height);
+    let (sx, sy) = (d.dot(v.right) / z / (tan * aspect), d.dot(v.up) / z / tan);
+    let px = f64::midpoint(sx, 1.0) * f64::from(frame.width) - 0.5;
+    let py = (1.0 - sy) / 2.0 * f64::from(frame.height) - 0.5;
+    let inside = z > 0.0 && px >= 0.0 && py >= 0.0 && px < f64::from(frame.width) && py < f64::from(frame.height);
+    inside.then(|| (px.round() as u32, py.round() as u32))
+}
+
+#[test]
+fn a_frame_without_buildings_builds_no_buildings_pass() {
+    let (mut renderer, source) = hill_scene(&gpu(), ClipmapConfig::default());
+    renderer.render(&source, &pose(10.25, 45.2, 6000.0, 0.0, -60.0), &SETTINGS).unwrap();
+    let stats = renderer.counters().stats();
+    let find = |n: &str| stats.iter().find(|s| s.name == n).copied().unwrap();
+    assert!(find("terrain").built && find("terrain").runs == 1);
+    assert_eq!((find("buildings").built, find("buildings").runs), (false, 0));
+}
