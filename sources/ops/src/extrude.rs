@@ -315,6 +315,34 @@ mod tests {
     }
 
     #[test]
+    fn a_building_takes_its_colour_from_color_by_then_its_kml_style_then_color() {
+        let spec = |options: &[(&str, &str)]| SourceSpec {
+            id: "b".into(),
+            kind: EXTRUDE_KIND.into(),
+            inputs: vec!["f".into()],
+            options: options
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), relief_source::OptionValue::Text((*v).to_owned())))
+                .collect(),
+            ..Default::default()
+        };
+        let mut feature = Feature { id: 1, geometry: Geometry::Polygons(vec![]), properties: Default::default() };
+        let plain = Extrude::open(&spec(&[("color", "#102030")])).unwrap();
+        assert_eq!(plain.color_of(&feature), [0x10, 0x20, 0x30, 255]);
+        // KML's aabbggrr: a half-transparent red style is drawn opaque red.
+        feature.properties.insert("fill_color".into(), "7f0000ff".into());
+        assert_eq!(plain.color_of(&feature), [255, 0, 0, 255]);
+        // color_by wins, the same value the same colour in every tile.
+        let by = Extrude::open(&spec(&[("color_by", "use")])).unwrap();
+        feature.properties.insert("use".into(), "school".into());
+        let school = by.color_of(&feature);
+        assert_ne!(school, [255, 0, 0, 255]);
+        let other = Feature { id: 2, ..feature.clone() };
+        assert_eq!(by.color_of(&other), school);
+        assert!(Extrude::open(&spec(&[("color", "blue")])).unwrap_err().to_string().contains("color"));
+    }
+
+    #[test]
     fn kml_altitudes_give_the_roof() {
         let spec =
             SourceSpec { id: "b".into(), kind: EXTRUDE_KIND.into(), inputs: vec!["f".into()], ..Default::default() };
