@@ -326,7 +326,8 @@ mod tests {
                 .collect(),
             ..Default::default()
         };
-        let mut feature = Feature { id: 1, geometry: Geometry::Polygons(vec![]), properties: Default::default() };
+        let mut feature =
+            Feature { id: 1, geometry: Geometry::Polygons(vec![]), properties: std::collections::BTreeMap::default() };
         let plain = Extrude::open(&spec(&[("color", "#102030")])).unwrap();
         assert_eq!(plain.color_of(&feature), [0x10, 0x20, 0x30, 255]);
         // KML's aabbggrr: a half-transparent red style is drawn opaque red.
