@@ -42,15 +42,18 @@ step "$bin/relief" render -o "$out/view-range.png"
 step "$bin/relief" render --camera 6.62,45.05,4500,340,-15,0 -o "$out/view-valley.png"
 step "$bin/relief" render --camera 6.5,45.3,120000,0,-90,0 -o "$out/view-above.png"
 step "$bin/relief" render --camera 6.5,30,15000000,0,-90,0 -o "$out/view-planet.png"
+# The town in the valley: 2,000 buildings extruded from town.shp, coloured by use.
+step "$bin/relief" render --camera 6.60,45.065,800,5,-18,0 -o "$out/view-town.png"
 echo
 echo "views written:"
-for v in range valley above planet; do echo "  $out/view-$v.png"; done
+for v in range valley above planet town; do echo "  $out/view-$v.png"; done
 
 cat <<MSG
 
 reliefd is serving the demo scene on $listen (log: $out/reliefd.log).
 Watch it live: open $viewer in a browser (drag to orbit, right-drag to pan,
-wheel to zoom, WASD to move); edit $out/scene/dem.tif and the view follows.
+wheel to zoom, WASD to move); edit $out/scene/dem.tif or move a building in
+$out/scene/town.shp (QGIS, ogr2ogr) and the view follows.
 Try, in another terminal:
   curl -s http://$listen/api/state
   curl -s -o view.png "http://$listen/api/render?width=1280&height=720"

@@ -17,7 +17,7 @@ use std::sync::Arc;
 use anyhow::Context;
 use common::median;
 use glam::DVec3;
-use relief_daemon::view::SceneTerrain;
+use relief_daemon::view::{SceneBuildings, SceneTerrain};
 use relief_renderer::{ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, Surface, TerrainSamples};
 use relief_source::{Extent, geodesy};
 
@@ -140,5 +140,51 @@ fn main() -> anyhow::Result<()> {
         "| full-resolution mesh | {brute:.1} | {mesh_ms:.0} | {rms:.2} | {max:.1} | {:.2}x |",
         default_still / brute
     );
+    passes(&gpu, &scene, &terrain)?;
+    Ok(())
+}
+
+/// The scene's passes from a camera over the demo town (2,000 buildings):
+/// terrain alone, then terrain and buildings, still frames at 1280 x 720.
+fn passes(gpu: &Arc<Gpu>, scene: &relief_daemon::scene::Scene, terrain: &SceneTerrain<'_>) -> anyhow::Result<()> {
+    let snap = scene.snapshot();
+    let buildings = SceneBuildings::new(&scene.store, &snap, snap.manifest.quality).context("the demo has a town")?;
+    let (lon, lat) = relief_examples::DEMO_TOWN_CENTRE;
+    let town = Pose {
+        position: [lon, lat - 0.025, 800.0],
+        heading_deg: 5.0,
+        pitch_deg: -18.0,
+        roll_deg: 0.0,
+        vertical_fov_deg: 50.0,
+    };
+    let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+    // First frames fill the levels and build tiles and meshes: not timed.
+    renderer.render_scene(terrain, Some(&buildings), &town, &SETTINGS)?;
+    let mut rows = Vec::new();
+    for (name, with_buildings) in [("terrain alone", false), ("terrain + buildings", true)] {
+        let meshes = with_buildings.then_some(&buildings as &dyn relief_renderer::MeshTiles);
+        let mut frames = Vec::new();
+        for _ in 0..5 {
+            frames.push(renderer.render_scene(terrain, meshes, &town, &SETTINGS)?);
+        }
+        let pass_ms = |pass: &str| {
+            median(frames.iter().filter_map(|f| f.passes.iter().find(|p| p.0 == pass)).map(|p| p.1).collect())
+        };
+        let total = median(frames.iter().map(total_ms).collect());
+        rows.push((name, pass_ms("terrain"), with_buildings.then(|| pass_ms("buildings")), total));
+    }
+    println!(
+        "\n## The scene's passes at 1280 x 720 over the demo town ({} buildings)",
+        relief_examples::DEMO_TOWN_BUILDINGS
+    );
+    println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
+    println!("camera: 800 m, 18 degrees down, 2.8 km south of the town's centre; still frames, median of 5");
+    println!("| scene | terrain pass ms | buildings pass ms | frame ms (passes and read back) | / terrain alone |");
+    println!("|---|---|---|---|---|");
+    let alone = rows[0].3;
+    for (name, terrain_ms, buildings_ms, total) in rows {
+        let b = buildings_ms.map_or("-".to_owned(), |ms| format!("{ms:.1}"));
+        println!("| {name} | {terrain_ms:.1} | {b} | {total:.1} | {:.2}x |", total / alone);
+    }
     Ok(())
 }

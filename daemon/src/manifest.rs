@@ -31,24 +31,17 @@ pub enum ManifestError {
 pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
 /// The effects a scene may declare, and the layers each one reads.
-pub const EFFECTS: &[(&str, &[&str])] = &[
-    ("lighting", &["height"]),
-    ("atmosphere", &[]),
-    ("fog", &[]),
-    ("shadows", &["height"]),
-    ("water", &["water"]),
-    ("vegetation", &["vegetation"]),
-];
+pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"])];
+/// Effects relief knows of but does not draw yet: refused by name, never
+/// accepted and ignored.
+pub const EFFECTS_NOT_YET: &[&str] = &["atmosphere", "fog", "shadows", "water", "vegetation"];
 
-/// Layers the renderer reads, and the payload each must have.
-pub const LAYERS: &[(&str, PayloadKind)] = &[
-    ("height", PayloadKind::Height),
-    ("color", PayloadKind::Color),
-    ("water", PayloadKind::Mask),
-    ("vegetation", PayloadKind::Instances),
-    ("instances", PayloadKind::Instances),
-    ("buildings", PayloadKind::Mesh),
-];
+/// Layers the renderer draws, and the payload each must have.
+pub const LAYERS: &[(&str, PayloadKind)] =
+    &[("height", PayloadKind::Height), ("color", PayloadKind::Color), ("buildings", PayloadKind::Mesh)];
+/// Layers relief knows of but does not draw yet: refused by name (their
+/// sources still serve tiles without them).
+pub const LAYERS_NOT_YET: &[&str] = &["water", "vegetation", "instances"];
 
 /// The payload layer `name` needs, None for an unknown layer.
 pub fn layer_payload(name: &str) -> Option<PayloadKind> {
@@ -286,7 +279,8 @@ impl Manifest {
         for (layer, id) in &raw.layers {
             if layer_payload(layer).is_none() {
                 let known: Vec<&str> = LAYERS.iter().map(|(n, _)| *n).collect();
-                return Err(field(&format!("layers.{layer}"), format!("unknown layer (known: {})", known.join(", "))));
+                let why = if LAYERS_NOT_YET.contains(&layer.as_str()) { "not drawn yet" } else { "unknown layer" };
+                return Err(field(&format!("layers.{layer}"), format!("{why} (drawn: {})", known.join(", "))));
             }
             if !sources.iter().any(|s| &s.id == id) {
                 return Err(field(&format!("layers.{layer}"), format!("no source has id '{id}'")));
@@ -296,7 +290,8 @@ impl Manifest {
         for (name, _params) in raw.effects {
             let Some((_, needs)) = EFFECTS.iter().find(|(e, _)| *e == name) else {
                 let known: Vec<&str> = EFFECTS.iter().map(|(e, _)| *e).collect();
-                return Err(field(&format!("effects.{name}"), format!("unknown effect (known: {})", known.join(", "))));
+                let why = if EFFECTS_NOT_YET.contains(&name.as_str()) { "not drawn yet" } else { "unknown effect" };
+                return Err(field(&format!("effects.{name}"), format!("{why} (drawn: {})", known.join(", "))));
             };
             if let Some(missing) = needs.iter().find(|l| !raw.layers.contains_key(**l)) {
                 return Err(field(&format!("effects.{name}"), format!("needs a '{missing}' layer in [layers]")));
@@ -429,6 +424,12 @@ mod tests {
                 "source 'x', field 'id'",
             ),
             ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
+            // Names relief knows but cannot honour yet are refused, not ignored.
+            ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': not drawn yet (drawn: lighting)"),
+            (
+                "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nvegetation='t'\n",
+                "field 'layers.vegetation': not drawn yet (drawn: height, color, buildings)",
+            ),
             ("[scene]\nname = \n", "invalid manifest"),
         ];
         for (text, expected) in cases {

@@ -184,9 +184,25 @@ inputs = ["dem"]
 azimuth_deg = 315
 altitude_deg = 40
 
+# A town in the valley south of the range: footprints with a height and
+# a use, extruded onto the DEM and coloured by use.
+[[source]]
+id = "town-footprints"
+kind = "shapefile"
+path = "town.shp"
+
+[[source]]
+id = "town"
+kind = "extrude"
+inputs = ["town-footprints", "dem"]
+height_attribute = "height"
+color_by = "use"
+min_level = 10
+
 [layers]
 height = "dem"
 color = "ortho"
+buildings = "town"
 
 [effects]
 lighting = {}
@@ -239,7 +255,55 @@ pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
         nodata: None,
     };
     write_rgb(&out.join("ortho.tif"), &ortho, |lon, lat| demo_color(demo_terrain(lon, lat)))?;
+    write_town(&out.join("town.shp"), DEMO_TOWN_CENTRE, DEMO_TOWN_BUILDINGS)?;
     write_manifest(out, DEMO_MANIFEST)
+}
+
+/// Where the demo's town is (lon, lat) and how many buildings it has.
+pub const DEMO_TOWN_CENTRE: (f64, f64) = (6.6, 45.09);
+pub const DEMO_TOWN_BUILDINGS: usize = 2000;
+
+/// Writes `count` building footprints round `centre` as a shapefile (with
+/// GDAL, as a GIS would): rectangles 12 to 30 m a side on a jittered
+/// 60 m lattice, each with a `height` (6 to 24 m) and a `use`
+/// (residential, commercial, industrial or civic). The same every run.
+pub fn write_town(path: &Path, centre: (f64, f64), count: usize) -> anyhow::Result<PathBuf> {
+    use gdal::vector::{FieldDefn, Geometry, LayerAccess, LayerOptions, OGRFieldType, OGRwkbGeometryType};
+
+    let driver = gdal::DriverManager::get_driver_by_name("ESRI Shapefile")?;
+    let mut ds = driver.create_vector_only(path).with_context(|| format!("cannot create {}", path.display()))?;
+    let mut srs = gdal::spatial_ref::SpatialRef::from_epsg(4326)?;
+    srs.set_axis_mapping_strategy(gdal::spatial_ref::AxisMappingStrategy::TraditionalGisOrder);
+    let layer = ds.create_layer(LayerOptions {
+        name: "town",
+        srs: Some(&srs),
+        ty: OGRwkbGeometryType::wkbPolygon,
+        options: None,
+    })?;
+    FieldDefn::new("height", OGRFieldType::OFTReal)?.add_to_layer(&layer)?;
+    FieldDefn::new("use", OGRFieldType::OFTString)?.add_to_layer(&layer)?;
+    // A small linear congruential generator: the same town every run.
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut random = move || {
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let side = (count as f64).sqrt().ceil() as usize;
+    let (deg_lat, deg_lon) = (1.0 / 111_320.0, 1.0 / (111_320.0 * centre.1.to_radians().cos()));
+    for k in 0..count {
+        let (i, j) = ((k % side) as f64 - side as f64 / 2.0, (k / side) as f64 - side as f64 / 2.0);
+        let (x, y) =
+            (centre.0 + (i * 60.0 + 20.0 * random()) * deg_lon, centre.1 + (j * 60.0 + 20.0 * random()) * deg_lat);
+        let (w, d) = ((12.0 + 18.0 * random()) * deg_lon, (12.0 + 18.0 * random()) * deg_lat);
+        let ring = format!("POLYGON(({x} {y},{x2} {y},{x2} {y2},{x} {y2},{x} {y}))", x2 = x + w, y2 = y + d);
+        let uses = ["residential", "residential", "residential", "commercial", "industrial", "civic"];
+        let mut feature = gdal::vector::Feature::new(layer.defn())?;
+        feature.set_geometry(Geometry::from_wkt(&ring)?)?;
+        feature.set_field_double(0, (6.0 + 18.0 * random()).round())?;
+        feature.set_field_string(1, uses[(random() * uses.len() as f64) as usize % uses.len()])?;
+        feature.create(&layer)?;
+    }
+    Ok(path.to_path_buf())
 }
 
 /// The demo DEM's extent (west, south, east, north) and its nodata void

@@ -226,7 +226,7 @@ async fn points_become_instances_from_their_attributes() {
     let daemon = start(
         dir.path(),
         &format!(
-            "\n[[source]]\nid = \"trees\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"planted\"\nkind = \"instances\"\ninputs = [\"trees\", \"dem\"]\nrender_as = \"billboard\"\nmodel_attribute = \"species\"\nmodel = \"tree\"\nscale_attribute = \"scale\"\nscale = 2\nrotation_attribute = \"heading\"\n\n[layers]\nvegetation = \"planted\"\n",
+            "\n[[source]]\nid = \"trees\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"planted\"\nkind = \"instances\"\ninputs = [\"trees\", \"dem\"]\nrender_as = \"billboard\"\nmodel_attribute = \"species\"\nmodel = \"tree\"\nscale_attribute = \"scale\"\nscale = 2\nrotation_attribute = \"heading\"\n",
             shp.display()
         ),
     );

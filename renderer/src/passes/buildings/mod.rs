@@ -85,9 +85,10 @@ pub struct DrawnTerrain<'a> {
     pub ground: &'a dyn Fn(f64, f64) -> Option<f64>,
 }
 
-/// What a frame draws: per tile, its first lift and the buildings shown.
+/// What a frame draws: per tile, its first lift and the index ranges of
+/// the buildings shown (neighbours merged: one draw for a run of them).
 pub struct BuildingsDraw {
-    tiles: Vec<(TileKey, u32, Vec<usize>)>,
+    tiles: Vec<(TileKey, u32, Vec<std::ops::Range<u32>>)>,
     bind_group: Option<wgpu::BindGroup>,
     /// Buildings drawn, and mesh tiles asked for but not ready.
     pub drawn: usize,
@@ -202,27 +203,24 @@ impl BuildingsPass {
             let tile = &self.tiles[key];
             let ring = &rings[*r];
             let first = lifts.len() as u32;
-            let mut shown = Vec::new();
-            for (b, building) in tile.buildings.iter().enumerate() {
+            let mut shown: Vec<std::ops::Range<u32>> = Vec::new();
+            for building in &tile.buildings {
                 let visible = ring.shows(building.centre);
                 lifts.push(if visible { building.lift(ground) } else { Lift::zeroed() });
-                if visible {
-                    shown.push(b);
+                if !visible {
+                    continue;
+                }
+                draw.drawn += 1;
+                let range = building.first_index..building.first_index + building.index_count;
+                match shown.last_mut() {
+                    Some(last) if last.end == range.start => last.end = range.end,
+                    _ => shown.push(range),
                 }
             }
-            draw.drawn += shown.len();
             if !shown.is_empty() {
                 draw.tiles.push((*key, first, shown));
             }
         }
-        eprintln!(
-            "DEBUG rings {:?} wanted {} drawn {} not_ready {} lifts {}",
-            rings.iter().map(|r| (r.level, r.windows[0])).collect::<Vec<_>>(),
-            wanted.len(),
-            draw.drawn,
-            draw.not_ready,
-            lifts.len()
-        );
         // Tiles no ring asks for any more are let go.
         self.tiles.retain(|k, _| keys.contains(k));
         if !lifts.is_empty() {
@@ -251,10 +249,8 @@ impl BuildingsPass {
             let tile = &self.tiles[key];
             pass.set_vertex_buffer(0, tile.vertices.slice(..));
             pass.set_index_buffer(tile.indices.slice(..), wgpu::IndexFormat::Uint32);
-            for &b in shown {
-                let building = &tile.buildings[b];
-                let range = building.first_index..building.first_index + building.index_count;
-                pass.draw_indexed(range, 0, *first..*first + 1);
+            for range in shown {
+                pass.draw_indexed(range.clone(), 0, *first..*first + 1);
             }
         }
     }
