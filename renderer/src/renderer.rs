@@ -125,8 +125,13 @@ impl Renderer {
             self.counters.built(passes::BUILDINGS);
             let (terrain, surface) = (&self.terrain, &self.surface);
             let ground = |x: f64, y: f64| terrain.drawn_height(surface, &draw, pose, x, y);
-            let drawn =
-                DrawnTerrain { surface, clipmap: terrain.clipmap(), active: &draw.update.active, ground: &ground };
+            let drawn = DrawnTerrain {
+                surface,
+                clipmap: terrain.clipmap(),
+                active: &draw.update.active,
+                ground: &ground,
+                camera: (pose.position[0], pose.position[1]),
+            };
             let shown = buildings.prepare(device, &self.frame_buffer, &drawn, meshes);
             let buildings = self.buildings.as_ref().expect("built above");
             self.run(&target, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;

@@ -7,8 +7,8 @@
 
 use std::sync::Arc;
 
-use relief_renderer::{ClipmapConfig, Frame, MeshTiles, Pose, RenderSettings};
-use relief_source::{MeshPart, MeshTile, Payload, TileKey, geodesy};
+use relief_renderer::{ClipmapConfig, Frame, MeshTiles, Pose, RenderSettings, Renderer, Surface};
+use relief_source::{MeshPart, MeshTile, Payload, TileGrid, TileKey, geodesy};
 
 mod common;
 
@@ -18,13 +18,19 @@ const SETTINGS: RenderSettings = RenderSettings { width: 480, height: 320, light
 /// Two clipmap configurations: coarse levels (the drawn terrain far from
 /// the data) and the default.
 const CONFIGS: [ClipmapConfig; 2] = [ClipmapConfig { n: 31, levels: 10 }, ClipmapConfig { n: 127, levels: 8 }];
-/// Buildings 40 m square and 25 m high, on the hill's slope.
-const SIDE_DEG: f64 = 0.0005;
+/// Buildings 40 m square and 25 m high.
+const SIDE_M: f64 = 40.0;
 const HEIGHT_M: f64 = 25.0;
 
 /// Heights and the GPU's depth agree to float precision at these
 /// distances (f32 eye-relative positions, reversed-Z depth): 5 cm.
 const GROUND_TOL_M: f64 = 0.05;
+
+/// Half a building's side in degrees of longitude and latitude at `lat`.
+fn half_side_deg(lat: f64) -> (f64, f64) {
+    let hy = SIDE_M / 2.0 / 111_320.0;
+    (hy / lat.to_radians().cos(), hy)
+}
 
 /// The geodetic point a pixel shows, or None for sky.
 fn shown(frame: &Frame, px: u32, py: u32) -> Option<(f64, f64, f64)> {
@@ -87,9 +93,22 @@ impl<'a> Town<'a> {
         Self { source, centres, min_level }
     }
 
+    /// A square SIDE_M a side round `(cx, cy)` (degrees; east of 180 kept
+    /// unwrapped, as `extrude` keeps a footprint on the antimeridian whole).
     fn corners((cx, cy): (f64, f64)) -> [(f64, f64); 4] {
-        let h = SIDE_DEG / 2.0;
-        [(cx - h, cy - h), (cx + h, cy - h), (cx + h, cy + h), (cx - h, cy + h)]
+        let (hx, hy) = half_side_deg(cy);
+        [(cx - hx, cy - hy), (cx + hx, cy - hy), (cx + hx, cy + hy), (cx - hx, cy + hy)]
+    }
+
+    /// The building whose footprint is nearest (lon, lat), if within its
+    /// footprint's reach.
+    fn at(&self, lon: f64, lat: f64) -> Option<(usize, (f64, f64))> {
+        let metres = |c: &(f64, f64)| {
+            let dx = ((lon - c.0 + 540.0) % 360.0 - 180.0) * 111_320.0 * c.1.to_radians().cos();
+            dx.hypot((lat - c.1) * 111_320.0)
+        };
+        let (b, c) = self.centres.iter().enumerate().min_by(|a, b| metres(a.1).total_cmp(&metres(b.1)))?;
+        (metres(c) < SIDE_M).then_some((b, *c))
     }
 
     fn tile(&self, key: TileKey) -> MeshTile {
@@ -137,103 +156,147 @@ impl MeshTiles for Town<'_> {
     }
 }
 
+/// How the town stands in the frame from `view`: per building drawn (more
+/// than 15 pixels) the roof is its height above the drawn ground's lowest
+/// corner, not raised and not sunk (the highest pixel within its footprint
+/// of the roof); and at each lowest corner facing the camera, the pixel of
+/// a point two pixels inside the corner, a little above the drawn ground
+/// (two pixels' footprint, at least 30 cm), shows the wall or something in
+/// front of it, never the ground behind (which a floating building would
+/// show there). Returns the buildings drawn and the corners probed.
+fn check_standing(
+    renderer: &mut Renderer,
+    town: &Town<'_>,
+    view: &Pose,
+    settings: &RenderSettings,
+    label: &str,
+) -> (usize, usize) {
+    let source = town.source;
+    let bare = renderer.render(source, view, settings).unwrap();
+    let frame = renderer.render_scene(source, Some(town), view, settings).unwrap();
+    save(&frame, &format!("{label}.png"));
+    assert_eq!(frame.passes.iter().map(|p| p.0).collect::<Vec<_>>(), ["terrain", "buildings", "read back"]);
+    assert!(frame.depth.iter().all(|d| d.is_finite()), "{label}: a depth is not finite");
+    let drawn = |(x, y): (f64, f64)| renderer.drawn_height(view, &frame.update.active, x, y);
+    let pixel_angle = view.vertical_fov_deg.to_radians() / f64::from(frame.height);
+    let mut seen = vec![(f64::NEG_INFINITY, f64::NEG_INFINITY, 0usize); town.centres.len()];
+    for py in 0..frame.height {
+        for px in 0..frame.width {
+            let i = (py * frame.width + px) as usize;
+            if frame.depth[i] <= bare.depth[i] * 1.000_01 {
+                continue; // Terrain: no building in front here.
+            }
+            let Some((lon, lat, h)) = shown(&frame, px, py) else { continue };
+            let Some((b, c)) = town.at(lon, lat) else { continue };
+            let base = Town::corners(c).into_iter().filter_map(drawn).fold(f64::INFINITY, f64::min);
+            let point = frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, frame.depth[i]);
+            let footprint = (point.unwrap() - frame.view.eye).length() * pixel_angle;
+            let s = &mut seen[b];
+            s.0 = s.0.max(h - base);
+            s.1 = s.1.max(h - base + footprint);
+            s.2 += 1;
+        }
+    }
+    let standing: Vec<_> = seen.iter().filter(|s| s.2 > 15).collect();
+    for (highest, reach, _) in &standing {
+        assert!(*highest < HEIGHT_M + 0.1, "{label}: a roof at {highest} m, not {HEIGHT_M}");
+        assert!(*reach > HEIGHT_M - 0.1, "{label}: a roof at {highest} m ({reach} with a pixel), not {HEIGHT_M}");
+    }
+    let surface = renderer.surface();
+    let (mut probed, mut worst) = (0, 0.0f64);
+    for &centre in &town.centres {
+        // The lowest corner (any within a centimetre of it) facing the camera.
+        let corners: Vec<_> = Town::corners(centre).into_iter().filter_map(|c| Some((c, drawn(c)?))).collect();
+        let lowest = corners.iter().map(|c| c.1).fold(f64::INFINITY, f64::min);
+        let facing = corners.into_iter().filter(|c| c.1 < lowest + 0.01).find_map(|(corner, ground)| {
+            let foot = surface.world(corner.0, corner.1, ground);
+            let inward = (surface.world(centre.0, centre.1, ground) - foot).normalize();
+            (inward.dot(frame.view.eye - foot) < 0.0).then_some((corner, foot, inward))
+        });
+        let Some((corner, foot, inward)) = facing else { continue };
+        let footprint = (foot - frame.view.eye).length() * pixel_angle;
+        let lift = (2.0 * footprint).max(0.3);
+        let probe = foot + surface.enu(corner.0, corner.1)[2] * lift + inward * (2.0 * footprint).max(0.5);
+        let Some((px, py)) = project(&frame, probe) else { continue };
+        let i = (py * frame.width + px) as usize;
+        let Some(shown) = frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, frame.depth[i])
+        else {
+            continue;
+        };
+        // Something in front (another building) hides the corner: fine.
+        // The ground behind showing through would be farther.
+        let behind = (shown - frame.view.eye).length() - (probe - frame.view.eye).length();
+        worst = worst.max(behind / (3.0 * footprint + 0.5));
+        probed += 1;
+    }
+    assert!(worst < 1.0, "{label}: a building's foot shows {worst} times the allowance away from the wall");
+    (standing.len(), probed)
+}
+
 #[test]
 fn buildings_touch_the_drawn_terrain_and_stand_their_height_above_it() {
     let gpu = gpu();
-    // Buildings from level 9 on: where the terrain is drawn that fine or
-    // finer (within a few kilometres here).
-    let level = 9;
+    // Fine pixels: 40 cm at 300 m, so a building floating more than that
+    // shows.
+    let settings = RenderSettings { width: 1200, height: 800, ..SETTINGS };
     for config in CONFIGS {
         let (mut renderer, source) = hill_scene(&gpu, config);
-        let town = Town::new(&source, level);
-        let view: Pose = pose(10.2, 45.118, 880.0, 0.0, -12.0);
-        // Fine pixels: 40 cm at 300 m, so a building floating more than
-        // that shows.
-        let settings = RenderSettings { width: 1200, height: 800, ..SETTINGS };
-        let bare = renderer.render(&source, &view, &settings).unwrap();
-        let frame = renderer.render_scene(&source, Some(&town), &view, &settings).unwrap();
-        save(&frame, &format!("town-{}.png", config.n));
-        assert_eq!(frame.passes.iter().map(|p| p.0).collect::<Vec<_>>(), ["terrain", "buildings", "read back"]);
-        // Per building: its highest pixel above the drawn terrain's lowest
-        // point under its corners, and that plus the pixel's footprint (a
-        // far roof is seen within a pixel of its edge); and its pixels.
-        let pixel_angle = view.vertical_fov_deg.to_radians() / f64::from(frame.height);
-        let mut seen = vec![(f64::NEG_INFINITY, f64::NEG_INFINITY, 0usize); town.centres.len()];
-        for py in 0..frame.height {
-            for px in 0..frame.width {
-                let i = (py * frame.width + px) as usize;
-                if frame.depth[i] <= bare.depth[i] * 1.000_01 {
-                    continue; // Terrain: no building in front here.
-                }
-                let Some((lon, lat, h)) = shown(&frame, px, py) else { continue };
-                let near = |c: &(f64, f64)| (c.0 - lon).abs().max((c.1 - lat).abs());
-                let (b, c) = town.centres.iter().enumerate().min_by(|a, b| near(a.1).total_cmp(&near(b.1))).unwrap();
-                if near(c) > SIDE_DEG {
-                    continue;
-                }
-                let drawn = |x: f64, y: f64| renderer.drawn_height(&view, &frame.update.active, x, y);
-                let base = Town::corners(*c).iter().filter_map(|&(x, y)| drawn(x, y)).fold(f64::INFINITY, f64::min);
-                let distance =
-                    frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, frame.depth[i]);
-                let footprint = (distance.unwrap() - frame.view.eye).length() * pixel_angle;
-                let s = &mut seen[b];
-                s.0 = s.0.max(h - base);
-                s.1 = s.1.max(h - base + footprint);
-                s.2 += 1;
-            }
-        }
-        let drawn: Vec<_> = seen.iter().filter(|s| s.2 > 15).collect();
-        assert!(drawn.len() >= 8, "{config:?}: only {} buildings in view", drawn.len());
-        for (highest, reach, _) in drawn {
-            // Its roof stands its height above the drawn ground's lowest
-            // corner: not raised, and not sunk (its highest pixel is within
-            // that pixel's footprint of the roof).
-            assert!(*highest < HEIGHT_M + 0.1, "{config:?}: a roof at {highest} m, not {HEIGHT_M}");
-            assert!(
-                *reach > HEIGHT_M - 0.1,
-                "{config:?}: a roof at {highest} m ({reach} with a pixel), not {HEIGHT_M}"
-            );
-        }
-        // Touching: at each building's lowest corner facing the camera, the
-        // pixel of a point two pixels inside the corner a little above the drawn
-        // ground (two pixels' footprint, at least 30 cm) must show the wall
-        // (or something in front of it); a building floating higher than
-        // that would show the ground behind it there instead.
-        let surface = renderer.surface();
-        let (mut probed, mut worst) = (0, 0.0f64);
-        for &centre in &town.centres {
-            let drawn = |(x, y): (f64, f64)| renderer.drawn_height(&view, &frame.update.active, x, y);
-            let Some((corner, ground)) = Town::corners(centre)
-                .into_iter()
-                .filter_map(|c| Some((c, drawn(c)?)))
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-            else {
-                continue;
-            };
-            let foot = surface.world(corner.0, corner.1, ground);
-            let inward = (surface.world(centre.0, centre.1, ground) - foot).normalize();
-            if inward.dot(frame.view.eye - foot) > 0.0 {
-                continue; // The corner is on the far side.
-            }
-            let footprint = (foot - frame.view.eye).length() * pixel_angle;
-            let lift = (2.0 * footprint).max(0.3);
-            let probe = foot + surface.enu(corner.0, corner.1)[2] * lift + inward * (2.0 * footprint).max(0.5);
-            let Some((px, py)) = project(&frame, probe) else { continue };
-            let i = (py * frame.width + px) as usize;
-            let Some(shown) =
-                frame.view.world_at(f64::from(px), f64::from(py), frame.width, frame.height, frame.depth[i])
-            else {
-                continue;
-            };
-            // Something in front (another building) hides the corner: fine.
-            // The ground behind showing through would be farther.
-            let behind = (shown - frame.view.eye).length() - (probe - frame.view.eye).length();
-            worst = worst.max(behind / (3.0 * footprint + 0.5));
-            probed += 1;
-        }
+        // Buildings from level 9 on: where the terrain is drawn that fine
+        // or finer (within a few kilometres here).
+        let town = Town::new(&source, 9);
+        let view = pose(10.2, 45.118, 880.0, 0.0, -12.0);
+        let (standing, probed) = check_standing(&mut renderer, &town, &view, &settings, &format!("town-{}", config.n));
+        assert!(standing >= 8, "{config:?}: only {standing} buildings in view");
         assert!(probed >= 4, "{config:?}: only {probed} lowest corners in view");
-        assert!(worst < 1.0, "{config:?}: a building's foot shows {worst} times the allowance away from the wall");
     }
+}
+
+fn cliff(lon: f64, _lat: f64) -> f64 {
+    // 1,000 m straight up at 10.2 E.
+    if lon < 10.2 { 500.0 } else { 1500.0 }
+}
+
+fn plain(_lon: f64, _lat: f64) -> f64 {
+    300.0
+}
+
+#[test]
+fn hard_cases_a_cliff_under_a_building_the_antimeridian_and_near_a_pole() {
+    let gpu = gpu();
+    let settings = RenderSettings { width: 960, height: 640, ..SETTINGS };
+    let surface = Surface::new(TileGrid::geodetic(256).unwrap());
+    let scene = |height: fn(f64, f64) -> f64| {
+        let source = Analytic { surface: surface.clone(), height, max_level: 16, ready_up_to: u8::MAX };
+        let renderer = Renderer::new(Arc::clone(&gpu), surface.clone(), ClipmapConfig::default()).unwrap();
+        (renderer, source)
+    };
+    // A building across a 1,000 m cliff stands at the cliff's foot (its
+    // base is its lowest ground, as `extrude` makes it), its uphill walls in
+    // the rock; seen from below, it stands and its numbers stay finite.
+    let (mut renderer, source) = scene(cliff);
+    let (hx, _) = half_side_deg(45.0);
+    let town = Town { source: &source, centres: vec![(10.2 - hx / 2.0, 45.0), (10.199, 45.0005)], min_level: 12 };
+    let (standing, _) =
+        check_standing(&mut renderer, &town, &pose(10.199, 44.9965, 560.0, 0.0, -5.0), &settings, "cliff");
+    assert!(standing >= 2, "cliff: {standing} buildings drawn");
+    // Across the antimeridian: buildings both sides of 180, one on it.
+    let (mut renderer, source) = scene(plain);
+    let (hx, _) = half_side_deg(-17.0);
+    let centres = vec![(179.9985, -17.0), (180.0 - hx / 3.0, -16.9995), (-179.9985, -17.0)];
+    let town = Town { source: &source, centres, min_level: 12 };
+    let (standing, probed) =
+        check_standing(&mut renderer, &town, &pose(180.0, -17.004, 420.0, 0.0, -15.0), &settings, "antimeridian");
+    assert!(standing == 3 && probed >= 2, "antimeridian: {standing} drawn, {probed} corners probed");
+    // Near the north pole, where degrees of longitude are short (a
+    // building 40 m wide spans 0.05 degrees at 89.6 N; the clipmap's
+    // windows, square in samples, reach only some 70 m east and west
+    // there, so the town stands within that).
+    let (mut renderer, source) = scene(plain);
+    let centres = vec![(20.0, 89.6), (20.0, 89.6012), (20.06, 89.6006)];
+    let town = Town { source: &source, centres, min_level: 12 };
+    let (standing, probed) =
+        check_standing(&mut renderer, &town, &pose(20.0, 89.5965, 420.0, 0.0, -15.0), &settings, "pole");
+    assert!(standing == 3 && probed >= 2, "pole: {standing} drawn, {probed} corners probed");
 }
 
 /// The pixel a world point falls in, if in the image and in front.

@@ -83,6 +83,8 @@ pub struct DrawnTerrain<'a> {
     /// Tile levels drawn, coarse to fine.
     pub active: &'a [u8],
     pub ground: &'a dyn Fn(f64, f64) -> Option<f64>,
+    /// The camera's grid point.
+    pub camera: (f64, f64),
 }
 
 /// What a frame draws: per tile, its first lift and the index ranges of
@@ -173,23 +175,22 @@ impl BuildingsPass {
         terrain: &DrawnTerrain<'_>,
         meshes: &dyn MeshTiles,
     ) -> BuildingsDraw {
-        let DrawnTerrain { surface, clipmap, active, ground } = *terrain;
-        let rings = rings(surface, clipmap, active, meshes.min_level());
-        let mut wanted: Vec<(TileKey, usize)> = Vec::new();
-        for (r, ring) in rings.iter().enumerate() {
+        let DrawnTerrain { surface, clipmap, active, ground, .. } = *terrain;
+        let rings = rings(surface, clipmap, active, meshes.min_level(), terrain.camera);
+        let mut keys: Vec<TileKey> = Vec::new();
+        for ring in &rings {
             for area in &ring.windows {
                 for key in surface.grid().keys_overlapping(ring.level, area) {
-                    if !wanted.iter().any(|(k, _)| *k == key) {
-                        wanted.push((key, r));
+                    if !keys.contains(&key) {
+                        keys.push(key);
                     }
                 }
             }
         }
-        let keys: Vec<TileKey> = wanted.iter().map(|(k, _)| *k).collect();
         let fetched = meshes.meshes(&keys);
         let mut draw = BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0 };
         let mut lifts: Vec<Lift> = Vec::new();
-        for ((key, r), payload) in wanted.iter().zip(fetched) {
+        for (key, payload) in keys.iter().zip(fetched) {
             let Some(payload) = payload else {
                 draw.not_ready += 1;
                 continue;
@@ -201,11 +202,13 @@ impl BuildingsPass {
                 self.tiles_built += 1;
             }
             let tile = &self.tiles[key];
-            let ring = &rings[*r];
+            // A building shows where a ring drawing its tile's level holds
+            // its centre (rings do not overlap: it is drawn once).
+            let shows = |c: (f64, f64)| rings.iter().any(|r| r.level == key.level && r.shows(c));
             let first = lifts.len() as u32;
             let mut shown: Vec<std::ops::Range<u32>> = Vec::new();
             for building in &tile.buildings {
-                let visible = ring.shows(building.centre);
+                let visible = shows(building.centre);
                 lifts.push(if visible { building.lift(ground) } else { Lift::zeroed() });
                 if !visible {
                     continue;
@@ -358,7 +361,9 @@ fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>) 
 
 /// The area one active level shows buildings in: its window less the
 /// next finer level's (grid units; on the planet, also shifted a turn
-/// east and west so a window across the antimeridian is whole).
+/// east and west so a window across the antimeridian is whole), and the
+/// tile level its buildings come from (its own, or `min_level` for a
+/// coarser level, within reach of the camera).
 struct Ring {
     level: u8,
     windows: Vec<Extent>,
@@ -371,27 +376,41 @@ impl Ring {
     }
 }
 
-fn rings(surface: &Surface, clipmap: &Clipmap, active: &[u8], min_level: u8) -> Vec<Ring> {
+fn rings(surface: &Surface, clipmap: &Clipmap, active: &[u8], min_level: u8, camera: (f64, f64)) -> Vec<Ring> {
+    let shifted = |e: Extent| -> Vec<Extent> {
+        if surface.is_planet() {
+            [-360.0, 0.0, 360.0].iter().map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y)).collect()
+        } else {
+            vec![e]
+        }
+    };
     let window = |t: u8| -> Option<Vec<Extent>> {
         let level = clipmap.level(t)?;
         let last = level.n as i64 - 1;
         let (x0, y0) = surface.sample_point(t, level.origin.0, level.origin.1);
         let (x1, y1) = surface.sample_point(t, level.origin.0 + last, level.origin.1 + last);
-        let e = Extent::new(x0.min(x1), y0.min(y1), x0.max(x1), y0.max(y1));
-        Some(if surface.is_planet() {
-            [-360.0, 0.0, 360.0].iter().map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y)).collect()
-        } else {
-            vec![e]
-        })
+        Some(shifted(Extent::new(x0.min(x1), y0.min(y1), x0.max(x1), y0.max(y1))))
     };
+    // How far round the camera `min_level` reaches: half its window's
+    // height, as far east and west on the ground (near a pole a window of
+    // samples is far narrower than tall, and coarser levels are still fine
+    // enough there for buildings).
+    let n = clipmap.config.n as f64;
+    let half_y = n / 2.0 * surface.step(min_level);
+    let half_x = if surface.is_planet() { (half_y / camera.1.to_radians().cos().max(1e-6)).min(180.0) } else { half_y };
+    let reach = shifted(Extent::new(camera.0 - half_x, camera.1 - half_y, camera.0 + half_x, camera.1 + half_y));
     let mut out = Vec::new();
     for (k, &t) in active.iter().enumerate() {
+        let Some(mut windows) = window(t) else { continue };
         if t < min_level {
-            continue;
+            // A coarser ring shows min_level's tiles, within reach.
+            windows = windows.iter().flat_map(|w| reach.iter().filter_map(|r| w.intersection(r))).collect();
+            if windows.is_empty() {
+                continue;
+            }
         }
-        let Some(windows) = window(t) else { continue };
         let holes = active.get(k + 1).and_then(|&f| window(f)).unwrap_or_default();
-        out.push(Ring { level: t, windows, holes });
+        out.push(Ring { level: t.max(min_level), windows, holes });
     }
     out
 }
