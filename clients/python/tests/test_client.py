@@ -171,6 +171,8 @@ def test_mesh_tiles_hold_the_extruded_parcels(shared_client: relief.Client) -> N
     # Feature ids are record numbers (0-based, as OGR's FIDs).
     summit = next(i for i, (name, _, _) in enumerate(PARCELS) if name == "summit")
     assert summit in [p.feature_id for p in tile.parts]
+    # No colour option: extrude's default, a light warm grey, opaque.
+    assert all(p.rgba == (217, 209, 194, 255) for p in tile.parts), [p.rgba for p in tile.parts]
     # The summit parcel's roof: the ground there (about 1900 to 2000 m) plus 30 m.
     roof = tile.positions[:, 2].max()
     assert 1900.0 < roof < 2100.0

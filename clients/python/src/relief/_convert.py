@@ -412,7 +412,13 @@ def tile(r: pb.GetTileResponse) -> Tile:
         positions = np.frombuffer(m.positions_f64_le, dtype="<f8").astype(np.float64).reshape(-1, 3)
         indices = np.frombuffer(m.indices_u32_le, dtype="<u4").astype(np.uint32).reshape(-1, 3)
         parts = tuple(
-            MeshPart(feature_id=p.feature_id, first_index=p.first_index, index_count=p.index_count) for p in m.parts
+            MeshPart(
+                feature_id=p.feature_id,
+                first_index=p.first_index,
+                index_count=p.index_count,
+                rgba=(p.rgba >> 24 & 0xFF, p.rgba >> 16 & 0xFF, p.rgba >> 8 & 0xFF, p.rgba & 0xFF),
+            )
+            for p in m.parts
         )
         return MeshTile(**common, positions=positions, indices=indices, parts=parts, skipped=_skipped(m.skipped))
     if which == "instances":

@@ -453,6 +453,8 @@ class MeshPart:
     feature_id: int
     first_index: int
     index_count: int
+    #: The feature's colour, straight RGBA (0-255 each).
+    rgba: tuple[int, int, int, int] = (0, 0, 0, 0)
 
     @property
     def first_triangle(self) -> int:
