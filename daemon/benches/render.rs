@@ -141,6 +141,53 @@ fn main() -> anyhow::Result<()> {
         default_still / brute
     );
     passes(&gpu, &scene, &terrain)?;
+    min_levels(&gpu, &manifest)?;
+    Ok(())
+}
+
+/// The town view of `passes`, still, for the extrude knob `min_level`.
+fn town_view() -> Pose {
+    let (lon, lat) = relief_examples::DEMO_TOWN_CENTRE;
+    Pose {
+        position: [lon, lat - 0.025, 800.0],
+        heading_deg: 5.0,
+        pitch_deg: -18.0,
+        roll_deg: 0.0,
+        vertical_fov_deg: 50.0,
+    }
+}
+
+/// The knob `min_level` of `extrude`: buildings come from tiles of that
+/// level or finer, so a coarser one draws buildings farther from the
+/// camera at more cost. Error: the share of the buildings the most
+/// generous setting (8) draws in this view that are left out.
+fn min_levels(gpu: &Arc<Gpu>, manifest: &std::path::Path) -> anyhow::Result<()> {
+    let text = std::fs::read_to_string(manifest)?;
+    let mut rows = Vec::new();
+    for level in [8u8, 9, 10, 11, 12, 13] {
+        let variant = manifest.with_file_name(format!("scene-min-level-{level}.toml"));
+        std::fs::write(&variant, text.replace("min_level = 10", &format!("min_level = {level}")))?;
+        let scene = common::load(&variant, 2)?;
+        let snap = scene.snapshot();
+        let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
+        let buildings =
+            SceneBuildings::new(&scene.store, &snap, snap.manifest.quality).context("the demo has a town")?;
+        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+        renderer.render_scene(&terrain, Some(&buildings), &town_view(), &SETTINGS)?;
+        let frames = (0..5)
+            .map(|_| Ok(renderer.render_scene(&terrain, Some(&buildings), &town_view(), &SETTINGS)?))
+            .collect::<anyhow::Result<Vec<Frame>>>()?;
+        let pass =
+            median(frames.iter().filter_map(|f| f.passes.iter().find(|p| p.0 == "buildings")).map(|p| p.1).collect());
+        rows.push((level, frames[0].buildings_drawn, pass, median(frames.iter().map(total_ms).collect())));
+    }
+    println!("\n### Knob: extrude `min_level` (buildings from tiles of that level or finer), town view");
+    println!("| min_level | buildings drawn | left out (of min_level 8's) | buildings pass ms | frame ms |");
+    println!("|---|---|---|---|---|");
+    let all = rows[0].1.max(1) as f64;
+    for (level, drawn, pass, total) in rows {
+        println!("| {level} | {drawn} | {:.1} % | {pass:.1} | {total:.1} |", 100.0 * (1.0 - drawn as f64 / all));
+    }
     Ok(())
 }
 
@@ -149,14 +196,7 @@ fn main() -> anyhow::Result<()> {
 fn passes(gpu: &Arc<Gpu>, scene: &relief_daemon::scene::Scene, terrain: &SceneTerrain<'_>) -> anyhow::Result<()> {
     let snap = scene.snapshot();
     let buildings = SceneBuildings::new(&scene.store, &snap, snap.manifest.quality).context("the demo has a town")?;
-    let (lon, lat) = relief_examples::DEMO_TOWN_CENTRE;
-    let town = Pose {
-        position: [lon, lat - 0.025, 800.0],
-        heading_deg: 5.0,
-        pitch_deg: -18.0,
-        roll_deg: 0.0,
-        vertical_fov_deg: 50.0,
-    };
+    let town = town_view();
     let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
     // First frames fill the levels and build tiles and meshes: not timed.
     renderer.render_scene(terrain, Some(&buildings), &town, &SETTINGS)?;

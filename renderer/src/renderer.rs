@@ -43,6 +43,8 @@ pub struct Frame {
     pub passes: Vec<(&'static str, f64)>,
     pub update: UpdateStats,
     pub view: View,
+    /// Buildings the buildings pass drew (0 without it).
+    pub buildings_drawn: usize,
 }
 
 pub struct Renderer {
@@ -118,6 +120,7 @@ impl Renderer {
         self.run(&target, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
+        let mut buildings_drawn = 0;
         if let Some(meshes) = meshes {
             let started = Instant::now();
             let device = &self.gpu.device;
@@ -133,6 +136,7 @@ impl Renderer {
                 camera: (pose.position[0], pose.position[1]),
             };
             let shown = buildings.prepare(device, &self.frame_buffer, &drawn, meshes);
+            buildings_drawn = shown.drawn;
             let buildings = self.buildings.as_ref().expect("built above");
             self.run(&target, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
             passes.push((passes::BUILDINGS, self.counters.ran(passes::BUILDINGS, started)));
@@ -141,7 +145,8 @@ impl Renderer {
         let started = Instant::now();
         let (rgba, depth) = target.read_back(&self.gpu)?;
         passes.push(("read back", started.elapsed().as_secs_f64() * 1e3));
-        Ok(Frame { width: settings.width, height: settings.height, rgba, depth, passes, update: draw.update, view })
+        let (width, height, update) = (settings.width, settings.height, draw.update);
+        Ok(Frame { width, height, rgba, depth, passes, update, view, buildings_drawn })
     }
 
     /// The drawn terrain's height over grid point (x, y) in the last frame
@@ -176,7 +181,8 @@ impl Renderer {
         let (rgba, depth) = target.read_back(&self.gpu)?;
         let passes = vec![("mesh", mesh_ms), ("draw and read back", started.elapsed().as_secs_f64() * 1e3)];
         let update = UpdateStats::default();
-        Ok(Some(Frame { width: settings.width, height: settings.height, rgba, depth, passes, update, view }))
+        let (width, height) = (settings.width, settings.height);
+        Ok(Some(Frame { width, height, rgba, depth, passes, update, view, buildings_drawn: 0 }))
     }
 
     fn check(&self, pose: &Pose, settings: &RenderSettings) -> Result<(), RenderError> {
