@@ -322,3 +322,24 @@ fn a_frame_without_buildings_builds_no_buildings_pass() {
     assert!(find("terrain").built && find("terrain").runs == 1);
     assert_eq!((find("buildings").built, find("buildings").runs), (false, 0));
 }
+
+#[test]
+fn buildings_stay_after_the_camera_flies_round_the_planet() {
+    let surface = Surface::new(TileGrid::geodetic(256).unwrap());
+    let source = Analytic { surface: surface.clone(), height: plain, max_level: 16, ready_up_to: u8::MAX };
+    let mut renderer = Renderer::new(gpu(), surface, ClipmapConfig::default()).unwrap();
+    let (hx, _) = half_side_deg(-17.0);
+    let centres = vec![(179.9985, -17.0), (180.0 - hx / 3.0, -16.9995), (-179.9985, -17.0)];
+    let town = Town { source: &source, centres, min_level: 12 };
+    let view = |lon: f64| pose(lon, -17.004, 420.0, 0.0, -15.0);
+    let drawn = |r: &mut Renderer, lon: f64| {
+        r.render_scene(&source, Some(&town), &view(lon), &SETTINGS).unwrap().buildings_drawn
+    };
+    assert_eq!(drawn(&mut renderer, 180.0), 3);
+    // Twice round eastwards, 45 degrees a frame: the clipmap's windows
+    // follow without bound; the buildings must still be found.
+    for step in 1..=16 {
+        drawn(&mut renderer, (180.0 + 45.0 * f64::from(step) + 180.0) % 360.0 - 180.0);
+    }
+    assert_eq!(drawn(&mut renderer, 180.0), 3);
+}

@@ -24,6 +24,8 @@ from .sse import SseParser
 
 #: Where a fresh install looks for reliefd (`reliefd serve`'s default).
 DEFAULT_ADDRESS = "127.0.0.1:50051"
+#: How long a single request may take before it counts as unanswered.
+REQUEST_TIMEOUT_MS = 5000
 
 
 class Backoff:
@@ -75,6 +77,8 @@ class _Stream(QObject):
         request.setAttribute(QNetworkRequest.CacheLoadControlAttribute, QNetworkRequest.AlwaysNetwork)
         self._parser = SseParser()
         self._closing = False
+        #: The message of an `error` event the daemon sent before ending.
+        self.error = ""
         self._reply = manager.get(request)
         self._reply.readyRead.connect(self._read)
         self._reply.finished.connect(self._finished)
@@ -83,6 +87,8 @@ class _Stream(QObject):
         if self._reply.attribute(QNetworkRequest.HttpStatusCodeAttribute) not in (None, 200):
             return  # An error body: `finished` reports it.
         for name, data in self._parser.feed(bytes(self._reply.readAll())):
+            if name == "error":
+                self.error = _message(data)
             self.received.emit(name, data)
 
     def _finished(self) -> None:
@@ -90,7 +96,10 @@ class _Stream(QObject):
             return
         self._closing = True
         failed = self._reply.error() != QNetworkReply.NoError
-        self.ended.emit(error_text(self._reply) if failed else "the daemon ended the stream")
+        if self.error:
+            self.ended.emit(f"it answered: {self.error}")
+        else:
+            self.ended.emit(error_text(self._reply) if failed else "the daemon ended the stream")
         self._reply.deleteLater()
 
     def close(self) -> None:
@@ -123,6 +132,10 @@ class DaemonLink(QObject):
         self._streams: dict[str, _Stream] = {}
         self._pending: set[QNetworkReply] = set()
         self._view_id = ""
+        #: Bumped on every restart and stop: answers to requests made
+        #: before are dropped (an old address's late failure must not tear
+        #: down the new connection).
+        self._epoch = 0
         self._running = False
         self._up: Optional[bool] = None
         self.backoff = Backoff()
@@ -165,13 +178,23 @@ class DaemonLink(QObject):
     def stop(self) -> None:
         self._running = False
         self._retry.stop()
+        self._forget_requests()
         self._close_streams()
 
     def _restart(self) -> None:
+        self._forget_requests()
         self._close_streams()
         self._retry.stop()
         self.backoff.reset()
+        self._up = None
         self._probe()
+
+    def _forget_requests(self) -> None:
+        self._epoch += 1
+        self._view_id = ""
+        for reply in list(self._pending):
+            reply.abort()
+        self._pending.clear()
 
     def _close_streams(self) -> None:
         for stream in self._streams.values():
@@ -204,12 +227,12 @@ class DaemonLink(QObject):
         if not self._running or (self._up is False and self._retry.isActive()):
             return  # Already waiting to try again.
         delay = self.backoff.take()
-        self._set_up(False, f"reliefd at {self._address} is not reachable ({why}); trying again in {delay:g} s")
+        self._set_up(False, f"reliefd at {self._address}: not reachable or not drawing ({why}); trying again in {delay:g} s")
         self._retry.start(int(delay * 1000))
 
     def _set_up(self, up: bool, message: str) -> None:
-        if up:
-            self.backoff.reset()
+        # The delay grows until a frame arrives (a daemon that answers but
+        # cannot draw is retried less and less often, not every 0.5 s).
         if up != self._up or not up:
             self._up = up
             self.reachable.emit(up, message)
@@ -253,6 +276,7 @@ class DaemonLink(QObject):
         if image.isNull():
             self.failed.emit("a frame from reliefd is not a PNG image")
             return
+        self.backoff.reset()
         self.frame.emit(image, generation, message.get("camera") or {})
 
     def _on_scene_event(self, name: str, data: str) -> None:
@@ -307,12 +331,17 @@ class DaemonLink(QObject):
 
     # ------------------------------------------------------------ plumbing
 
-    def _get(self, path: str, callback: Callable[[dict], None], on_error: Optional[Callable[[str], None]] = None) -> None:
+    def _request(self, path: str) -> QNetworkRequest:
         request = QNetworkRequest(QUrl(base_url(self._address) + path))
-        self._track(self._manager.get(request), callback, on_error)
+        # An unreachable host fails in seconds, not the system's minutes.
+        request.setTransferTimeout(REQUEST_TIMEOUT_MS)
+        return request
+
+    def _get(self, path: str, callback: Callable[[dict], None], on_error: Optional[Callable[[str], None]] = None) -> None:
+        self._track(self._manager.get(self._request(path)), callback, on_error)
 
     def _send(self, verb: str, path: str, body: dict, callback: Optional[Callable[[dict], None]] = None) -> None:
-        request = QNetworkRequest(QUrl(base_url(self._address) + path))
+        request = self._request(path)
         request.setHeader(QNetworkRequest.ContentTypeHeader, "application/json")
         data = QByteArray(json.dumps(body).encode("utf-8"))
         self._track(self._manager.sendCustomRequest(request, verb.encode("ascii"), data), callback, None)
@@ -326,10 +355,13 @@ class DaemonLink(QObject):
         # Held until it ends: PyQt would let the garbage collector take a
         # reply only its own slot refers to, and the request with it.
         self._pending.add(reply)
+        epoch = self._epoch
 
         def finished() -> None:
             self._pending.discard(reply)
             reply.deleteLater()
+            if epoch != self._epoch:
+                return  # Asked before a restart: no longer ours.
             status = reply.attribute(QNetworkRequest.HttpStatusCodeAttribute)
             if reply.error() != QNetworkReply.NoError:
                 why = error_text(reply)

@@ -64,11 +64,10 @@ class ReliefPlugin:
         self.dock = ReliefDock(address, window)
         self.iface.addDockWidget(Qt.RightDockWidgetArea, self.dock)
 
-        self.action = QAction("relief 3D view", window)
-        self.action.setCheckable(True)
-        self.action.setChecked(True)
-        self.action.toggled.connect(self.dock.setVisible)
-        self.dock.visibilityChanged.connect(self.action.setChecked)
+        # The dock's own show/hide action: it stays right when the dock is
+        # tabbed with other panels (hidden behind a tab is not closed).
+        self.action = self.dock.toggleViewAction()
+        self.action.setText("relief 3D view")
         self.iface.addPluginToMenu("&relief", self.action)
 
         link, dock = self.link, self.dock
@@ -119,7 +118,6 @@ class ReliefPlugin:
             self._forget_layers([layer_id])
         if self.action is not None:
             self.iface.removePluginMenu("&relief", self.action)
-            self.action.deleteLater()
         if self.dock is not None:
             self.iface.removeDockWidget(self.dock)
             self.dock.deleteLater()
@@ -130,13 +128,16 @@ class ReliefPlugin:
     def _frame(self, image: Any, generation: int, camera: dict) -> None:
         self._camera = camera
         if self.dock is not None:
-            self.dock.show_frame(image, generation, camera)
+            # While a slider's change waits to be sent, frames drawn from
+            # the camera before it must not move the slider back.
+            settling = self._turn_timer.isActive() or self._follow_timer.isActive()
+            self.dock.show_frame(image, generation, {} if settling else camera)
+            self.dock.show_message("")
 
     def _state(self, state: dict) -> None:
         self.state = state
         if self.dock is not None:
             self.dock.show_state(state)
-            self.dock.show_message("")
 
     def _address_changed(self, address: str) -> None:
         QgsSettings().setValue(ADDRESS_KEY, address)
@@ -216,13 +217,15 @@ class ReliefPlugin:
         if self.link is None or self.dock is None:
             return
         self._turn_serial += 1
-        serial = self._turn_serial
+        # The sliders' values now: frames arriving before the answer may
+        # move the sliders meanwhile.
+        serial, want_pitch, want_heading = self._turn_serial, self.dock.pitch_deg(), float(self.dock.heading.value())
 
         def turn(camera: dict) -> None:
-            if serial != self._turn_serial or self.link is None or self.dock is None:
+            if serial != self._turn_serial or self.link is None:
                 return
-            pitch = self.dock.pitch_deg() - float(camera.get("pitchDeg", 0.0))
-            heading = (float(self.dock.heading.value()) - float(camera.get("headingDeg", 0.0)) + 180.0) % 360.0 - 180.0
+            pitch = want_pitch - float(camera.get("pitchDeg", 0.0))
+            heading = (want_heading - float(camera.get("headingDeg", 0.0)) + 180.0) % 360.0 - 180.0
             if abs(pitch) > 1e-6 or abs(heading) > 1e-6:
                 self.link.orbit(heading, pitch)
 

@@ -245,3 +245,4 @@ def test_a_layer_the_scene_does_not_read_asks_for_no_reload(plugin: Any, tmp_pat
     assert layer.changeGeometry(feature.id(), QgsGeometry.fromPointXY(QgsPointXY(10.3, 45.3)).buffer(0.01, 4))
     assert layer.commitChanges(), layer.commitErrors()
     assert plugin.reloads_requested == 0
+

@@ -39,3 +39,13 @@ def test_an_unfinished_event_waits_for_its_blank_line() -> None:
     parser = SseParser()
     assert parser.feed(b"event: frame\ndata: 1\n") == []
     assert parser.feed(b"\n") == [("frame", "1")]
+
+
+def test_a_frame_sized_event_in_small_chunks() -> None:
+    # A 4 MB frame (one long base64 line) in 16 KB chunks, as a socket
+    # gives it: the one event comes out whole (and in linear time).
+    data = b"A" * (4 << 20)
+    stream = b"event: frame\ndata: " + data + b"\n\n"
+    parser = SseParser()
+    events = [e for i in range(0, len(stream), 16384) for e in parser.feed(stream[i : i + 16384])]
+    assert len(events) == 1 and events[0][0] == "frame" and len(events[0][1]) == len(data)

@@ -226,6 +226,12 @@ impl BuildingsPass {
         }
         // Tiles no ring asks for any more are let go.
         self.tiles.retain(|k, _| keys.contains(k));
+        let most = device.limits().max_storage_buffer_binding_size as usize / size_of::<Lift>();
+        if lifts.len() > most {
+            // More buildings than one binding holds: the first ones only.
+            lifts.truncate(most);
+            draw.tiles.retain(|(_, first, _)| (*first as usize) < most);
+        }
         if !lifts.is_empty() {
             let lifts_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("building lifts"),
@@ -282,6 +288,13 @@ impl TileMesh {
             return None;
         }
         let (vertices, buildings) = vertices(surface, mesh);
+        let largest = (vertices.len() * size_of::<Vertex>()).max(mesh.indices.len() * 4) as u64;
+        if largest > device.limits().max_buffer_size {
+            // A tile too big for one buffer (a coarse tile of a huge city):
+            // left out, never a failed frame.
+            tracing::warn!(bytes = largest, "a building mesh tile is larger than the device's buffers: not drawn");
+            return None;
+        }
         let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("building vertices"),
             contents: bytemuck::cast_slice(&vertices),
@@ -379,7 +392,13 @@ impl Ring {
 fn rings(surface: &Surface, clipmap: &Clipmap, active: &[u8], min_level: u8, camera: (f64, f64)) -> Vec<Ring> {
     let shifted = |e: Extent| -> Vec<Extent> {
         if surface.is_planet() {
-            [-360.0, 0.0, 360.0].iter().map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y)).collect()
+            // Windows follow the camera round the planet without bound:
+            // back to the turn holding [-180, 180), then a turn each way.
+            let turn = 360.0 * (f64::midpoint(e.min_x, e.max_x) / 360.0).round();
+            [-360.0 - turn, -turn, 360.0 - turn]
+                .iter()
+                .map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y))
+                .collect()
         } else {
             vec![e]
         }
