@@ -162,7 +162,8 @@ impl MeshTiles for SceneBuildings<'_> {
             .map(|(tile, key)| match tile {
                 Ok(t) => Some(Arc::clone(&t.payload)),
                 Err(e) => {
-                    tracing::warn!(level = key.level, x = key.x, y = key.y, error = %e, "building meshes are not ready");
+                    // Every frame asks again: the source's own error is in the state.
+                    tracing::debug!(level = key.level, x = key.x, y = key.y, error = %e, "building meshes are not ready");
                     None
                 }
             })

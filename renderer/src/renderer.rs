@@ -121,6 +121,10 @@ impl Renderer {
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
         let mut buildings_drawn = 0;
+        if meshes.is_none() && self.buildings.take().is_some() {
+            // The scene no longer has buildings: the pass goes with them.
+            self.counters.set_built(passes::BUILDINGS, false);
+        }
         if let Some(meshes) = meshes {
             let started = Instant::now();
             let device = &self.gpu.device;

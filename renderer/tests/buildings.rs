@@ -321,6 +321,13 @@ fn a_frame_without_buildings_builds_no_buildings_pass() {
     let find = |n: &str| stats.iter().find(|s| s.name == n).copied().unwrap();
     assert!(find("terrain").built && find("terrain").runs == 1);
     assert_eq!((find("buildings").built, find("buildings").runs), (false, 0));
+    // Built when a frame has buildings, dropped when the scene has none again.
+    let town = Town::new(&source, 9);
+    let view = pose(10.2, 45.118, 880.0, 0.0, -12.0);
+    renderer.render_scene(&source, Some(&town), &view, &SETTINGS).unwrap();
+    assert!(renderer.counters().stats().iter().any(|s| s.name == "buildings" && s.built && s.runs == 1));
+    renderer.render(&source, &view, &SETTINGS).unwrap();
+    assert!(renderer.counters().stats().iter().any(|s| s.name == "buildings" && !s.built && s.runs == 1));
 }
 
 #[test]

@@ -224,8 +224,11 @@ impl BuildingsPass {
                 draw.tiles.push((*key, first, shown));
             }
         }
-        // Tiles no ring asks for any more are let go.
-        self.tiles.retain(|k, _| keys.contains(k));
+        // Tiles no ring asks for any more are let go (not on a frame whose
+        // terrain is not ready: no rings say nothing).
+        if !rings.is_empty() {
+            self.tiles.retain(|k, _| keys.contains(k));
+        }
         let most = device.limits().max_storage_buffer_binding_size as usize / size_of::<Lift>();
         if lifts.len() > most {
             // More buildings than one binding holds: the first ones only.
