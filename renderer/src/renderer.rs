@@ -62,7 +62,7 @@ impl Renderer {
         let frame_buffer = uniforms::frame_buffer(&gpu.device);
         let terrain = TerrainPass::new(&gpu.device, &frame_buffer, config)?;
         let mut counters = PassCounters::default();
-        counters.built(passes::TERRAIN);
+        counters.set_built(passes::TERRAIN, true);
         Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, counters })
     }
 
@@ -129,9 +129,9 @@ impl Renderer {
             let started = Instant::now();
             let device = &self.gpu.device;
             let buildings = self.buildings.get_or_insert_with(|| BuildingsPass::new(device));
-            self.counters.built(passes::BUILDINGS);
+            self.counters.set_built(passes::BUILDINGS, true);
             let (terrain, surface) = (&self.terrain, &self.surface);
-            let ground = |x: f64, y: f64| terrain.drawn_height(surface, &draw, pose, x, y);
+            let ground = |x: f64, y: f64| terrain.drawn_height(surface, &draw.update.active, pose, x, y);
             let drawn = DrawnTerrain {
                 surface,
                 clipmap: terrain.clipmap(),
@@ -156,7 +156,7 @@ impl Renderer {
     /// The drawn terrain's height over grid point (x, y) in the last frame
     /// (what buildings are lifted onto); None off the levels.
     pub fn drawn_height(&self, pose: &Pose, active: &[u8], x: f64, y: f64) -> Option<f64> {
-        crate::passes::terrain::drawn_height(&self.surface, self.terrain.clipmap(), active, pose, x, y)
+        self.terrain.drawn_height(&self.surface, active, pose, x, y)
     }
 
     /// The brute-force reference: every sample of `area` (grid units) at

@@ -7,7 +7,6 @@ from __future__ import annotations
 import sys
 import traceback
 from collections.abc import Callable, Iterator
-from pathlib import Path
 from types import TracebackType
 from typing import Any
 
@@ -15,7 +14,7 @@ import pytest
 from headless import PLUGIN, PLUGIN_ZIP, Host, start_plugin as _start, stop_plugin, wait_for  # noqa: F401
 from qgis.core import QgsProject, QgsVectorLayer
 
-from relief.testing import HillScene, Reliefd, write_hill_scene
+from relief.testing import HillScene, Reliefd
 
 # An exception in a slot would make PyQt abort the process: keep it and
 # fail the test it happened in instead (QGIS shows such errors the same way).
@@ -46,18 +45,15 @@ def wait_until(condition: Callable[[], Any], timeout: float, what: str) -> Any:
 
 
 @pytest.fixture
-def scene(tmp_path: Path) -> HillScene:
-    return write_hill_scene(tmp_path / "scene")
+def scene(relief_scene: HillScene) -> HillScene:
+    """relief.testing's hill scene (its pytest plugin's `relief_scene`)."""
+    return relief_scene
 
 
 @pytest.fixture
-def daemon(scene: HillScene) -> Iterator[Reliefd]:
-    d = Reliefd(scene.manifest)
-    d.start()
-    try:
-        yield d
-    finally:
-        d.stop()
+def daemon(reliefd: Reliefd) -> Reliefd:
+    """reliefd serving it (relief.testing's `reliefd`)."""
+    return reliefd
 
 
 @pytest.fixture

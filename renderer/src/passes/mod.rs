@@ -8,6 +8,57 @@ pub mod terrain;
 
 use std::time::Instant;
 
+use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
+
+/// A pass's pipeline drawing into the frame's target: reversed-Z depth
+/// (nearer is greater), no culling, `vs` and `fs` of `shader`.
+pub fn pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    shader: &wgpu::ShaderModule,
+    (vs, fs): (&str, &str),
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: shader,
+            entry_point: Some(vs),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            buffers,
+        },
+        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Greater),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: shader,
+            entry_point: Some(fs),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            targets: &[Some(COLOR_FORMAT.into())],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A pass's shader: the frame's uniform and lighting (`frame.wgsl`), then
+/// the pass's own source.
+pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
+    let text = format!("{}\n{source}", include_str!("frame.wgsl"));
+    device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(text.into()),
+    })
+}
+
 /// Terrain: the clipmap levels over the coarse base, coloured by the
 /// colour layer, lit by the `lighting` effect.
 pub const TERRAIN: &str = "terrain";
@@ -51,16 +102,10 @@ impl PassCounters {
         &mut self.stats[at]
     }
 
-    pub fn built(&mut self, name: &'static str) {
-        self.entry(name).built = true;
-    }
-
     /// A run of `name` that started at `started`; returns its milliseconds.
     pub fn ran(&mut self, name: &'static str, started: Instant) -> f64 {
         let ms = started.elapsed().as_secs_f64() * 1e3;
-        let e = self.entry(name);
-        e.runs += 1;
-        e.total_ms += ms;
+        self.add_run(name, ms);
         ms
     }
 

@@ -2,15 +2,6 @@
 // subtracted in two steps, as for the terrain's base), each building
 // lifted onto the terrain as the frame draws it.
 
-struct Frame {
-    view_proj: mat4x4<f32>,
-    sun: vec4<f32>,
-    light: vec4<f32>,
-    centre: vec4<f32>,
-    eye_high: vec4<f32>,
-    eye_low: vec4<f32>,
-}
-
 // Per building: the lift onto the drawn terrain (xyz, along the local up)
 // and how far its walls reach below their base (xyz).
 struct Lift {
@@ -22,7 +13,6 @@ struct Lifts {
     items: array<Lift>,
 }
 
-@group(0) @binding(0) var<uniform> frame: Frame;
 @group(0) @binding(1) var<storage, read> lifts: Lifts;
 
 struct Out {
@@ -53,8 +43,7 @@ fn vs_building(
 fn fs_building(in: Out) -> @location(0) vec4<f32> {
     var light = 1.0;
     if frame.light.z > 0.5 {
-        let n = normalize(in.normal);
-        light = frame.light.x + frame.light.y * max(dot(n, frame.sun.xyz), 0.0);
+        light = sunlight(in.normal);
     } else {
         // Unlit scenes still tell walls from roofs: a fixed sky light.
         light = 0.55 + 0.45 * abs(dot(normalize(in.normal), normalize(-frame.centre.xyz * frame.centre.w + vec3<f32>(0.0, 0.0, 1.0 - frame.centre.w))));

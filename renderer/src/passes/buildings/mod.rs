@@ -19,7 +19,6 @@ use wgpu::util::DeviceExt;
 
 use crate::clipmap::Clipmap;
 use crate::surface::Surface;
-use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
 use crate::uniforms::split;
 
 /// Footprint corners sampled per building for its lift (evenly spread).
@@ -107,10 +106,7 @@ pub struct BuildingsPass {
 
 impl BuildingsPass {
     pub fn new(device: &wgpu::Device) -> Self {
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("buildings"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("buildings.wgsl").into()),
-        });
+        let shader = super::shader(device, "buildings", include_str!("buildings.wgsl"));
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -131,37 +127,13 @@ impl BuildingsPass {
             immediate_size: 0,
         });
         let attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("buildings"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some("vs_building"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: size_of::<Vertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &attributes,
-                })],
-            },
-            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: wgpu::StencilState::default(),
-                bias: wgpu::DepthBiasState::default(),
-            }),
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_building"),
-                compilation_options: wgpu::PipelineCompilationOptions::default(),
-                targets: &[Some(COLOR_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let buffers = [Some(wgpu::VertexBufferLayout {
+            array_stride: size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &attributes,
+        })];
+        let pipeline =
+            super::pipeline(device, "buildings", &pipeline_layout, &shader, ("vs_building", "fs_building"), &buffers);
         Self { pipeline, layout, tiles: HashMap::new(), tiles_built: 0 }
     }
 

@@ -6,8 +6,6 @@ mod base;
 mod ground;
 mod levels;
 
-pub use self::ground::drawn_height;
-
 use relief_source::Extent;
 use wgpu::util::DeviceExt;
 
@@ -19,7 +17,6 @@ use crate::clipmap::{COLOR_DETAIL, Clipmap, ClipmapConfig, TerrainSamples, Updat
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
-use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
 /// Vertices, indices and their count.
 type Mesh = (wgpu::Buffer, wgpu::Buffer, u32);
@@ -51,10 +48,7 @@ impl TerrainPass {
         if config.levels > MAX_LEVELS {
             return Err(RenderError::Request { field: "quality", message: format!("at most {MAX_LEVELS} levels") });
         }
-        let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("terrain"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("terrain.wgsl").into()),
-        });
+        let shader = super::shader(device, "terrain", include_str!("terrain.wgsl"));
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let uniform = wgpu::BindingType::Buffer {
@@ -83,40 +77,13 @@ impl TerrainPass {
             immediate_size: 0,
         });
         let base_attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
-        let pipeline = |label, vs, fs, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                vertex: wgpu::VertexState {
-                    module: &shader,
-                    entry_point: Some(vs),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    buffers,
-                },
-                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: wgpu::StencilState::default(),
-                    bias: wgpu::DepthBiasState::default(),
-                }),
-                multisample: wgpu::MultisampleState::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some(fs),
-                    compilation_options: wgpu::PipelineCompilationOptions::default(),
-                    targets: &[Some(COLOR_FORMAT.into())],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let pipeline = |label, entries, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
+            super::pipeline(device, label, &pipeline_layout, &shader, entries, buffers)
         };
-        let level_pipeline = pipeline("levels", "vs_level", "fs_level", &[]);
+        let level_pipeline = pipeline("levels", ("vs_level", "fs_level"), &[]);
         let base_pipeline = pipeline(
             "base",
-            "vs_base",
-            "fs_base",
+            ("vs_base", "fs_base"),
             &[Some(wgpu::VertexBufferLayout {
                 array_stride: size_of::<BaseVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
@@ -187,10 +154,10 @@ impl TerrainPass {
         &self.clipmap
     }
 
-    /// The height of the terrain as the last prepared frame draws it over
-    /// grid point (x, y); None off the levels.
-    pub fn drawn_height(&self, surface: &Surface, draw: &TerrainDraw, pose: &Pose, x: f64, y: f64) -> Option<f64> {
-        ground::drawn_height(surface, &self.clipmap, &draw.update.active, pose, x, y)
+    /// The height of the terrain as a frame drawing levels `active` from
+    /// `pose` draws it over grid point (x, y); None off the levels.
+    pub fn drawn_height(&self, surface: &Surface, active: &[u8], pose: &Pose, x: f64, y: f64) -> Option<f64> {
+        ground::drawn_height(surface, &self.clipmap, active, pose, x, y)
     }
 
     /// The scene rebuilt tiles in `area`: refresh those samples only, in

@@ -2,26 +2,6 @@
 // the GPU as f32 offsets from a per-level anchor; the anchor's offset from
 // the eye is computed in f64 on the CPU, so nothing here is absolute ECEF.
 
-struct Frame {
-    view_proj: mat4x4<f32>,
-    // Direction towards the sun (world axes), w unused.
-    sun: vec4<f32>,
-    // x ambient, y diffuse, z 1 when the lighting effect is on.
-    light: vec4<f32>,
-    // The planet's centre from the eye (xyz; direction only, so f32 is
-    // plenty), w 1 on the planet, 0 on a flat scene (up is +z).
-    centre: vec4<f32>,
-    // The eye as double-single parts (for the base); eye_low.w is how far
-    // the base is sunk below the levels, in metres.
-    eye_high: vec4<f32>,
-    eye_low: vec4<f32>,
-}
-
-fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
-    let l = length(v);
-    return select(vec3<f32>(0.0), v / l, l > 1e-20);
-}
-
 // Normals face up: a window folded over a pole runs its rows backwards.
 // Where there is none (every sample of a pole row is the pole), up itself.
 fn upward(normal: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
@@ -47,7 +27,6 @@ struct Level {
     blend: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> frame: Frame;
 struct Levels {
     items: array<Level, 16>,
 }
@@ -166,7 +145,7 @@ fn shade(base: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
     let albedo = select(vec3<f32>(0.78, 0.78, 0.76), base.rgb, base.a > 0.0);
     var light = 1.0;
     if frame.light.z > 0.5 {
-        light = frame.light.x + frame.light.y * max(dot(safe_normalize(normal), frame.sun.xyz), 0.0);
+        light = sunlight(normal);
     }
     return vec4<f32>(albedo * light, 1.0);
 }
