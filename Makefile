@@ -23,5 +23,6 @@ bench: setup
 	cargo bench -p relief-daemon --bench reload
 	cargo bench -p relief-daemon --bench rasterize
 	cargo bench -p relief-daemon --bench render
+	cargo bench -p relief-daemon --bench instances
 	cargo bench -p relief-daemon --bench frames
 	bash clients/qgis/scripts/bench.sh

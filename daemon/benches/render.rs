@@ -18,10 +18,12 @@ use anyhow::Context;
 use common::median;
 use glam::DVec3;
 use relief_daemon::view::{SceneBuildings, SceneTerrain};
-use relief_renderer::{ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, Surface, TerrainSamples};
+use relief_renderer::{
+    ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, SceneLayers, Surface, TerrainSamples,
+};
 use relief_source::{Extent, geodesy};
 
-const SETTINGS: RenderSettings = RenderSettings { width: 1280, height: 720, lighting: true };
+const SETTINGS: RenderSettings = RenderSettings::new(1280, 720, true);
 
 fn pose(step: usize) -> Pose {
     // The demo's camera, flying 25 m north per frame.
@@ -173,13 +175,25 @@ fn min_levels(gpu: &Arc<Gpu>, manifest: &std::path::Path) -> anyhow::Result<()> 
         let buildings =
             SceneBuildings::new(&scene.store, &snap, snap.manifest.quality).context("the demo has a town")?;
         let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-        renderer.render_scene(&terrain, Some(&buildings), &town_view(), &SETTINGS)?;
+        renderer.render_scene(
+            &terrain,
+            SceneLayers { buildings: Some(&buildings), instances: None },
+            &town_view(),
+            &SETTINGS,
+        )?;
         let frames = (0..5)
-            .map(|_| Ok(renderer.render_scene(&terrain, Some(&buildings), &town_view(), &SETTINGS)?))
+            .map(|_| {
+                Ok(renderer.render_scene(
+                    &terrain,
+                    SceneLayers { buildings: Some(&buildings), instances: None },
+                    &town_view(),
+                    &SETTINGS,
+                )?)
+            })
             .collect::<anyhow::Result<Vec<Frame>>>()?;
         let pass =
             median(frames.iter().filter_map(|f| f.passes.iter().find(|p| p.0 == "buildings")).map(|p| p.1).collect());
-        rows.push((level, frames[0].buildings_drawn, pass, median(frames.iter().map(total_ms).collect())));
+        rows.push((level, frames[0].drawn.buildings, pass, median(frames.iter().map(total_ms).collect())));
     }
     println!("\n### Knob: extrude `min_level` (buildings from tiles of that level or finer), town view");
     println!("| min_level | buildings drawn | left out (of min_level 8's) | buildings pass ms | frame ms |");
@@ -199,13 +213,18 @@ fn passes(gpu: &Arc<Gpu>, scene: &relief_daemon::scene::Scene, terrain: &SceneTe
     let town = town_view();
     let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
     // First frames fill the levels and build tiles and meshes: not timed.
-    renderer.render_scene(terrain, Some(&buildings), &town, &SETTINGS)?;
+    renderer.render_scene(terrain, SceneLayers { buildings: Some(&buildings), instances: None }, &town, &SETTINGS)?;
     let mut rows = Vec::new();
     for (name, with_buildings) in [("terrain alone", false), ("terrain + buildings", true)] {
         let meshes = with_buildings.then_some(&buildings as &dyn relief_renderer::MeshTiles);
         let mut frames = Vec::new();
         for _ in 0..5 {
-            frames.push(renderer.render_scene(terrain, meshes, &town, &SETTINGS)?);
+            frames.push(renderer.render_scene(
+                terrain,
+                SceneLayers { buildings: meshes, instances: None },
+                &town,
+                &SETTINGS,
+            )?);
         }
         let pass_ms = |pass: &str| {
             median(frames.iter().filter_map(|f| f.passes.iter().find(|p| p.0 == pass)).map(|p| p.1).collect())

@@ -318,9 +318,9 @@ pub fn build(
         let Some(kind) = registry.get(&slot.spec.kind) else {
             continue;
         };
-        for (n, (&input, expected)) in slot.inputs.iter().zip(kind.inputs).enumerate() {
+        for (n, (&input, expected)) in slot.inputs.iter().zip(kind.expected_inputs(&slot.spec)).enumerate() {
             if let Some(actual) = slots[input].output(registry)
-                && actual != *expected
+                && actual != expected
             {
                 errors.push(type_err(
                     &slot.spec.id,

@@ -5,7 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use relief_renderer::ClipmapConfig;
+use relief_renderer::{ClipmapConfig, InstanceBands};
 use relief_source::{OptionValue, PayloadKind, Quality, SourceSpec};
 use serde::Deserialize;
 
@@ -37,11 +37,15 @@ pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"])];
 pub const EFFECTS_NOT_YET: &[&str] = &["atmosphere", "fog", "shadows", "water", "vegetation"];
 
 /// Layers the renderer draws, and the payload each must have.
-pub const LAYERS: &[(&str, PayloadKind)] =
-    &[("height", PayloadKind::Height), ("color", PayloadKind::Color), ("buildings", PayloadKind::Mesh)];
+pub const LAYERS: &[(&str, PayloadKind)] = &[
+    ("height", PayloadKind::Height),
+    ("color", PayloadKind::Color),
+    ("buildings", PayloadKind::Mesh),
+    ("instances", PayloadKind::Instances),
+];
 /// Layers relief knows of but does not draw yet: refused by name (their
 /// sources still serve tiles without them).
-pub const LAYERS_NOT_YET: &[&str] = &["water", "vegetation", "instances"];
+pub const LAYERS_NOT_YET: &[&str] = &["water", "vegetation"];
 
 /// The payload layer `name` needs, None for an unknown layer.
 pub fn layer_payload(name: &str) -> Option<PayloadKind> {
@@ -130,6 +134,9 @@ struct RawQuality {
     clipmap_grid_size: Option<usize>,
     clipmap_levels: Option<usize>,
     interactive_scale: Option<f64>,
+    instance_bands_m: Option<Vec<f64>>,
+    instance_band_densities: Option<Vec<f64>>,
+    instance_model_distance_m: Option<f64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -198,6 +205,9 @@ pub struct Manifest {
     /// The fraction of each side a view is rendered at while its user
     /// drags (full size again once the camera rests).
     pub interactive_scale: f64,
+    /// The instances layer's distance bands and where models give way to
+    /// billboards.
+    pub bands: InstanceBands,
     pub camera: RawCamera,
     pub cache_budget_bytes: u64,
     pub watch: WatchSettings,
@@ -262,15 +272,37 @@ impl Manifest {
                 (None, Some(ps)) => paths.extend(ps.into_iter().map(|p| base.join(p))),
                 (None, None) => {}
             }
-            let mut options = BTreeMap::new();
-            for (key, value) in s.options {
-                let v = match value {
+            /// A TOML value as an option value, arrays and tables nested;
+            /// the error is the path below the option (`[1].planted`) and why.
+            fn option_value(value: toml::Value) -> Result<OptionValue, (String, String)> {
+                Ok(match value {
                     toml::Value::String(s) => OptionValue::Text(s),
                     toml::Value::Integer(i) => OptionValue::Number(i as f64),
                     toml::Value::Float(f) => OptionValue::Number(f),
                     toml::Value::Boolean(b) => OptionValue::Bool(b),
-                    other => return Err(source_err(&key, format!("unsupported value {other}"))),
-                };
+                    toml::Value::Array(items) => {
+                        let mut list = Vec::with_capacity(items.len());
+                        for (n, v) in items.into_iter().enumerate() {
+                            list.push(option_value(v).map_err(|(at, m)| (format!("[{n}]{at}"), m))?);
+                        }
+                        OptionValue::List(list)
+                    }
+                    toml::Value::Table(table) => {
+                        let mut map = BTreeMap::new();
+                        for (k, v) in table {
+                            let v = option_value(v).map_err(|(at, m)| (format!(".{k}{at}"), m))?;
+                            map.insert(k, v);
+                        }
+                        OptionValue::Table(map)
+                    }
+                    other @ toml::Value::Datetime(_) => {
+                        return Err((String::new(), format!("unsupported value {other}")));
+                    }
+                })
+            }
+            let mut options = BTreeMap::new();
+            for (key, value) in s.options {
+                let v = option_value(value).map_err(|(at, message)| source_err(&format!("{key}{at}"), message))?;
                 options.insert(key, v);
             }
             sources.push(SourceSpec { id, kind, paths, inputs: s.inputs, options });
@@ -315,6 +347,23 @@ impl Manifest {
             levels: raw.quality.clipmap_levels.unwrap_or(defaults.levels),
         };
         clipmap.validate().map_err(|e| field("quality.clipmap_grid_size", e))?;
+        let three = |name: &str, values: &Option<Vec<f64>>| -> Result<Option<[f64; 3]>, ManifestError> {
+            match values.as_deref() {
+                None => Ok(None),
+                Some(&[a, b, c]) => Ok(Some([a, b, c])),
+                Some(v) => {
+                    Err(field(&format!("quality.{name}"), format!("{} values: give one per band (three)", v.len())))
+                }
+            }
+        };
+        let defaults = InstanceBands::default();
+        let bands = InstanceBands {
+            edges_m: three("instance_bands_m", &raw.quality.instance_bands_m)?.unwrap_or(defaults.edges_m),
+            densities: three("instance_band_densities", &raw.quality.instance_band_densities)?
+                .unwrap_or(defaults.densities),
+            model_distance_m: raw.quality.instance_model_distance_m.unwrap_or(defaults.model_distance_m),
+        };
+        bands.validate().map_err(|(name, message)| field(&format!("quality.{name}"), message))?;
         let interactive_scale = raw.quality.interactive_scale.unwrap_or(DEFAULT_INTERACTIVE_SCALE);
         if !(interactive_scale.is_finite() && (0.1..=1.0).contains(&interactive_scale)) {
             return Err(field("quality.interactive_scale", format!("{interactive_scale} is not from 0.1 to 1")));
@@ -358,6 +407,7 @@ impl Manifest {
             quality,
             clipmap,
             interactive_scale,
+            bands,
             camera: raw.camera.unwrap_or_default(),
             cache_budget_bytes: memory_mb * 1024 * 1024,
             watch,
@@ -412,6 +462,55 @@ mod tests {
     }
 
     #[test]
+    fn arrays_and_tables_become_nested_option_values() {
+        let m = parse(
+            r#"
+            [scene]
+            name = "forest"
+            [[source]]
+            id = "forest"
+            kind = "scatter"
+            inputs = ["landcover", "dem"]
+            seed = 7
+            [[source.rule]]
+            class = 311
+            models = { conifer = 0.7, broadleaf = 0.3 }
+            scale = [0.8, 1.2]
+            [[source.rule]]
+            class = 312
+            models = { shrub = 1 }
+            scale = 1.5
+            "#,
+        )
+        .unwrap();
+        let spec = &m.sources[0];
+        assert_eq!(spec.number("seed").unwrap(), Some(7.0));
+        let rules = spec.list("rule").unwrap().unwrap();
+        assert_eq!(rules.len(), 2);
+        let OptionValue::Table(first) = &rules[0] else { panic!("{:?}", rules[0]) };
+        assert_eq!(first["class"], OptionValue::Number(311.0));
+        assert_eq!(first["scale"], OptionValue::List(vec![OptionValue::Number(0.8), OptionValue::Number(1.2)]));
+        let OptionValue::Table(models) = &first["models"] else { panic!("{first:?}") };
+        assert_eq!(models.keys().collect::<Vec<_>>(), ["broadleaf", "conifer"]);
+        assert_eq!(models["conifer"], OptionValue::Number(0.7));
+        assert!(spec.table("rule").unwrap_err().to_string().contains("expected a table, found a list"));
+        // Scalars still read as before.
+        assert!(spec.text("seed").is_err());
+    }
+
+    #[test]
+    fn a_datetime_is_refused_where_it_stands() {
+        let top = parse("[scene]\nname='a'\n[[source]]\nid='s'\nkind='gdal'\nwhen=1979-05-27\n");
+        assert!(top.unwrap_err().to_string().contains("source 's', field 'when': unsupported value 1979-05-27"));
+        let nested = parse(
+            "[scene]\nname='a'\n[[source]]\nid='s'\nkind='scatter'\n[[source.rule]]\nclass=1\n\
+             [[source.rule]]\nplanted=[1, 1979-05-27]\n",
+        );
+        let msg = nested.unwrap_err().to_string();
+        assert!(msg.contains("source 's', field 'rule[1].planted[1]': unsupported value 1979-05-27"), "{msg}");
+    }
+
+    #[test]
     fn errors_name_the_source_and_the_field() {
         let cases = [
             ("[scene]\nname='a'\n[[source]]\nid='dem'\n", "source 'dem', field 'kind'"),
@@ -428,7 +527,7 @@ mod tests {
             ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': not drawn yet (drawn: lighting)"),
             (
                 "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nvegetation='t'\n",
-                "field 'layers.vegetation': not drawn yet (drawn: height, color, buildings)",
+                "field 'layers.vegetation': not drawn yet (drawn: height, color, buildings, instances)",
             ),
             ("[scene]\nname = \n", "invalid manifest"),
         ];

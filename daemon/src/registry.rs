@@ -16,6 +16,22 @@ pub struct Kind {
     pub required_inputs: usize,
     /// The output payload when it is known without opening the source.
     pub output: Option<PayloadKind>,
+    /// For a kind whose inputs' payloads depend on its options (scatter:
+    /// the third input is a density raster or a point layer, as
+    /// `points_input` says): the payload each declared input must have.
+    /// None: `inputs`, by position.
+    pub input_kinds: Option<fn(&SourceSpec) -> Vec<PayloadKind>>,
+}
+
+impl Kind {
+    /// The payload each of `spec.inputs` must have, in order (as many as
+    /// the kind takes).
+    pub fn expected_inputs(&self, spec: &SourceSpec) -> Vec<PayloadKind> {
+        match self.input_kinds {
+            Some(kinds) => kinds(spec),
+            None => self.inputs.to_vec(),
+        }
+    }
 }
 
 pub struct Registry {
@@ -33,6 +49,7 @@ impl Registry {
                     inputs: &[],
                     required_inputs: 0,
                     output: None,
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_shapefile::KIND,
@@ -43,6 +60,7 @@ impl Registry {
                     inputs: &[],
                     required_inputs: 0,
                     output: Some(PayloadKind::Features),
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_kml::KIND,
@@ -53,6 +71,7 @@ impl Registry {
                     inputs: &[],
                     required_inputs: 0,
                     output: Some(PayloadKind::Features),
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_ops::RASTERIZE_KIND,
@@ -60,6 +79,7 @@ impl Registry {
                     inputs: relief_source_ops::RASTERIZE_INPUTS,
                     required_inputs: relief_source_ops::RASTERIZE_INPUTS.len(),
                     output: Some(PayloadKind::Color),
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_ops::OVERLAY_KIND,
@@ -67,6 +87,7 @@ impl Registry {
                     inputs: relief_source_ops::OVERLAY_INPUTS,
                     required_inputs: relief_source_ops::OVERLAY_INPUTS.len(),
                     output: Some(PayloadKind::Color),
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_ops::HILLSHADE_KIND,
@@ -74,6 +95,7 @@ impl Registry {
                     inputs: relief_source_ops::HILLSHADE_INPUTS,
                     required_inputs: relief_source_ops::HILLSHADE_INPUTS.len(),
                     output: Some(PayloadKind::Color),
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_ops::EXTRUDE_KIND,
@@ -81,6 +103,7 @@ impl Registry {
                     inputs: relief_source_ops::EXTRUDE_INPUTS,
                     required_inputs: 1,
                     output: Some(PayloadKind::Mesh),
+                    input_kinds: None,
                 },
                 Kind {
                     name: relief_source_ops::INSTANCES_KIND,
@@ -88,6 +111,15 @@ impl Registry {
                     inputs: relief_source_ops::INSTANCES_INPUTS,
                     required_inputs: 1,
                     output: Some(PayloadKind::Instances),
+                    input_kinds: None,
+                },
+                Kind {
+                    name: relief_source_ops::SCATTER_KIND,
+                    open: |spec, grid| Ok(Arc::new(relief_source_ops::Scatter::open(spec, grid)?)),
+                    inputs: relief_source_ops::SCATTER_INPUTS,
+                    required_inputs: 2,
+                    output: Some(PayloadKind::Instances),
+                    input_kinds: Some(relief_source_ops::scatter_input_kinds),
                 },
             ],
         }
@@ -99,5 +131,82 @@ impl Registry {
 
     pub fn names(&self) -> Vec<&'static str> {
         self.kinds.iter().map(|k| k.name).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use relief_source::OptionValue;
+
+    use super::*;
+
+    #[test]
+    fn a_scatter_expects_its_inputs_as_its_options_say() {
+        let registry = Registry::builtin();
+        let scatter = registry.get("scatter").unwrap();
+        let spec = |inputs: &[&str], options: &[(&str, &str)]| SourceSpec {
+            id: "forest".into(),
+            kind: "scatter".into(),
+            inputs: inputs.iter().map(|s| (*s).to_owned()).collect(),
+            options: options.iter().map(|(k, v)| ((*k).to_owned(), OptionValue::Text((*v).to_owned()))).collect(),
+            ..SourceSpec::default()
+        };
+        use PayloadKind::{Features, Height};
+        assert_eq!(
+            scatter.expected_inputs(&spec(&["c", "g", "p"], &[("points_input", "p")])),
+            [Height, Height, Features]
+        );
+        assert_eq!(scatter.expected_inputs(&spec(&["c", "g", "d", "p"], &[])), [Height, Height, Height, Features]);
+        // Other kinds: by position.
+        let extrude = registry.get("extrude").unwrap();
+        assert_eq!(extrude.expected_inputs(&spec(&["f"], &[])), [Features, Height]);
+    }
+
+    #[test]
+    fn a_scene_may_give_a_scatter_points_without_a_density_raster() {
+        let scene = |extra: &str| {
+            let text = format!(
+                r#"
+                [scene]
+                name = "forest"
+                [[source]]
+                id = "landcover"
+                kind = "gdal"
+                path = "missing-landcover.tif"
+                [[source]]
+                id = "dem"
+                kind = "gdal"
+                path = "missing-dem.tif"
+                [[source]]
+                id = "trees"
+                kind = "shapefile"
+                path = "missing-trees.shp"
+                [[source]]
+                id = "forest"
+                kind = "scatter"
+                inputs = ["landcover", "dem", "trees"]
+                {extra}
+                [[source.rule]]
+                class = 311
+                models = {{ conifer = 0.7, broadleaf = 0.3 }}
+                density = 21000
+                "#
+            );
+            let manifest =
+                crate::manifest::Manifest::parse(&text, std::path::Path::new("/nowhere/scene.toml")).unwrap();
+            crate::graph::build(manifest, &Registry::builtin(), None)
+        };
+        // The files are missing (those sources fail to open), but the graph
+        // is checked: points named as such are features.
+        let (snapshot, _open_errors) = scene("points_input = \"trees\"").unwrap();
+        let forest = snapshot.slots.iter().find(|s| s.spec.id == "forest").unwrap();
+        assert!(forest.source.is_some(), "{:?}", forest.error);
+        // Taken by position, the third input is a density raster.
+        let errors = scene("").unwrap_err();
+        let text: Vec<String> = errors.iter().map(ToString::to_string).collect();
+        assert!(
+            text.iter().any(|e| e.contains("source 'forest', field 'inputs[2]'") && e.contains("needs height")),
+            "{text:?}"
+        );
     }
 }

@@ -5,7 +5,8 @@ use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::{Arc, Mutex};
 
 use relief_renderer::{
-    ClipmapConfig, Frame, Gpu, PassCounters, PassStats, RenderError, RenderSettings, Renderer, Surface,
+    ClipmapConfig, Frame, Gpu, InstanceBands, PassCounters, PassStats, RenderError, RenderSettings, Renderer,
+    SceneLayers, Surface,
 };
 use relief_source::{Extent, Quality};
 use tokio::sync::{Semaphore, watch};
@@ -13,7 +14,7 @@ use tokio::sync::{Semaphore, watch};
 pub use crate::camera::Camera;
 use crate::camera::{default_camera, pose};
 use crate::scene::{EventKind, Scene};
-pub use crate::scene_tiles::{SceneBuildings, SceneTerrain};
+pub use crate::scene_tiles::{ModelCache, SceneBuildings, SceneInstances, SceneTerrain};
 
 /// The largest image side a request may ask for.
 pub const MAX_IMAGE_SIDE: u32 = 4096;
@@ -82,6 +83,16 @@ pub struct Viewer {
     camera: watch::Sender<Camera>,
     permits: Semaphore,
     frames: std::sync::atomic::AtomicU64,
+    models: ModelCache,
+}
+
+/// What a request may override of the manifest's quality: the clipmap,
+/// the tile knobs, the instances' distance bands.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Overrides {
+    pub clipmap: Option<ClipmapConfig>,
+    pub quality: Option<Quality>,
+    pub bands: Option<InstanceBands>,
 }
 
 impl Viewer {
@@ -101,6 +112,7 @@ impl Viewer {
             camera,
             permits: Semaphore::new(MAX_RENDERS_IN_FLIGHT),
             frames: std::sync::atomic::AtomicU64::new(0),
+            models: ModelCache::default(),
         });
         let weak = Arc::downgrade(&viewer);
         let mut events = scene.events();
@@ -156,11 +168,10 @@ impl Viewer {
         camera: Option<Camera>,
         width: u32,
         height: u32,
-        clipmap: Option<ClipmapConfig>,
-        quality: Option<Quality>,
+        overrides: Overrides,
     ) -> Result<Rendered, ViewError> {
         let _permit = self.permits.try_acquire().map_err(|_| ViewError::Busy)?;
-        self.draw(camera, width, height, clipmap, quality)
+        self.draw(camera, width, height, overrides)
     }
 
     /// Frames rendered since start.
@@ -176,9 +187,9 @@ impl Viewer {
         camera: Option<Camera>,
         width: u32,
         height: u32,
-        clipmap: Option<ClipmapConfig>,
-        quality: Option<Quality>,
+        overrides: Overrides,
     ) -> Result<Rendered, ViewError> {
+        let Overrides { clipmap, quality, bands } = overrides;
         for (field, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_SIDE).contains(&v) {
                 return Err(RenderError::Request {
@@ -225,8 +236,16 @@ impl Viewer {
         }
         let quality = quality.unwrap_or(snap.manifest.quality);
         let buildings = SceneBuildings::new(&self.scene.store, &snap, quality);
-        let meshes = buildings.as_ref().map(|b| b as &dyn relief_renderer::MeshTiles);
-        let frame = renderer.render_scene(&terrain, meshes, &pose, &RenderSettings { width, height, lighting })?;
+        let instances = SceneInstances::new(&self.scene.store, &snap, quality, &self.models);
+        let layers = SceneLayers {
+            buildings: buildings.as_ref().map(|b| b as &dyn relief_renderer::MeshTiles),
+            instances: instances.as_ref().map(|i| i as &dyn relief_renderer::InstanceTiles),
+        };
+        let settings = RenderSettings {
+            bands: bands.unwrap_or(snap.manifest.bands),
+            ..RenderSettings::new(width, height, lighting)
+        };
+        let frame = renderer.render_scene(&terrain, layers, &pose, &settings)?;
         let mut ran = BTreeMap::new();
         if lighting {
             // Lighting is shaded in the terrain pass.

@@ -56,7 +56,7 @@ fn the_rendered_surface_is_the_hill() -> anyhow::Result<()> {
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
     let gpu = Arc::new(Gpu::headless()?);
     let mut renderer = Renderer::new(gpu, Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-    let settings = RenderSettings { width: 320, height: 180, lighting: true };
+    let settings = RenderSettings::new(320, 180, true);
     let pose = Pose {
         position: [10.1, 45.1, 4000.0],
         heading_deg: 45.0,

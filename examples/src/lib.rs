@@ -3,6 +3,8 @@
 //! benchmarks all use them, so every one of them can check its answers
 //! against the formula the data came from.
 
+mod landcover;
+
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -10,7 +12,10 @@ use gdal::DriverManager;
 use gdal::raster::Buffer;
 use gdal::spatial_ref::SpatialRef;
 
+pub use landcover::{BROADLEAF_FOREST, CONIFER_FOREST, GRASSLAND, NODATA, SHRUBLAND, demo_landcover, write_classes};
+
 /// A north-up raster: origin is the north-west pixel edge.
+#[derive(Clone, Copy)]
 pub struct RasterSpec<'a> {
     pub width: usize,
     pub height: usize,
@@ -41,7 +46,7 @@ pub fn write_dem(path: &Path, spec: &RasterSpec<'_>, height: impl Fn(f64, f64) -
 }
 
 /// Writes one band per plane as a north-up GeoTIFF described by `spec`.
-fn write_geotiff<T: gdal::raster::GdalType + Copy>(
+pub(crate) fn write_geotiff<T: gdal::raster::GdalType + Copy>(
     path: &Path,
     spec: &RasterSpec<'_>,
     planes: Vec<Vec<T>>,

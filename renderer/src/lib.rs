@@ -22,7 +22,8 @@ pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, Storage
 pub use error::RenderError;
 pub use gpu::Gpu;
 pub use passes::buildings::MeshTiles;
+pub use passes::instances::{InstanceBands, InstanceTiles};
 pub use passes::terrain::MAX_LEVELS;
 pub use passes::{ALL as PASSES, PassCounters, PassStats};
-pub use renderer::{Frame, RenderSettings, Renderer};
+pub use renderer::{Drawn, Frame, RenderSettings, Renderer, SceneLayers};
 pub use surface::Surface;

@@ -13,6 +13,7 @@ use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
+use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, InstancesView};
 use crate::passes::terrain::TerrainPass;
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
@@ -27,6 +28,35 @@ pub struct RenderSettings {
     /// The scene's `lighting` effect: sun and ambient. Off, colours are
     /// drawn as they are.
     pub lighting: bool,
+    /// The instances layer's distance bands.
+    pub bands: InstanceBands,
+}
+
+impl RenderSettings {
+    /// A frame of `width` x `height`, lit or not, at default quality.
+    pub const fn new(width: u32, height: u32, lighting: bool) -> Self {
+        Self { width, height, lighting, bands: InstanceBands::DEFAULT }
+    }
+}
+
+/// The layers a frame draws besides the terrain: each pass is built only
+/// for a scene that has its layer.
+#[derive(Clone, Copy, Default)]
+pub struct SceneLayers<'a> {
+    pub buildings: Option<&'a dyn MeshTiles>,
+    pub instances: Option<&'a dyn InstanceTiles>,
+}
+
+/// What a frame drew besides the terrain.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Drawn {
+    pub buildings: usize,
+    /// Instances within reach and in the view before the distance bands
+    /// thin them; those drawn as models, and as billboards (one fading
+    /// from one to the other counts in both).
+    pub instances_in_view: usize,
+    pub models: usize,
+    pub billboards: usize,
 }
 
 /// A rendered frame.
@@ -43,8 +73,8 @@ pub struct Frame {
     pub passes: Vec<(&'static str, f64)>,
     pub update: UpdateStats,
     pub view: View,
-    /// Buildings the buildings pass drew (0 without it).
-    pub buildings_drawn: usize,
+    /// What the buildings and instances passes drew (0 without them).
+    pub drawn: Drawn,
 }
 
 pub struct Renderer {
@@ -54,6 +84,8 @@ pub struct Renderer {
     terrain: TerrainPass,
     /// Built the first time a frame has buildings to draw.
     buildings: Option<BuildingsPass>,
+    /// Built the first time a frame has instances to draw.
+    instances: Option<InstancesPass>,
     counters: PassCounters,
 }
 
@@ -63,7 +95,7 @@ impl Renderer {
         let terrain = TerrainPass::new(&gpu.device, &frame_buffer, config)?;
         let mut counters = PassCounters::default();
         counters.set_built(passes::TERRAIN, true);
-        Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, counters })
+        Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, instances: None, counters })
     }
 
     pub fn surface(&self) -> &Surface {
@@ -95,16 +127,17 @@ impl Renderer {
         pose: &Pose,
         settings: &RenderSettings,
     ) -> Result<Frame, RenderError> {
-        self.render_scene(source, None, pose, settings)
+        self.render_scene(source, SceneLayers::default(), pose, settings)
     }
 
-    /// Renders the view from `pose`: the terrain, then the buildings when
-    /// the scene has them (`meshes`). A pass the scene does not call for
-    /// is never built.
+    /// Renders the view from `pose`: the terrain, then the buildings and
+    /// the instances the scene has (`layers`). A pass the scene does not
+    /// call for is never built, and one built for a layer the scene no
+    /// longer has goes with it.
     pub fn render_scene(
         &mut self,
         source: &dyn TerrainSamples,
-        meshes: Option<&dyn MeshTiles>,
+        layers: SceneLayers<'_>,
         pose: &Pose,
         settings: &RenderSettings,
     ) -> Result<Frame, RenderError> {
@@ -120,37 +153,60 @@ impl Renderer {
         self.run(&target, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
-        let mut buildings_drawn = 0;
-        if meshes.is_none() && self.buildings.take().is_some() {
-            // The scene no longer has buildings: the pass goes with them.
+        let mut drawn = Drawn::default();
+        if layers.buildings.is_none() && self.buildings.take().is_some() {
             self.counters.set_built(passes::BUILDINGS, false);
         }
-        if let Some(meshes) = meshes {
+        if let Some(meshes) = layers.buildings {
             let started = Instant::now();
             let device = &self.gpu.device;
             let buildings = self.buildings.get_or_insert_with(|| BuildingsPass::new(device));
             self.counters.set_built(passes::BUILDINGS, true);
             let (terrain, surface) = (&self.terrain, &self.surface);
             let ground = |x: f64, y: f64| terrain.drawn_height(surface, &draw.update.active, pose, x, y);
-            let drawn = DrawnTerrain {
+            let on = DrawnTerrain {
                 surface,
                 clipmap: terrain.clipmap(),
                 active: &draw.update.active,
                 ground: &ground,
                 camera: (pose.position[0], pose.position[1]),
             };
-            let shown = buildings.prepare(device, &self.frame_buffer, &drawn, meshes);
-            buildings_drawn = shown.drawn;
+            let shown = buildings.prepare(device, &self.frame_buffer, &on, meshes);
+            drawn.buildings = shown.drawn;
             let buildings = self.buildings.as_ref().expect("built above");
             self.run(&target, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
             passes.push((passes::BUILDINGS, self.counters.ran(passes::BUILDINGS, started)));
+        }
+
+        if layers.instances.is_none() && self.instances.take().is_some() {
+            self.counters.set_built(passes::INSTANCES, false);
+        }
+        if let Some(tiles) = layers.instances {
+            let started = Instant::now();
+            let device = &self.gpu.device;
+            let frame_buffer = &self.frame_buffer;
+            let instances = self.instances.get_or_insert_with(|| InstancesPass::new(device, frame_buffer));
+            self.counters.set_built(passes::INSTANCES, true);
+            let at = InstancesView {
+                surface: &self.surface,
+                view: &view,
+                aspect: f64::from(settings.width) / f64::from(settings.height),
+                camera: pose.position,
+                bands: &settings.bands,
+            };
+            let shown = instances.prepare(&self.gpu, &at, tiles)?;
+            (drawn.instances_in_view, drawn.models, drawn.billboards) =
+                (shown.in_view, shown.models_drawn, shown.billboards_drawn);
+            let instances = self.instances.as_ref().expect("built above");
+            self.run(&target, passes::INSTANCES, false, |pass| instances.record(pass, &shown))?;
+            passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
         }
 
         let started = Instant::now();
         let (rgba, depth) = target.read_back(&self.gpu)?;
         passes.push(("read back", started.elapsed().as_secs_f64() * 1e3));
         let (width, height, update) = (settings.width, settings.height, draw.update);
-        Ok(Frame { width, height, rgba, depth, passes, update, view, buildings_drawn })
+        Ok(Frame { width, height, rgba, depth, passes, update, view, drawn })
     }
 
     /// The drawn terrain's height over grid point (x, y) in the last frame
@@ -186,7 +242,7 @@ impl Renderer {
         let passes = vec![("mesh", mesh_ms), ("draw and read back", started.elapsed().as_secs_f64() * 1e3)];
         let update = UpdateStats::default();
         let (width, height) = (settings.width, settings.height);
-        Ok(Some(Frame { width, height, rgba, depth, passes, update, view, buildings_drawn: 0 }))
+        Ok(Some(Frame { width, height, rgba, depth, passes, update, view, drawn: Drawn::default() }))
     }
 
     fn check(&self, pose: &Pose, settings: &RenderSettings) -> Result<(), RenderError> {
@@ -197,6 +253,7 @@ impl Renderer {
                 return Err(RenderError::Request { field, message: format!("{v} is not from 1 to {max} pixels") });
             }
         }
+        settings.bands.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
         Ok(())
     }
 

@@ -4,7 +4,7 @@
 //! offsets go to the GPU as f32.
 
 use glam::DVec3;
-use relief_source::{TileGrid, geodesy};
+use relief_source::{Extent, TileGrid, geodesy};
 
 use crate::camera::{Pose, View};
 
@@ -65,6 +65,31 @@ impl Surface {
     /// Corner samples round the planet at `level` (a revolution).
     pub fn revolution(&self, level: u8) -> i64 {
         self.grid.samples_at(level).0
+    }
+
+    /// An area of grid units as the parts to look tiles up in: itself on a
+    /// flat scene; on the planet, brought back to the turn holding
+    /// [-180, 180) (windows follow the camera round the planet without
+    /// bound) and shifted a turn east and west, so an area across the
+    /// antimeridian is whole.
+    pub fn turns(&self, e: Extent) -> Vec<Extent> {
+        if !self.is_planet() {
+            return vec![e];
+        }
+        let turn = 360.0 * (f64::midpoint(e.min_x, e.max_x) / 360.0).round();
+        [-360.0 - turn, -turn, 360.0 - turn]
+            .iter()
+            .map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y))
+            .collect()
+    }
+
+    /// The square of `half` grid units of latitude (or of the flat grid)
+    /// round grid point (x, y), as `turns` gives it: on the planet as far
+    /// east and west on the ground as north and south (wider towards the
+    /// poles, at most the whole turn).
+    pub fn around(&self, x: f64, y: f64, half: f64) -> Vec<Extent> {
+        let half_x = if self.is_planet() { (half / y.to_radians().cos().max(1e-6)).min(180.0) } else { half };
+        self.turns(Extent::new(x - half_x, y - half, x + half_x, y + half))
     }
 
     /// Metres per grid unit along the ground (at the equator on the planet).

@@ -41,8 +41,19 @@ impl Target {
     /// A render pass over the target: the first pass of a frame clears it
     /// to the sky and the far plane, later ones draw over what is there.
     pub fn begin<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: &str, first: bool) -> wgpu::RenderPass<'e> {
-        let (color, depth) = if first {
-            (wgpu::LoadOp::Clear(CLEAR), wgpu::LoadOp::Clear(0.0))
+        self.begin_clearing(encoder, label, first.then_some(CLEAR))
+    }
+
+    /// A render pass over the target, first cleared to `clear` (and the
+    /// far plane) when given.
+    pub fn begin_clearing<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        label: &str,
+        clear: Option<wgpu::Color>,
+    ) -> wgpu::RenderPass<'e> {
+        let (color, depth) = if let Some(clear) = clear {
+            (wgpu::LoadOp::Clear(clear), wgpu::LoadOp::Clear(0.0))
         } else {
             (wgpu::LoadOp::Load, wgpu::LoadOp::Load)
         };

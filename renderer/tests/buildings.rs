@@ -7,14 +7,14 @@
 
 use std::sync::Arc;
 
-use relief_renderer::{ClipmapConfig, Frame, MeshTiles, Pose, RenderSettings, Renderer, Surface};
+use relief_renderer::{ClipmapConfig, Frame, MeshTiles, Pose, RenderSettings, Renderer, SceneLayers, Surface};
 use relief_source::{MeshPart, MeshTile, Payload, TileGrid, TileKey, geodesy};
 
 mod common;
 
-use common::{Analytic, gpu, hill_scene, pose, save};
+use common::{Analytic, gpu, hill_scene, pose, project, save};
 
-const SETTINGS: RenderSettings = RenderSettings { width: 480, height: 320, lighting: true };
+const SETTINGS: RenderSettings = RenderSettings::new(480, 320, true);
 /// Two clipmap configurations: coarse levels (the drawn terrain far from
 /// the data) and the default.
 const CONFIGS: [ClipmapConfig; 2] = [ClipmapConfig { n: 31, levels: 10 }, ClipmapConfig { n: 127, levels: 8 }];
@@ -173,7 +173,8 @@ fn check_standing(
 ) -> (usize, usize) {
     let source = town.source;
     let bare = renderer.render(source, view, settings).unwrap();
-    let frame = renderer.render_scene(source, Some(town), view, settings).unwrap();
+    let frame =
+        renderer.render_scene(source, SceneLayers { buildings: Some(town), instances: None }, view, settings).unwrap();
     save(&frame, &format!("{label}.png"));
     assert_eq!(frame.passes.iter().map(|p| p.0).collect::<Vec<_>>(), ["terrain", "buildings", "read back"]);
     assert!(frame.depth.iter().all(|d| d.is_finite()), "{label}: a depth is not finite");
@@ -299,20 +300,6 @@ fn hard_cases_a_cliff_under_a_building_the_antimeridian_and_near_a_pole() {
     assert!(standing == 3 && probed >= 2, "pole: {standing} drawn, {probed} corners probed");
 }
 
-/// The pixel a world point falls in, if in the image and in front.
-fn project(frame: &Frame, p: glam::DVec3) -> Option<(u32, u32)> {
-    let v = &frame.view;
-    let d = p - v.eye;
-    let z = d.dot(v.forward);
-    let tan = (v.vertical_fov_deg.to_radians() / 2.0).tan();
-    let aspect = f64::from(frame.width) / f64::from(frame.height);
-    let (sx, sy) = (d.dot(v.right) / z / (tan * aspect), d.dot(v.up) / z / tan);
-    let px = f64::midpoint(sx, 1.0) * f64::from(frame.width) - 0.5;
-    let py = (1.0 - sy) / 2.0 * f64::from(frame.height) - 0.5;
-    let inside = z > 0.0 && px >= 0.0 && py >= 0.0 && px < f64::from(frame.width) && py < f64::from(frame.height);
-    inside.then(|| (px.round() as u32, py.round() as u32))
-}
-
 #[test]
 fn a_frame_without_buildings_builds_no_buildings_pass() {
     let (mut renderer, source) = hill_scene(&gpu(), ClipmapConfig::default());
@@ -324,7 +311,7 @@ fn a_frame_without_buildings_builds_no_buildings_pass() {
     // Built when a frame has buildings, dropped when the scene has none again.
     let town = Town::new(&source, 9);
     let view = pose(10.2, 45.118, 880.0, 0.0, -12.0);
-    renderer.render_scene(&source, Some(&town), &view, &SETTINGS).unwrap();
+    renderer.render_scene(&source, SceneLayers { buildings: Some(&town), instances: None }, &view, &SETTINGS).unwrap();
     assert!(renderer.counters().stats().iter().any(|s| s.name == "buildings" && s.built && s.runs == 1));
     renderer.render(&source, &view, &SETTINGS).unwrap();
     assert!(renderer.counters().stats().iter().any(|s| s.name == "buildings" && !s.built && s.runs == 1));
@@ -340,7 +327,10 @@ fn buildings_stay_after_the_camera_flies_round_the_planet() {
     let town = Town { source: &source, centres, min_level: 12 };
     let view = |lon: f64| pose(lon, -17.004, 420.0, 0.0, -15.0);
     let drawn = |r: &mut Renderer, lon: f64| {
-        r.render_scene(&source, Some(&town), &view(lon), &SETTINGS).unwrap().buildings_drawn
+        r.render_scene(&source, SceneLayers { buildings: Some(&town), instances: None }, &view(lon), &SETTINGS)
+            .unwrap()
+            .drawn
+            .buildings
     };
     assert_eq!(drawn(&mut renderer, 180.0), 3);
     // Twice round eastwards, 45 degrees a frame: the clipmap's windows

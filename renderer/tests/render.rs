@@ -15,7 +15,7 @@ use common::{Analytic, gpu, hill_scene, pose, save, utm_scene};
 /// (0.3% of its 313 km cells), so the horizon test allows for it.
 const BASE_SINK_M: f64 = 1000.0;
 
-const SETTINGS: RenderSettings = RenderSettings { width: 320, height: 180, lighting: true };
+const SETTINGS: RenderSettings = RenderSettings::new(320, 180, true);
 
 /// Whether the ray from `eye` along `dir` meets the ellipsoid raised by `h`.
 fn meets_ellipsoid(eye: DVec3, dir: DVec3, h: f64) -> bool {

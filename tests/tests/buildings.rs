@@ -217,16 +217,19 @@ async fn points_become_instances_from_their_attributes() {
         )
     };
     let geojson = format!(
-        r#"{{"type": "FeatureCollection", "features": [{}, {}, {}]}}"#,
+        r#"{{"type": "FeatureCollection", "features": [{}, {}, {}, {}]}}"#,
         point(r#"{"species": "oak", "scale": "1.5", "heading": "90"}"#, 10.31, 45.27),
         point(r#"{"species": "", "scale": "big", "heading": "0"}"#, 10.26, 45.25),
         point(r#"{"species": "", "scale": "", "heading": "-30"}"#, 10.35, 45.19),
+        point(r#"{"species": "palm", "scale": "", "heading": "0"}"#, 10.33, 45.21),
     );
     let shp = shapefile(dir.path(), "trees", &geojson).unwrap();
+    // The user's own model: a glTF file named by its stem.
+    std::fs::write(dir.path().join("oak.glb"), relief_models::stock_glb("broadleaf").unwrap()).unwrap();
     let daemon = start(
         dir.path(),
         &format!(
-            "\n[[source]]\nid = \"trees\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"planted\"\nkind = \"instances\"\ninputs = [\"trees\", \"dem\"]\nrender_as = \"billboard\"\nmodel_attribute = \"species\"\nmodel = \"tree\"\nscale_attribute = \"scale\"\nscale = 2\nrotation_attribute = \"heading\"\n",
+            "\n[[source]]\nid = \"trees\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"planted\"\nkind = \"instances\"\ninputs = [\"trees\", \"dem\"]\npaths = [\"oak.glb\"]\nrender_as = \"billboard\"\nmodel_attribute = \"species\"\nmodel = \"conifer\"\nscale_attribute = \"scale\"\nscale = 2\nrotation_attribute = \"heading\"\n",
             shp.display()
         ),
     );
@@ -234,14 +237,16 @@ async fn points_become_instances_from_their_attributes() {
     let list = tiles::instances(&tile);
     let got: Vec<(u64, &str, f64, f64)> =
         list.instances.iter().map(|i| (i.feature_id, i.model.as_str(), i.scale, i.rotation_deg)).collect();
-    assert_eq!(got, [(0, "oak", 1.5, 90.0), (2, "tree", 2.0, 330.0)]);
+    assert_eq!(got, [(0, "oak", 1.5, 90.0), (2, "conifer", 2.0, 330.0)]);
     for i in &list.instances {
         assert_eq!(pb::InstanceKind::try_from(i.kind), Ok(pb::InstanceKind::Billboard));
         assert!((i.z - fixtures::hill(i.x, i.y)).abs() < GROUND_TOLERANCE_M, "{i:?}");
     }
-    assert_eq!(list.skipped.len(), 1);
+    assert_eq!(list.skipped.len(), 2, "{:?}", list.skipped);
     assert_eq!(list.skipped[0].feature_id, 1);
     assert!(list.skipped[0].reason.contains("'scale' is 'big'"), "{}", list.skipped[0].reason);
+    assert_eq!(list.skipped[1].feature_id, 3);
+    assert!(list.skipped[1].reason.contains("model 'palm' is not known"), "{}", list.skipped[1].reason);
     // And as GeoJSON through the CLI.
     let out = dir.path().join("trees.geojson");
     let (code, _, stderr) =

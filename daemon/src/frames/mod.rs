@@ -16,8 +16,6 @@ mod views;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use bytes::Bytes;
-use relief_renderer::ClipmapConfig;
-use relief_source::Quality;
 use tokio::sync::{Notify, watch};
 use tokio_util::sync::CancellationToken;
 
@@ -25,7 +23,7 @@ pub use stream::{CameraSource, FrameStream, StreamSpec, start};
 pub use views::{OpenView, ViewSettings, Views};
 
 use crate::scene::Scene;
-use crate::view::{Camera, Rendered, ViewError, Viewer};
+use crate::view::{Camera, Overrides, Rendered, ViewError, Viewer};
 
 /// Distinct views rendered at once.
 pub const MAX_VIEWS: usize = 64;
@@ -40,8 +38,8 @@ pub struct ViewKey {
     pub camera: Camera,
     pub width: u32,
     pub height: u32,
-    pub clipmap: Option<ClipmapConfig>,
-    pub quality: Option<Quality>,
+    /// The request's quality overrides.
+    pub overrides: Overrides,
 }
 
 impl ViewKey {
@@ -233,7 +231,7 @@ impl FrameHub {
             let (viewer, key) = (Arc::clone(&self.viewer), slot.key);
             slot.drawing.store(true, std::sync::atomic::Ordering::Relaxed);
             let job = tokio::task::spawn_blocking(move || {
-                let rendered = viewer.draw(Some(key.camera), key.width, key.height, key.clipmap, key.quality)?;
+                let rendered = viewer.draw(Some(key.camera), key.width, key.height, key.overrides)?;
                 Ok::<_, ViewError>(HubFrame::new(rendered))
             });
             let result = tokio::select! {

@@ -6,13 +6,11 @@
 use std::sync::{Arc, Weak};
 use std::time::{Duration, Instant};
 
-use relief_renderer::ClipmapConfig;
-use relief_source::Quality;
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 
 use super::{FrameHub, HubFrame, OpenView, Subscription, ViewKey, ViewSettings};
-use crate::view::{Camera, ViewError};
+use crate::view::{Camera, Overrides, ViewError};
 
 /// Whose camera a stream shows.
 #[derive(Clone)]
@@ -28,8 +26,7 @@ pub struct StreamSpec {
     pub source: CameraSource,
     pub width: u32,
     pub height: u32,
-    pub clipmap: Option<ClipmapConfig>,
-    pub quality: Option<Quality>,
+    pub overrides: Overrides,
     pub max_fps: f64,
     /// Encode PNG before sending (off the async threads).
     pub png: bool,
@@ -89,13 +86,7 @@ impl StreamSpec {
     fn key(&self, (camera, interactive): (Camera, bool)) -> ViewKey {
         let scale = if interactive { self.interactive_scale } else { 1.0 };
         let side = |v: u32| ((f64::from(v) * scale).round() as u32).max(1);
-        ViewKey {
-            camera,
-            width: side(self.width),
-            height: side(self.height),
-            clipmap: self.clipmap,
-            quality: self.quality,
-        }
+        ViewKey { camera, width: side(self.width), height: side(self.height), overrides: self.overrides }
     }
 }
 

@@ -1,6 +1,7 @@
 //! Conversions between relief's types and relief.v1 messages.
 
 use relief_proto::v1 as pb;
+use relief_renderer::InstanceBands;
 use relief_source::{Extent, PayloadKind, Quality, TileGrid, TileKey};
 use tonic::Status;
 
@@ -52,6 +53,34 @@ pub fn quality(base: Quality, overrides: Option<&pb::QualityOverrides>) -> Resul
     Ok(q)
 }
 
+fn join(values: &[f64]) -> String {
+    values.iter().map(ToString::to_string).collect::<Vec<_>>().join(", ")
+}
+
+/// A request's distance bands for the instances layer, when it overrides
+/// any of them (the rest from the manifest's); each checked.
+pub fn bands(base: InstanceBands, o: &pb::QualityOverrides) -> Result<Option<InstanceBands>, Status> {
+    let three = |field: &str, values: &[f64]| -> Result<Option<[f64; 3]>, Status> {
+        match values {
+            [] => Ok(None),
+            [a, b, c] => Ok(Some([*a, *b, *c])),
+            _ => Err(invalid_field(field, format!("{} values given: give three (one per band) or none", values.len()))),
+        }
+    };
+    let edges = three("quality.instance_bands_m", &o.instance_bands_m)?;
+    let densities = three("quality.instance_band_densities", &o.instance_band_densities)?;
+    if edges.is_none() && densities.is_none() && o.instance_model_distance_m.is_none() {
+        return Ok(None);
+    }
+    let bands = InstanceBands {
+        edges_m: edges.unwrap_or(base.edges_m),
+        densities: densities.unwrap_or(base.densities),
+        model_distance_m: o.instance_model_distance_m.unwrap_or(base.model_distance_m),
+    };
+    bands.validate().map_err(|(field, message)| invalid_field(&format!("quality.{field}"), message))?;
+    Ok(Some(bands))
+}
+
 fn grid_info(grid: &TileGrid) -> pb::GridInfo {
     let (cols, rows) = grid.tiles_at(0);
     pb::GridInfo {
@@ -99,6 +128,16 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
                 vertical_units: info.vertical_units,
                 tiles_generated: store.generated_for(&slot.spec.id),
                 details: info.details.into_iter().collect(),
+                instance_classes: info
+                    .classes
+                    .iter()
+                    .map(|c| pb::InstanceClass {
+                        class: c.class,
+                        has_rule: c.has_rule,
+                        instances: c.instances,
+                        samples: c.samples,
+                    })
+                    .collect(),
             }
         })
         .collect();
@@ -134,6 +173,9 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             ("clipmap_grid_size".to_string(), m.clipmap.n.to_string()),
             ("clipmap_levels".to_string(), m.clipmap.levels.to_string()),
             ("interactive_scale".to_string(), m.interactive_scale.to_string()),
+            ("instance_bands_m".to_string(), join(&m.bands.edges_m)),
+            ("instance_band_densities".to_string(), join(&m.bands.densities)),
+            ("instance_model_distance_m".to_string(), m.bands.model_distance_m.to_string()),
         ]
         .into_iter()
         .collect(),

@@ -7,9 +7,9 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use relief_proto::v1::{
-    Camera, ImageFormat, NavigateRequest, OpenViewRequest, PassTiming, PickRequest, PickResponse, QualityOverrides,
-    RenderRequest, RenderResponse, SetCameraRequest, StreamFramesRequest, UpdateViewRequest, ViewState,
-    navigate_request,
+    Camera, FrameDrawn, ImageFormat, NavigateRequest, OpenViewRequest, PassTiming, PickRequest, PickResponse,
+    QualityOverrides, RenderRequest, RenderResponse, SetCameraRequest, StreamFramesRequest, UpdateViewRequest,
+    ViewState, navigate_request,
 };
 use relief_renderer::ClipmapConfig;
 use tokio_stream::{Stream, StreamExt, wrappers::ReceiverStream};
@@ -21,7 +21,7 @@ use crate::navigate::{Gesture, navigate, pick};
 use crate::scene::Scene;
 use crate::service::convert;
 use crate::service::status::{from_view_error as status, invalid_field};
-use crate::view::{MAX_IMAGE_SIDE, Viewer};
+use crate::view::{MAX_IMAGE_SIDE, Overrides, Viewer};
 
 /// Fastest StreamFrames rate a viewer may ask for.
 const MAX_FPS: f64 = 60.0;
@@ -43,8 +43,7 @@ struct FrameRequest {
     width: u32,
     height: u32,
     png: bool,
-    clipmap: Option<ClipmapConfig>,
-    quality: Option<relief_source::Quality>,
+    overrides: Overrides,
 }
 
 fn frame_request(
@@ -60,6 +59,18 @@ fn frame_request(
         Ok(ImageFormat::Rgba8) => false,
         Err(_) => return Err(invalid_field("format", format!("{format} is not an image format"))),
     };
+    if let Some(o) = overrides {
+        // Knobs of effects not drawn yet: refused, never ignored.
+        if o.precision.is_some() {
+            return Err(invalid_field(
+                "quality.precision",
+                "no renderer precision to choose yet (f64 on the CPU, eye-relative f32 on the GPU)",
+            ));
+        }
+        if o.atmosphere_steps.is_some() {
+            return Err(invalid_field("quality.atmosphere_steps", "the atmosphere effect is not drawn yet"));
+        }
+    }
     let clipmap = overrides.and_then(|o| {
         (o.clipmap_grid_size.is_some() || o.clipmap_levels.is_some()).then(|| ClipmapConfig {
             n: o.clipmap_grid_size.map_or(snap.manifest.clipmap.n, |n| n as usize),
@@ -77,7 +88,8 @@ fn frame_request(
         }
     }
     let camera = camera.map(|c| checked_camera(&snap, c)).transpose()?;
-    Ok(FrameRequest { camera, width, height, png, clipmap, quality })
+    let bands = overrides.map(|o| convert::bands(snap.manifest.bands, o)).transpose()?.flatten();
+    Ok(FrameRequest { camera, width, height, png, overrides: Overrides { clipmap, quality, bands } })
 }
 
 /// A request's camera in relief's types, checked against the scene (every
@@ -109,6 +121,11 @@ fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
         passes,
         camera: Some(convert::camera_to(&frame.rendered.camera)),
         pass_counters: convert::pass_states(&frame.rendered.passes),
+        drawn: Some(FrameDrawn {
+            buildings: f.drawn.buildings as u32,
+            models: f.drawn.models as u32,
+            billboards: f.drawn.billboards as u32,
+        }),
     })
 }
 
@@ -146,8 +163,7 @@ impl ViewCalls {
         let req = frame_request(&self.scene, r.camera.as_ref(), (r.width, r.height), r.format, r.quality.as_ref())?;
         let viewer = Arc::clone(self.viewer());
         tokio::task::spawn_blocking(move || {
-            let rendered =
-                viewer.render(req.camera, req.width, req.height, req.clipmap, req.quality).map_err(|e| status(&e))?;
+            let rendered = viewer.render(req.camera, req.width, req.height, req.overrides).map_err(|e| status(&e))?;
             response(&HubFrame::new(rendered), req.png)
         })
         .await
@@ -173,8 +189,7 @@ impl ViewCalls {
             source,
             width: req.width,
             height: req.height,
-            clipmap: req.clipmap,
-            quality: req.quality,
+            overrides: req.overrides,
             max_fps: fps,
             png: req.png,
             interactive_scale: self.scene.snapshot().manifest.interactive_scale,

@@ -4,6 +4,7 @@
 //! often each ran and what it took.
 
 pub mod buildings;
+pub mod instances;
 pub mod terrain;
 
 use std::time::Instant;
@@ -65,8 +66,11 @@ pub const TERRAIN: &str = "terrain";
 /// Buildings: the `buildings` layer's meshes, lifted onto the drawn
 /// terrain. Built only for a scene with that layer.
 pub const BUILDINGS: &str = "buildings";
+/// Instances: the `instances` layer's models and billboards. Built only
+/// for a scene with that layer.
+pub const INSTANCES: &str = "instances";
 /// Every pass a renderer knows, in the order a frame runs them.
-pub const ALL: &[&str] = &[TERRAIN, BUILDINGS];
+pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES];
 
 /// One pass's record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -96,3 +96,17 @@ pub fn save(frame: &relief_renderer::Frame, name: &str) {
     image::save_buffer(dir.join(name), &frame.rgba, frame.width, frame.height, image::ExtendedColorType::Rgba8)
         .unwrap();
 }
+
+/// The pixel a world point falls in, if in the image and in front.
+pub fn project(frame: &relief_renderer::Frame, p: glam::DVec3) -> Option<(u32, u32)> {
+    let v = &frame.view;
+    let d = p - v.eye;
+    let z = d.dot(v.forward);
+    let tan = (v.vertical_fov_deg.to_radians() / 2.0).tan();
+    let aspect = f64::from(frame.width) / f64::from(frame.height);
+    let (sx, sy) = (d.dot(v.right) / z / (tan * aspect), d.dot(v.up) / z / tan);
+    let px = f64::midpoint(sx, 1.0) * f64::from(frame.width) - 0.5;
+    let py = (1.0 - sy) / 2.0 * f64::from(frame.height) - 0.5;
+    let inside = z > 0.0 && px >= 0.0 && py >= 0.0 && px < f64::from(frame.width) && py < f64::from(frame.height);
+    inside.then(|| (px.round() as u32, py.round() as u32))
+}

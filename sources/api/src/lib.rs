@@ -32,6 +32,7 @@ pub use payload::{
 };
 pub use quality::{Quality, Resampling};
 pub use source::{
-    GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source, SourceInfo, SourceSpec,
+    ClassCount, GenerateContext, GeodeticPoint, InputTiles, NoInputs, OptionValue, Refresh, Source, SourceInfo,
+    SourceSpec,
 };
 pub use vector::{VectorFormat, VectorRead, VectorSource};

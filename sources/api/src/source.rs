@@ -17,12 +17,28 @@ pub struct GeodeticPoint {
     pub lat_deg: f64,
 }
 
-/// A manifest option value, as the source receives it.
+/// A manifest option value, as the source receives it: a scalar, or (for
+/// options such as `scatter`'s rules) a list or a table of values, nested.
 #[derive(Debug, Clone, PartialEq)]
 pub enum OptionValue {
     Text(String),
     Number(f64),
     Bool(bool),
+    List(Vec<OptionValue>),
+    Table(BTreeMap<String, OptionValue>),
+}
+
+impl OptionValue {
+    /// What kind of value this is, for messages ("a string", "a table").
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Self::Text(_) => "a string",
+            Self::Number(_) => "a number",
+            Self::Bool(_) => "a boolean",
+            Self::List(_) => "a list",
+            Self::Table(_) => "a table",
+        }
+    }
 }
 
 /// How the manifest declares a source: everything a source crate needs to
@@ -53,6 +69,25 @@ impl SourceSpec {
         }
     }
 
+    /// A list option (a TOML array, or an array of tables such as
+    /// `[[source.rule]]`).
+    pub fn list(&self, field: &str) -> Result<Option<&[OptionValue]>, SourceError> {
+        match self.options.get(field) {
+            None => Ok(None),
+            Some(OptionValue::List(items)) => Ok(Some(items)),
+            Some(other) => Err(SourceError::option(field, format!("expected a list, found {}", other.kind_name()))),
+        }
+    }
+
+    /// A table option (a TOML inline table or `[source.field]`).
+    pub fn table(&self, field: &str) -> Result<Option<&BTreeMap<String, OptionValue>>, SourceError> {
+        match self.options.get(field) {
+            None => Ok(None),
+            Some(OptionValue::Table(table)) => Ok(Some(table)),
+            Some(other) => Err(SourceError::option(field, format!("expected a table, found {}", other.kind_name()))),
+        }
+    }
+
     /// Rejects options the source does not know, naming the first one.
     pub fn only_options(&self, known: &[&str]) -> Result<(), SourceError> {
         match self.options.keys().find(|k| !known.contains(&k.as_str())) {
@@ -79,6 +114,23 @@ pub struct SourceInfo {
     /// stops refining there).
     pub resolution: Option<f64>,
     pub details: BTreeMap<String, String>,
+    /// Per class of a classified input (the `scatter` op): how many samples
+    /// and instances the tiles built so far hold; empty for other sources.
+    pub classes: Vec<ClassCount>,
+}
+
+/// One class of a land-cover input, as a source that places things by
+/// class reports it in the scene state.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ClassCount {
+    /// The class code.
+    pub class: i64,
+    /// True when the source has a rule for this class.
+    pub has_rule: bool,
+    /// Instances placed on this class.
+    pub instances: u64,
+    /// Samples of the class raster holding this class.
+    pub samples: u64,
 }
 
 /// Access to the tiles of a source's inputs while it generates a tile.
@@ -154,5 +206,32 @@ pub trait Source: Send + Sync + std::fmt::Debug {
     /// source has no data.
     fn sample_heights(&self, _points: &[GeodeticPoint], _quality: &Quality) -> Result<Vec<Option<f64>>, SourceError> {
         Err(SourceError::Unsupported("sampling elevations"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lists_and_tables_read_as_such_and_scalars_as_before() {
+        let rule: BTreeMap<String, OptionValue> = [("class".to_owned(), OptionValue::Number(311.0))].into();
+        let spec = SourceSpec {
+            options: [
+                ("rule".to_owned(), OptionValue::List(vec![OptionValue::Table(rule.clone())])),
+                ("style".to_owned(), OptionValue::Table(rule.clone())),
+                ("seed".to_owned(), OptionValue::Number(7.0)),
+            ]
+            .into(),
+            ..SourceSpec::default()
+        };
+        assert_eq!(spec.list("rule").unwrap(), Some(&[OptionValue::Table(rule.clone())][..]));
+        assert_eq!(spec.table("style").unwrap(), Some(&rule));
+        assert_eq!(spec.list("none").unwrap(), None);
+        assert_eq!(spec.number("seed").unwrap(), Some(7.0));
+        let err = spec.list("style").unwrap_err().to_string();
+        assert_eq!(err, "invalid option 'style': expected a list, found a table");
+        assert!(spec.table("seed").unwrap_err().to_string().contains("expected a table, found a number"));
+        assert!(spec.number("rule").is_err() && spec.text("rule").is_err());
     }
 }

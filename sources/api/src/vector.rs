@@ -79,6 +79,7 @@ impl<F: VectorFormat> VectorSource<F> {
             vertical_units: String::new(),
             resolution: None,
             details: read.details,
+            ..SourceInfo::default()
         };
         Ok(Self { spec: spec.clone(), path: path.clone(), crs, fingerprint, index, info, format: PhantomData })
     }

@@ -74,6 +74,9 @@ pub(crate) struct ReadOptions {
     pub crs_override: Option<String>,
     pub units_override: Option<VerticalUnits>,
     pub band: usize,
+    /// The values are codes (land-cover classes), not quantities: coarser
+    /// mip pixels take the most common valid value under them, never a mean.
+    pub categorical: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -94,6 +97,8 @@ pub(crate) struct Raster {
     pub wraps_x: bool,
     /// The raster's CRS is geographic (degrees).
     pub geographic: bool,
+    /// Mip pixels are the most common value under them (see ReadOptions).
+    pub categorical: bool,
     /// The mip pyramid, base level first; shared between versions whose
     /// pixels are the same.
     pub levels: Arc<Vec<Level>>,
@@ -137,7 +142,7 @@ impl Raster {
     /// This raster with `planes` as its base level and a full pyramid.
     fn with_base(self, planes: Vec<Vec<f32>>) -> Self {
         let base = Level { width: self.width(), height: self.height(), scale: 1.0, planes };
-        Self { levels: Arc::new(build_pyramid(base, self.kind)), ..self }
+        Self { levels: Arc::new(build_pyramid(base, self.halving())), ..self }
     }
 
     /// Reads the file again and compares it with this version block by
@@ -168,7 +173,7 @@ impl Raster {
             let prev = levels.last().expect("the base level is there");
             let mut planes = old.planes.clone();
             for rect in &rects {
-                update_halved(prev, &mut planes, old.width, old.height, rect, old.scale as usize, self.kind);
+                update_halved(prev, &mut planes, old.width, old.height, rect, old.scale as usize, self.halving());
             }
             levels.push(Level { width: old.width, height: old.height, scale: old.scale, planes });
         }
@@ -256,6 +261,7 @@ impl Raster {
             units,
             wraps_x,
             geographic: srs.is_geographic(),
+            categorical: options.categorical,
             levels: Arc::new(Vec::new()),
             details,
         };
@@ -521,8 +527,29 @@ fn read_color(ds: &Dataset, path: &Path, details: &mut BTreeMap<String, String>)
     Ok(planes)
 }
 
-/// Halves the raster until it is one pixel, averaging valid pixels only.
-fn build_pyramid(base: Level, kind: RasterKind) -> Vec<Level> {
+/// How a mip pixel is made from the (up to) four under it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Halving {
+    /// Heights: the mean of the valid ones (NaN when none is).
+    HeightMean,
+    /// Premultiplied colour: the plain mean (transparent weighs nothing).
+    ColorMean,
+    /// Codes: the most common valid value (the first of equals, row by row).
+    Mode,
+}
+
+impl Raster {
+    fn halving(&self) -> Halving {
+        match (self.kind, self.categorical) {
+            (RasterKind::Height, true) => Halving::Mode,
+            (RasterKind::Height, false) => Halving::HeightMean,
+            (RasterKind::Color, _) => Halving::ColorMean,
+        }
+    }
+}
+
+/// Halves the raster until it is one pixel.
+fn build_pyramid(base: Level, halving: Halving) -> Vec<Level> {
     let mut levels = vec![base];
     loop {
         let prev = levels.last().expect("pyramid has a base level");
@@ -530,19 +557,33 @@ fn build_pyramid(base: Level, kind: RasterKind) -> Vec<Level> {
             break;
         }
         let (w, h) = (prev.width.div_ceil(2), prev.height.div_ceil(2));
-        let planes = match kind {
-            RasterKind::Height => vec![halve(&prev.planes[0], prev.width, prev.height, true)],
-            // Premultiplied colour averages plainly: transparent pixels weigh nothing.
-            RasterKind::Color => prev.planes.iter().map(|p| halve(p, prev.width, prev.height, false)).collect(),
-        };
+        let planes = prev.planes.iter().map(|p| halve(p, prev.width, prev.height, halving)).collect();
         levels.push(Level { width: w, height: h, scale: prev.scale * 2.0, planes });
     }
     levels
 }
 
-/// One pixel of the next level: the mean of the (up to) four pixels under
-/// it, valid ones only for heights.
-fn halved_pixel(plane: &[f32], width: usize, height: usize, i: usize, j: usize, skip_nan: bool) -> f32 {
+/// One pixel of the next level, from the (up to) four pixels under it.
+fn halved_pixel(plane: &[f32], width: usize, height: usize, i: usize, j: usize, halving: Halving) -> f32 {
+    if halving == Halving::Mode {
+        let under: Vec<f32> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+            .iter()
+            .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
+            .filter(|&(x, y)| x < width && y < height)
+            .map(|(x, y)| plane[y * width + x])
+            .filter(|v| !v.is_nan())
+            .collect();
+        let count = |v: f32| under.iter().filter(|u| **u == v).count();
+        return under
+            .iter()
+            .copied()
+            .fold(None, |best: Option<f32>, v| match best {
+                Some(b) if count(b) >= count(v) => Some(b),
+                _ => Some(v),
+            })
+            .unwrap_or(f32::NAN);
+    }
+    let skip_nan = halving == Halving::HeightMean;
     let mut sum = 0.0f64;
     let (mut count, mut cells) = (0u32, 0u32);
     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
@@ -560,11 +601,11 @@ fn halved_pixel(plane: &[f32], width: usize, height: usize, i: usize, j: usize, 
     if count == 0 { f32::NAN } else { (sum / f64::from(divisor)) as f32 }
 }
 
-fn halve(plane: &[f32], width: usize, height: usize, skip_nan: bool) -> Vec<f32> {
+fn halve(plane: &[f32], width: usize, height: usize, halving: Halving) -> Vec<f32> {
     let (w, h) = (width.div_ceil(2), height.div_ceil(2));
     (0..h)
         .flat_map(|j| (0..w).map(move |i| (i, j)))
-        .map(|(i, j)| halved_pixel(plane, width, height, i, j, skip_nan))
+        .map(|(i, j)| halved_pixel(plane, width, height, i, j, halving))
         .collect()
 }
 
@@ -578,14 +619,14 @@ fn update_halved(
     height: usize,
     rect: &PixelRect,
     scale: usize,
-    kind: RasterKind,
+    halving: Halving,
 ) {
     let (i0, j0) = (rect.x0 / scale, rect.y0 / scale);
     let (i1, j1) = (rect.x1.div_ceil(scale).min(width), rect.y1.div_ceil(scale).min(height));
     for (plane, below) in planes.iter_mut().zip(&prev.planes) {
         for j in j0..j1 {
             for i in i0..i1 {
-                plane[j * width + i] = halved_pixel(below, prev.width, prev.height, i, j, kind == RasterKind::Height);
+                plane[j * width + i] = halved_pixel(below, prev.width, prev.height, i, j, halving);
             }
         }
     }
@@ -654,7 +695,12 @@ mod tests {
     fn halving_ignores_nodata_and_keeps_all_void_blocks_void() {
         let n = f32::NAN;
         let plane = [1.0, 3.0, n, n, 5.0, n, n, n, 2.0];
-        let out = halve(&plane, 3, 3, true);
+        let out = halve(&plane, 3, 3, Halving::HeightMean);
+        // Codes: the most common valid value, never a mean of classes.
+        let codes = [3.0, 7.0, 7.0, f32::NAN];
+        assert_eq!(halve(&codes, 2, 2, Halving::Mode), vec![7.0]);
+        assert_eq!(halve(&[5.0, 9.0, f32::NAN, f32::NAN], 2, 2, Halving::Mode), vec![5.0]);
+        assert!(halve(&[f32::NAN; 4], 2, 2, Halving::Mode)[0].is_nan());
         assert_eq!(out.len(), 4);
         assert_eq!(out[0], 3.0); // (1 + 3 + 5) / 3: the void does not pull it down
         assert!(out[1].is_nan()); // n, n over n: nothing valid
@@ -687,7 +733,7 @@ mod tests {
         let (w, h) = (150, 90);
         let base: Vec<f32> = (0..w * h).map(|i| (i % 97) as f32).collect();
         let old =
-            build_pyramid(Level { width: w, height: h, scale: 1.0, planes: vec![base.clone()] }, RasterKind::Height);
+            build_pyramid(Level { width: w, height: h, scale: 1.0, planes: vec![base.clone()] }, Halving::HeightMean);
         let mut edited = base;
         for y in 20..41 {
             for x in 65..99 {
@@ -696,7 +742,7 @@ mod tests {
         }
         let rects = diff_blocks(&old[0].planes, &[edited.clone()], w, h);
         let full =
-            build_pyramid(Level { width: w, height: h, scale: 1.0, planes: vec![edited.clone()] }, RasterKind::Height);
+            build_pyramid(Level { width: w, height: h, scale: 1.0, planes: vec![edited.clone()] }, Halving::HeightMean);
         let mut levels = vec![Level { width: w, height: h, scale: 1.0, planes: vec![edited] }];
         for o in &old[1..] {
             let mut planes = o.planes.clone();
@@ -708,7 +754,7 @@ mod tests {
                     o.height,
                     r,
                     o.scale as usize,
-                    RasterKind::Height,
+                    Halving::HeightMean,
                 );
             }
             levels.push(Level { width: o.width, height: o.height, scale: o.scale, planes });

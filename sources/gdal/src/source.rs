@@ -6,7 +6,7 @@ use std::sync::{Arc, Once};
 use gdal::errors::CplErrType;
 use relief_source::{
     ColorTile, DirtySet, Extent, GenerateContext, GeodeticPoint, HeightTile, Lattice, Payload, PayloadKind, Quality,
-    Refresh, SampleKind, Source, SourceError, SourceInfo, SourceSpec, TileGrid, TileKey,
+    Refresh, Resampling, SampleKind, Source, SourceError, SourceInfo, SourceSpec, TileGrid, TileKey,
 };
 
 use crate::crs;
@@ -20,7 +20,7 @@ pub const KIND: &str = "gdal";
 /// kernel (lanczos, 3) plus one for the footprint of a mip pixel.
 const DIRTY_MARGIN_SAMPLES: u32 = 4;
 
-const OPTIONS: &[&str] = &["output", "crs", "vertical_datum", "vertical_units", "band"];
+const OPTIONS: &[&str] = &["output", "crs", "vertical_datum", "vertical_units", "band", "resampling"];
 
 /// Routes GDAL's own messages to tracing instead of stderr: every failure
 /// that matters comes back as an error value anyway.
@@ -80,6 +80,8 @@ pub struct GdalSource {
     vertical_datum: String,
     grid_crs: String,
     rasters: Vec<Placed>,
+    /// The source's own kernel (`resampling`), else the scene's.
+    resampling: Option<Resampling>,
 }
 
 impl GdalSource {
@@ -118,7 +120,14 @@ impl GdalSource {
         if let Some(def) = &crs_override {
             crs::spatial_ref(def, None)?;
         }
-        let read = ReadOptions { kind, crs_override, units_override, band };
+        // A source's own kernel wins over the scene's: a land-cover raster
+        // reads "nearest" (and its mips keep classes) under a bilinear DEM.
+        let resampling = spec
+            .text("resampling")?
+            .map(|r| r.parse::<Resampling>().map_err(|e| SourceError::option("resampling", e)))
+            .transpose()?;
+        let categorical = resampling == Some(Resampling::Nearest);
+        let read = ReadOptions { kind, crs_override, units_override, band, categorical };
         let rasters = spec.paths.iter().map(|p| Raster::open(p, &read)).collect::<Result<Vec<_>, _>>()?;
         let kind = rasters[0].kind;
         if let Some(odd) = rasters.iter().find(|r| r.kind != kind) {
@@ -143,6 +152,7 @@ impl GdalSource {
             vertical_datum,
             grid_crs: grid.crs().to_owned(),
             rasters,
+            resampling,
         })
     }
 
@@ -244,7 +254,7 @@ impl GdalSource {
     fn sampler(&self, placed: &Placed, lattice: &Lattice, quality: &Quality) -> Result<Sampler, SourceError> {
         let r = &placed.raster;
         let (cols, rows) = (lattice.cols, lattice.rows);
-        let kernel = quality.resampling;
+        let kernel = self.resampling.unwrap_or(quality.resampling);
         let mip_for = |dx: f64, dy: f64| {
             let ratio = dx.abs().max(dy.abs());
             if !ratio.is_finite() || ratio < 2.0 { 0 } else { (ratio.log2().floor() as usize).min(r.levels.len() - 1) }
@@ -382,6 +392,10 @@ impl Source for GdalSource {
         if self.rasters.len() > 1 {
             details.insert("mosaic".into(), format!("{} rasters", self.rasters.len()));
         }
+        if let Some(r) = self.resampling {
+            let how = if r == Resampling::Nearest { "; its mips keep the most common value, for classes" } else { "" };
+            details.insert("resampling".into(), format!("{r} (the source's own{how})"));
+        }
         SourceInfo {
             files: self.rasters.iter().map(|p| p.raster.path.clone()).collect(),
             extent,
@@ -398,6 +412,7 @@ impl Source for GdalSource {
                 .filter_map(|p| p.extent_in_grid.map(|e| e.width() / p.raster.size.0 as f64))
                 .reduce(f64::min),
             details,
+            ..SourceInfo::default()
         }
     }
 
@@ -454,6 +469,7 @@ impl Source for GdalSource {
                 vertical_datum: self.vertical_datum.clone(),
                 grid_crs: self.grid_crs.clone(),
                 rasters,
+                resampling: self.resampling,
             }),
             dirty,
         })
@@ -481,7 +497,9 @@ impl Source for GdalSource {
                         None
                     };
                     let (u, v) = r.pixel_of(*x, *y);
-                    let h = pole.unwrap_or_else(|| height_at(&r.levels[0], u, v, quality.resampling, r.wraps_x));
+                    let h = pole.unwrap_or_else(|| {
+                        height_at(&r.levels[0], u, v, self.resampling.unwrap_or(quality.resampling), r.wraps_x)
+                    });
                     *slot = (!h.is_nan()).then_some(f64::from(h));
                 }
             }

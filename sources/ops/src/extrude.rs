@@ -37,7 +37,7 @@ pub struct Extrude {
 impl Extrude {
     pub fn open(spec: &SourceSpec) -> Result<Self, SourceError> {
         spec.only_options(&["height_attribute", "height", "min_level", "color", "color_by"])?;
-        check_inputs(spec, EXTRUDE_KIND)?;
+        check_inputs(spec, EXTRUDE_KIND, false)?;
         let height = AttributeOr::from_spec(spec, "height")?;
         if height.value.is_some_and(|h| h <= 0.0) {
             return Err(SourceError::option("height", "a default height is more than 0 m"));

@@ -1,28 +1,35 @@
 //! `instances`: points (trees, street lights, signs) become placed models or
-//! billboards, with the id, scale and rotation taken from attributes.
+//! billboards, with the model, scale and rotation taken from attributes.
+//! Models are the stock ones or the glTF files in `paths` (named by stem);
+//! a point naming another model is left out, and says so.
+
+use std::sync::Arc;
 
 use relief_source::{
-    GenerateContext, Geometry, Instance, InstanceKind, InstanceTile, Payload, PayloadKind, Skipped, Source,
-    SourceError, SourceInfo, SourceSpec, TileKey,
+    DirtySet, GenerateContext, Geometry, Instance, InstanceKind, InstanceTile, Payload, PayloadKind, Refresh, Skipped,
+    Source, SourceError, SourceInfo, SourceSpec, TileGrid, TileKey,
 };
 
+use crate::models::{ModelFile, known_models, reopen_changed};
 use crate::placement::{AltitudeMode, AttributeOr, Ground, check_inputs};
 
 pub const INSTANCES_KIND: &str = "instances";
 /// Points, then (optional) the terrain they stand on.
 pub const INSTANCES_INPUTS: &[PayloadKind] = &[PayloadKind::Features, PayloadKind::Height];
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct Instances {
     id: String,
     inputs: Vec<String>,
     kind: InstanceKind,
-    /// `model_attribute` names the attribute holding the id; `model` is
-    /// the id for points without one.
+    /// `model_attribute` names the attribute holding the model's name;
+    /// `model` is the name for points without one.
     model_attribute: Option<String>,
-    model: String,
+    model: Option<String>,
     scale: AttributeOr,
     rotation: AttributeOr,
+    models: Vec<ModelFile>,
+    known: Vec<String>,
 }
 
 impl Instances {
@@ -36,7 +43,26 @@ impl Instances {
             "rotation_attribute",
             "rotation",
         ])?;
-        check_inputs(spec, INSTANCES_KIND)?;
+        check_inputs(spec, INSTANCES_KIND, true)?;
+        let models = ModelFile::open_all(&spec.paths, &spec.id)?;
+        let known = known_models(&models);
+        let model = spec.text("model")?.map(str::to_owned);
+        let model_attribute = spec.text("model_attribute")?.map(str::to_owned);
+        match &model {
+            Some(m) if !known.contains(m) => {
+                return Err(SourceError::option(
+                    "model",
+                    format!("'{m}' is not a model (known: {})", known.join(", ")),
+                ));
+            }
+            None if model_attribute.is_none() => {
+                return Err(SourceError::option(
+                    "model",
+                    format!("give 'model' (one of {}) or 'model_attribute'", known.join(", ")),
+                ));
+            }
+            _ => {}
+        }
         let kind = match spec.text("render_as")? {
             None | Some("model") => InstanceKind::Model,
             Some("billboard") => InstanceKind::Billboard,
@@ -55,10 +81,12 @@ impl Instances {
             id: spec.id.clone(),
             inputs: spec.inputs.clone(),
             kind,
-            model_attribute: spec.text("model_attribute")?.map(str::to_owned),
-            model: spec.text("model")?.unwrap_or("default").to_owned(),
+            model_attribute,
+            model,
             scale,
             rotation,
+            models,
+            known,
         })
     }
 }
@@ -88,7 +116,18 @@ impl Source for Instances {
         };
         info.details.insert("render_as".into(), kind.into());
         info.details.insert("ground".into(), self.inputs.get(1).cloned().unwrap_or_else(|| "0 m".into()));
+        info.details.insert("models".into(), self.known.join(", "));
+        info.files = self.models.iter().flat_map(ModelFile::files).collect();
         info
+    }
+
+    /// A model file that changed dirties everything; one gone or unusable
+    /// is an error naming it (the last good version stays).
+    fn refresh(&self, _grid: &TileGrid) -> Result<Refresh, SourceError> {
+        let Some(models) = reopen_changed(&self.models, &self.id)? else {
+            return Ok(Refresh::Unchanged);
+        };
+        Ok(Refresh::Changed { source: Arc::new(Self { models, ..self.clone() }), dirty: DirtySet::everything() })
     }
 
     /// Points are owned by one tile each (the feature tiles already say
@@ -117,12 +156,24 @@ impl Source for Instances {
                 skip(&mut tile, format!("scale {scale} is not more than 0"));
                 continue;
             }
-            let model = self
+            let named = self
                 .model_attribute
                 .as_ref()
                 .and_then(|a| props.get(a))
-                .filter(|m| !m.trim().is_empty())
-                .map_or_else(|| self.model.clone(), |m| m.trim().to_owned());
+                .map(|m| m.trim())
+                .filter(|m| !m.is_empty())
+                .or(self.model.as_deref());
+            let model = match named {
+                Some(m) if self.known.iter().any(|k| k == m) => m.to_owned(),
+                Some(m) => {
+                    skip(&mut tile, format!("model '{m}' is not known (known: {})", self.known.join(", ")));
+                    continue;
+                }
+                None => {
+                    skip(&mut tile, "no model: the model attribute is empty and the source has no 'model'".into());
+                    continue;
+                }
+            };
             for p in points.iter().filter(|p| ctx.grid.key_at(key.level, p[0], p[1]) == Some(key)) {
                 let z = match (AltitudeMode::of(props), p[2].is_finite()) {
                     (AltitudeMode::Absolute, true) => Some(p[2]),

@@ -63,7 +63,7 @@ pub fn number_attribute(properties: &BTreeMap<String, String>, name: &str) -> Re
 
 /// Options naming an attribute and giving a fallback value: `{what}_attribute`
 /// and `{what}` (for example `scale_attribute` and `scale`).
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub struct AttributeOr {
     pub attribute: Option<String>,
     pub value: Option<f64>,
@@ -85,15 +85,15 @@ impl AttributeOr {
 }
 
 /// Checks an op's input list: one features input, and optionally a height
-/// input for the ground.
-pub fn check_inputs(spec: &SourceSpec, kind: &str) -> Result<(), SourceError> {
+/// input for the ground. `model_files`: its `paths` are glTF models.
+pub fn check_inputs(spec: &SourceSpec, kind: &str, model_files: bool) -> Result<(), SourceError> {
     if !(1..=2).contains(&spec.inputs.len()) {
         return Err(SourceError::option(
             "inputs",
             format!("{kind} takes a features input and optionally a height input for the ground"),
         ));
     }
-    if !spec.paths.is_empty() {
+    if !model_files && !spec.paths.is_empty() {
         return Err(SourceError::option("path", format!("{kind} reads no files: give it 'inputs'")));
     }
     Ok(())

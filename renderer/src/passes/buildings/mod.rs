@@ -365,25 +365,12 @@ impl Ring {
 }
 
 fn rings(surface: &Surface, clipmap: &Clipmap, active: &[u8], min_level: u8, camera: (f64, f64)) -> Vec<Ring> {
-    let shifted = |e: Extent| -> Vec<Extent> {
-        if surface.is_planet() {
-            // Windows follow the camera round the planet without bound:
-            // back to the turn holding [-180, 180), then a turn each way.
-            let turn = 360.0 * (f64::midpoint(e.min_x, e.max_x) / 360.0).round();
-            [-360.0 - turn, -turn, 360.0 - turn]
-                .iter()
-                .map(|s| Extent::new(e.min_x + s, e.min_y, e.max_x + s, e.max_y))
-                .collect()
-        } else {
-            vec![e]
-        }
-    };
     let window = |t: u8| -> Option<Vec<Extent>> {
         let level = clipmap.level(t)?;
         let last = level.n as i64 - 1;
         let (x0, y0) = surface.sample_point(t, level.origin.0, level.origin.1);
         let (x1, y1) = surface.sample_point(t, level.origin.0 + last, level.origin.1 + last);
-        Some(shifted(Extent::new(x0.min(x1), y0.min(y1), x0.max(x1), y0.max(y1))))
+        Some(surface.turns(Extent::new(x0.min(x1), y0.min(y1), x0.max(x1), y0.max(y1))))
     };
     // How far round the camera `min_level` reaches: half its window's
     // height, as far east and west on the ground (near a pole a window of
@@ -391,8 +378,7 @@ fn rings(surface: &Surface, clipmap: &Clipmap, active: &[u8], min_level: u8, cam
     // enough there for buildings).
     let n = clipmap.config.n as f64;
     let half_y = n / 2.0 * surface.step(min_level);
-    let half_x = if surface.is_planet() { (half_y / camera.1.to_radians().cos().max(1e-6)).min(180.0) } else { half_y };
-    let reach = shifted(Extent::new(camera.0 - half_x, camera.1 - half_y, camera.0 + half_x, camera.1 + half_y));
+    let reach = surface.around(camera.0, camera.1, half_y);
     let mut out = Vec::new();
     for (k, &t) in active.iter().enumerate() {
         let Some(mut windows) = window(t) else { continue };

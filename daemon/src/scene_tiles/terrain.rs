@@ -1,13 +1,10 @@
-//! The scene's tiles as the renderer asks for them: terrain samples from
-//! the height and colour layers, building meshes from the `buildings`
-//! layer, each answered from the tile store (built in parallel when
-//! missing).
+//! Terrain samples from the height and colour layers.
 
 use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::Arc;
 
-use relief_renderer::{MeshTiles, TerrainSamples};
+use relief_renderer::TerrainSamples;
 use relief_source::{Payload, Quality, TileKey};
 
 use crate::graph::SceneSnapshot;
@@ -125,48 +122,5 @@ impl TerrainSamples for SceneTerrain<'_> {
 
     fn max_level(&self) -> u8 {
         self.max_level
-    }
-}
-
-/// The `buildings` layer's mesh tiles.
-pub struct SceneBuildings<'a> {
-    store: &'a TileStore,
-    snap: &'a SceneSnapshot,
-    quality: Quality,
-    index: usize,
-    min_level: u8,
-}
-
-impl<'a> SceneBuildings<'a> {
-    /// None when the scene has no `buildings` layer (or its source is not
-    /// loaded): then no buildings pass is built.
-    pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Option<Self> {
-        let index = snap.manifest.layers.get("buildings").and_then(|id| snap.index_of(id))?;
-        let source = snap.slots[index].source.as_ref()?;
-        let min_level = source.info().details.get("min_level").and_then(|l| l.parse().ok()).unwrap_or(0);
-        Some(Self { store, snap, quality, index, min_level })
-    }
-}
-
-impl MeshTiles for SceneBuildings<'_> {
-    fn min_level(&self) -> u8 {
-        self.min_level
-    }
-
-    fn meshes(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>> {
-        let requests: Vec<(usize, TileKey)> = keys.iter().map(|&k| (self.index, k)).collect();
-        self.store
-            .build(self.snap, &requests, &self.quality)
-            .into_iter()
-            .zip(keys)
-            .map(|(tile, key)| match tile {
-                Ok(t) => Some(Arc::clone(&t.payload)),
-                Err(e) => {
-                    // Every frame asks again: the source's own error is in the state.
-                    tracing::debug!(level = key.level, x = key.x, y = key.y, error = %e, "building meshes are not ready");
-                    None
-                }
-            })
-            .collect()
     }
 }

@@ -1,0 +1,467 @@
+//! The instances pass: the scene's `instances` layer (trees, shrubs,
+//! houses placed by `scatter` or `instances`), drawn with GPU instancing.
+//! Instance tiles round the camera are asked for at the layer's level, as
+//! far as the last distance band reaches. Each frame sorts the instances
+//! on the CPU (f64): thinned by distance band (Savelli et al.), culled to
+//! the view, models near and billboards far, cross-faded by dithering so
+//! nothing pops (`bands.rs`). A model is drawn in one instanced call for
+//! all its instances; every billboard in one more, from the atlas each
+//! model's billboard was rendered into (`models.rs`).
+
+mod bands;
+mod models;
+
+use std::collections::HashMap;
+use std::ops::Range;
+use std::sync::Arc;
+
+use glam::{DVec3, Vec3};
+use relief_models::Model;
+use relief_source::{InstanceKind, Payload, TileKey};
+use wgpu::util::DeviceExt;
+
+pub use bands::InstanceBands;
+use models::{GpuInstance, GpuModel, INSTANCE_ATTRIBUTES, MAX_MODELS, MODEL_ATTRIBUTES, ModelVertex};
+
+use crate::camera::View;
+use crate::error::RenderError;
+use crate::gpu::Gpu;
+use crate::surface::Surface;
+
+/// The scene's instance tiles and models, as the renderer asks for them.
+pub trait InstanceTiles {
+    /// The tile level instance tiles are asked for at.
+    fn level(&self) -> u8;
+    /// The instance tiles `keys` (built when needed); None for one not ready.
+    fn instances(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>>;
+    /// The model an instance names; None for a name the scene does not know.
+    fn model(&self, name: &str) -> Option<Arc<Model>>;
+}
+
+/// Where a frame looks from, for choosing and sorting instances.
+#[derive(Clone, Copy)]
+pub struct InstancesView<'a> {
+    pub surface: &'a Surface,
+    pub view: &'a View,
+    pub aspect: f64,
+    /// The camera's grid point and height (metres).
+    pub camera: [f64; 3],
+    pub bands: &'a InstanceBands,
+}
+
+/// One instance of a tile, ready for sorting.
+struct Placed {
+    world: DVec3,
+    east: Vec3,
+    up: Vec3,
+    scale: f32,
+    /// Its own random number (0..1, from its feature id): thinning keeps
+    /// the instances whose number is under the band's density.
+    random: f64,
+    slot: u32,
+    /// Placed as a billboard whatever its distance (`render_as`).
+    billboard_only: bool,
+}
+
+struct PlacedTile {
+    payload: Arc<Payload>,
+    placed: Vec<Placed>,
+}
+
+/// What a frame draws: one buffer of instances, models first (a range per
+/// model), then the billboards.
+pub struct InstancesDraw {
+    buffer: Option<wgpu::Buffer>,
+    models: Vec<(u32, Range<u32>)>,
+    billboards: Range<u32>,
+    /// Instances within reach and in the view, before the bands thin them.
+    pub in_view: usize,
+    pub models_drawn: usize,
+    pub billboards_drawn: usize,
+    /// Instance tiles asked for but not ready, and instances whose model
+    /// the scene does not have.
+    pub not_ready: usize,
+    pub unknown_models: usize,
+}
+
+pub struct InstancesPass {
+    model_pipeline: wgpu::RenderPipeline,
+    model_layout: wgpu::BindGroupLayout,
+    model_bind_group: wgpu::BindGroup,
+    billboard_pipeline: wgpu::RenderPipeline,
+    billboard_bind_group: wgpu::BindGroup,
+    atlas: wgpu::Texture,
+    models: Vec<GpuModel>,
+    by_name: HashMap<String, u32>,
+    tiles: HashMap<TileKey, PlacedTile>,
+    /// Instance tiles sorted for drawing since the pass was built.
+    pub tiles_built: u64,
+}
+
+impl InstancesPass {
+    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
+        let shader = super::shader(device, "instances", include_str!("instances.wgsl"));
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty,
+            count: None,
+        };
+        let uniform = wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        };
+        let model_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("instance models"),
+            entries: &[entry(0, uniform)],
+        });
+        let billboard_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("instance billboards"),
+            entries: &[
+                entry(0, uniform),
+                entry(
+                    1,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                ),
+                entry(2, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
+            ],
+        });
+        let layout = |label, bind: &wgpu::BindGroupLayout| {
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(bind)],
+                immediate_size: 0,
+            })
+        };
+        let instance_buffer = wgpu::VertexBufferLayout {
+            array_stride: size_of::<GpuInstance>() as u64,
+            step_mode: wgpu::VertexStepMode::Instance,
+            attributes: &INSTANCE_ATTRIBUTES,
+        };
+        let model_buffers = [
+            Some(wgpu::VertexBufferLayout {
+                array_stride: size_of::<ModelVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &MODEL_ATTRIBUTES,
+            }),
+            Some(instance_buffer.clone()),
+        ];
+        let model_pipeline = super::pipeline(
+            device,
+            "instance models",
+            &layout("instance models", &model_layout),
+            &shader,
+            ("vs_model", "fs_model"),
+            &model_buffers,
+        );
+        let billboard_pipeline = super::pipeline(
+            device,
+            "instance billboards",
+            &layout("instance billboards", &billboard_layout),
+            &shader,
+            ("vs_billboard", "fs_billboard"),
+            &[Some(instance_buffer)],
+        );
+        let atlas = models::atlas(device);
+        let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("billboards"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            mipmap_filter: wgpu::MipmapFilterMode::Linear,
+            ..Default::default()
+        });
+        let model_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("instance models"),
+            layout: &model_layout,
+            entries: &[wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() }],
+        });
+        let billboard_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("instance billboards"),
+            layout: &billboard_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&atlas_view) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
+            ],
+        });
+        Self {
+            model_pipeline,
+            model_layout,
+            model_bind_group,
+            billboard_pipeline,
+            billboard_bind_group,
+            atlas,
+            models: Vec::new(),
+            by_name: HashMap::new(),
+            tiles: HashMap::new(),
+            tiles_built: 0,
+        }
+    }
+
+    /// Fetches the instance tiles within the last band's reach, brings new
+    /// ones (and their models) to the device, and sorts every instance in
+    /// reach into models and billboards.
+    pub fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        at: &InstancesView<'_>,
+        source: &dyn InstanceTiles,
+    ) -> Result<InstancesDraw, RenderError> {
+        let mut draw = InstancesDraw {
+            buffer: None,
+            models: Vec::new(),
+            billboards: 0..0,
+            in_view: 0,
+            models_drawn: 0,
+            billboards_drawn: 0,
+            not_ready: 0,
+            unknown_models: 0,
+        };
+        let reach = at.bands.reach_m();
+        let keys = keys_in_reach(at.surface, source.level(), at.camera, reach);
+        let fetched = if keys.is_empty() { Vec::new() } else { source.instances(&keys) };
+        for (key, payload) in keys.iter().zip(fetched) {
+            let Some(payload) = payload else {
+                draw.not_ready += 1;
+                continue;
+            };
+            if self.tiles.get(key).is_none_or(|t| !Arc::ptr_eq(&t.payload, &payload)) {
+                let tile = self.place(gpu, at.surface, payload, source, &mut draw.unknown_models)?;
+                self.tiles.insert(*key, tile);
+                self.tiles_built += 1;
+            }
+        }
+        self.tiles.retain(|k, _| keys.contains(k));
+
+        let mut per_model: Vec<Vec<GpuInstance>> = vec![Vec::new(); self.models.len()];
+        let mut billboards: Vec<GpuInstance> = Vec::new();
+        let cull = Frustum::new(at.view, at.aspect);
+        let shape: Vec<(f32, f32)> = self.models.iter().map(|m| (m.model.radius(), m.model.height())).collect();
+        for tile in keys.iter().filter_map(|k| self.tiles.get(k)) {
+            for p in &tile.placed {
+                let rel = p.world - at.view.eye;
+                let d = rel.length();
+                if d > reach {
+                    continue;
+                }
+                let (radius, height) = shape[p.slot as usize];
+                let centre = rel + (p.up * p.scale * height / 2.0).as_dvec3();
+                if !cull.sees(centre, f64::from(p.scale * (radius.max(height / 2.0) + 1.0))) {
+                    continue;
+                }
+                draw.in_view += 1;
+                let (shown, mut model_share) = at.bands.coverage(d, p.random);
+                if p.billboard_only {
+                    model_share = 0.0;
+                }
+                if shown <= 0.0 {
+                    continue;
+                }
+                let split = (shown * model_share) as f32;
+                let r = rel.as_vec3();
+                let mut instance = GpuInstance {
+                    pos: [r.x, r.y, r.z, p.scale],
+                    east: [p.east.x, p.east.y, p.east.z, 0.0],
+                    up: [p.up.x, p.up.y, p.up.z, split],
+                    billboard: self.models[p.slot as usize].billboard(p.scale),
+                };
+                if model_share > 0.0 {
+                    per_model[p.slot as usize].push(instance);
+                }
+                if model_share < 1.0 {
+                    instance.east[3] = split;
+                    instance.up[3] = shown as f32;
+                    billboards.push(instance);
+                }
+            }
+        }
+        let mut all: Vec<GpuInstance> = Vec::new();
+        for (slot, list) in per_model.into_iter().enumerate() {
+            if !list.is_empty() {
+                let start = all.len() as u32;
+                draw.models_drawn += list.len();
+                all.extend(list);
+                draw.models.push((slot as u32, start..all.len() as u32));
+            }
+        }
+        draw.billboards_drawn = billboards.len();
+        draw.billboards = all.len() as u32..(all.len() + billboards.len()) as u32;
+        all.extend(billboards);
+        if !all.is_empty() {
+            draw.buffer = Some(gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("instances"),
+                contents: bytemuck::cast_slice(&all),
+                usage: wgpu::BufferUsages::VERTEX,
+            }));
+        }
+        Ok(draw)
+    }
+
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw) {
+        let Some(buffer) = &draw.buffer else { return };
+        if !draw.models.is_empty() {
+            pass.set_pipeline(&self.model_pipeline);
+            pass.set_bind_group(0, &self.model_bind_group, &[]);
+            pass.set_vertex_buffer(1, buffer.slice(..));
+            for (slot, range) in &draw.models {
+                let model = &self.models[*slot as usize];
+                pass.set_vertex_buffer(0, model.vertices.slice(..));
+                pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..model.index_count, 0, range.clone());
+            }
+        }
+        if !draw.billboards.is_empty() {
+            pass.set_pipeline(&self.billboard_pipeline);
+            pass.set_bind_group(0, &self.billboard_bind_group, &[]);
+            pass.set_vertex_buffer(0, buffer.slice(..));
+            pass.draw(0..6, draw.billboards.clone());
+        }
+    }
+
+    /// A tile's instances in world positions with their axes, each with
+    /// its model's slot (uploaded and its billboard rendered on first use).
+    fn place(
+        &mut self,
+        gpu: &Gpu,
+        surface: &Surface,
+        payload: Arc<Payload>,
+        source: &dyn InstanceTiles,
+        unknown: &mut usize,
+    ) -> Result<PlacedTile, RenderError> {
+        let mut placed = Vec::new();
+        if let Payload::Instances(tile) = payload.as_ref() {
+            let mut slots: HashMap<&str, Option<u32>> = HashMap::new();
+            for instance in &tile.instances {
+                let slot = match slots.get(instance.model.as_str()) {
+                    Some(slot) => *slot,
+                    None => {
+                        let slot = self.slot(gpu, &instance.model, source)?;
+                        slots.insert(&instance.model, slot);
+                        slot
+                    }
+                };
+                let Some(slot) = slot else {
+                    *unknown += 1;
+                    continue;
+                };
+                let [x, y, z] = instance.position;
+                let [e, n, u] = surface.enu(x, y);
+                let (sin, cos) = instance.rotation_deg.to_radians().sin_cos();
+                placed.push(Placed {
+                    world: surface.world(x, y, z),
+                    east: (cos * e - sin * n).as_vec3(),
+                    up: u.as_vec3(),
+                    scale: instance.scale as f32,
+                    random: unit_random(instance.feature_id),
+                    slot,
+                    billboard_only: instance.kind == InstanceKind::Billboard,
+                });
+            }
+        }
+        Ok(PlacedTile { payload, placed })
+    }
+
+    /// The slot of model `name`: uploaded and baked the first time, again
+    /// when the scene's model changed; None for a model the scene does not
+    /// have (or past the atlas's layers).
+    fn slot(&mut self, gpu: &Gpu, name: &str, source: &dyn InstanceTiles) -> Result<Option<u32>, RenderError> {
+        let Some(model) = source.model(name) else { return Ok(None) };
+        let slot = match self.by_name.get(name) {
+            Some(&slot) if Arc::ptr_eq(&self.models[slot as usize].model, &model) => return Ok(Some(slot)),
+            Some(&slot) => slot,
+            None if self.models.len() as u32 >= MAX_MODELS => {
+                tracing::warn!(model = name, "more models than the billboard atlas holds: not drawn");
+                return Ok(None);
+            }
+            None => self.models.len() as u32,
+        };
+        let gpu_model = GpuModel::new(&gpu.device, model, slot);
+        models::bake(gpu, &self.model_pipeline, &self.model_layout, &gpu_model, &self.atlas)?;
+        if (slot as usize) < self.models.len() {
+            self.models[slot as usize] = gpu_model;
+        } else {
+            self.models.push(gpu_model);
+        }
+        self.by_name.insert(name.to_owned(), slot);
+        Ok(Some(slot))
+    }
+}
+
+/// The instance tiles at `level` within `reach` metres of the camera's
+/// ground point (on the planet, whole across the antimeridian); none when the camera is higher than the reach (plus the
+/// highest ground).
+fn keys_in_reach(surface: &Surface, level: u8, camera: [f64; 3], reach: f64) -> Vec<TileKey> {
+    const HIGHEST_GROUND_M: f64 = 9000.0;
+    if camera[2] > reach + HIGHEST_GROUND_M {
+        return Vec::new();
+    }
+    let around = surface.around(camera[0], camera[1], reach / surface.metres_per_unit());
+    let mut keys: Vec<TileKey> = Vec::new();
+    for part in &around {
+        for key in surface.grid().keys_overlapping(level, part) {
+            if !keys.contains(&key) {
+                keys.push(key);
+            }
+        }
+    }
+    keys
+}
+
+/// A number in 0..1 from a feature id, well mixed (splitmix64).
+fn unit_random(id: u64) -> f64 {
+    let mut z = id.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// The view's four side planes and its near side, for spheres relative to
+/// the eye.
+struct Frustum {
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    tan_x: f64,
+    tan_y: f64,
+}
+
+impl Frustum {
+    fn new(view: &View, aspect: f64) -> Self {
+        let tan_y = (view.vertical_fov_deg.to_radians() / 2.0).tan();
+        Self { right: view.right, up: view.up, forward: view.forward, tan_x: tan_y * aspect, tan_y }
+    }
+
+    fn sees(&self, centre: DVec3, radius: f64) -> bool {
+        let z = centre.dot(self.forward);
+        if z < -radius {
+            return false;
+        }
+        let x = centre.dot(self.right).abs();
+        let y = centre.dot(self.up).abs();
+        x <= z * self.tan_x + radius * (1.0 + self.tan_x * self.tan_x).sqrt()
+            && y <= z * self.tan_y + radius * (1.0 + self.tan_y * self.tan_y).sqrt()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn random_numbers_are_uniform_over_small_ids() {
+        let n = 100_000;
+        let below: usize = (0..n).filter(|&id| unit_random(id) < 0.3).count();
+        let share = below as f64 / n as f64;
+        assert!((share - 0.3).abs() < 0.01, "{share}");
+    }
+}
