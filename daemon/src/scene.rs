@@ -195,7 +195,10 @@ impl Scene {
         let mut error_events = Vec::new();
 
         for slot in &mut new.slots {
-            if only.is_some_and(|ids| !ids.contains(&slot.spec.id)) || !slot.inputs.is_empty() {
+            // Ops change with their inputs; only those that read files of
+            // their own (the glTF models of `scatter`) are refreshed too.
+            let reads_files = slot.inputs.is_empty() || !slot.spec.paths.is_empty();
+            if only.is_some_and(|ids| !ids.contains(&slot.spec.id)) || !reads_files {
                 continue;
             }
             let result = match &slot.source {

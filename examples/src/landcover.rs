@@ -23,10 +23,17 @@ pub fn write_classes(path: &Path, spec: &RasterSpec<'_>, class: impl Fn(f64, f64
 
 /// The demo's land cover, from the demo terrain's height with a ragged
 /// tree line: broadleaf woods in the valleys, conifers on the slopes,
-/// shrubs above them, grass and rock on top; nodata over the DEM's void.
+/// shrubs above them, grass and rock on top and in the town; nodata over
+/// the DEM's void.
 pub fn demo_landcover(lon: f64, lat: f64) -> u8 {
     if in_demo_void(lon, lat) {
         return NODATA;
+    }
+    // The town's square (its 2,000 lots on a 60 m lattice) and a margin: grass.
+    let (cx, cy) = crate::DEMO_TOWN_CENTRE;
+    let half_m = 1500.0;
+    if ((lat - cy) * 111_320.0).abs() < half_m && ((lon - cx) * 111_320.0 * cy.to_radians().cos()).abs() < half_m {
+        return GRASSLAND;
     }
     let h = demo_terrain(lon, lat);
     // Borders that wander by about 150 m of height, so classes mix.

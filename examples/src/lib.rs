@@ -204,10 +204,47 @@ height_attribute = "height"
 color_by = "use"
 min_level = 10
 
+# Land cover (class codes: 1 conifer forest, 2 broadleaf forest, 3 shrubs,
+# 4 grass and rock), read "nearest": classes are codes, not quantities.
+[[source]]
+id = "landcover"
+kind = "gdal"
+path = "landcover.tif"
+resampling = "nearest"
+
+# The forest: trees and shrubs scattered over the land cover, each class by
+# its own rule, anchored on the DEM. Grass and rock (4) have no rule.
+[[source]]
+id = "forest"
+kind = "scatter"
+inputs = ["landcover", "dem"]
+seed = 1
+
+[[source.rule]]
+class = 1
+models = { conifer = 0.85, broadleaf = 0.15 }
+density = 21000
+spacing = 2
+scale = [0.7, 1.3]
+
+[[source.rule]]
+class = 2
+models = { broadleaf = 0.8, conifer = 0.1, shrub = 0.1 }
+density = 14000
+spacing = 3
+scale = [0.6, 1.2]
+
+[[source.rule]]
+class = 3
+models = { shrub = 0.9, conifer = 0.1 }
+density = 8000
+scale = [0.5, 1.1]
+
 [layers]
 height = "dem"
 color = "ortho"
 buildings = "town"
+instances = "forest"
 
 [effects]
 lighting = {}
@@ -229,7 +266,8 @@ pitch_deg = -25
 "#;
 
 /// Writes the demo scene into `out`: a synthetic mountain range (DEM with a
-/// small nodata void), an "orthophoto" tinted by height, and the manifest.
+/// small nodata void), an "orthophoto" tinted by height, a town, the land
+/// cover a forest grows from, and the manifest.
 /// Returns the manifest's path.
 pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
@@ -261,6 +299,8 @@ pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
     };
     write_rgb(&out.join("ortho.tif"), &ortho, |lon, lat| demo_color(demo_terrain(lon, lat)))?;
     write_town(&out.join("town.shp"), DEMO_TOWN_CENTRE, DEMO_TOWN_BUILDINGS)?;
+    let cover = RasterSpec { width: 2000, height: 1200, pixel: 0.0005, nodata: None, ..dem };
+    write_classes(&out.join("landcover.tif"), &cover, demo_landcover)?;
     write_manifest(out, DEMO_MANIFEST)
 }
 

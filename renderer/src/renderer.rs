@@ -192,6 +192,13 @@ impl Renderer {
                 view: &view,
                 aspect: f64::from(settings.width) / f64::from(settings.height),
                 camera: pose.position,
+                ground_m: self.terrain.drawn_height(
+                    &self.surface,
+                    &draw.update.active,
+                    pose,
+                    pose.position[0],
+                    pose.position[1],
+                ),
                 bands: &settings.bands,
             };
             let shown = instances.prepare(&self.gpu, &at, tiles)?;

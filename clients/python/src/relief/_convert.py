@@ -24,12 +24,14 @@ from relief.types import (
     FeatureTile,
     FlyTo,
     Frame,
+    FrameDrawn,
     GenerationEvent,
     Gesture,
     Grid,
     HeightTile,
     ImageFormat,
     Instance,
+    InstanceClass,
     InstanceKind,
     InstanceTile,
     ManifestErrorEvent,
@@ -114,6 +116,12 @@ def quality_to_pb(q: Quality | None) -> pb.QualityOverrides | None:
         out.precision = q.precision
     if q.atmosphere_steps is not None:
         out.atmosphere_steps = q.atmosphere_steps
+    if q.instance_bands_m is not None:
+        out.instance_bands_m.extend(q.instance_bands_m)
+    if q.instance_band_densities is not None:
+        out.instance_band_densities.extend(q.instance_band_densities)
+    if q.instance_model_distance_m is not None:
+        out.instance_model_distance_m = q.instance_model_distance_m
     return out
 
 
@@ -258,6 +266,10 @@ def source_state(s: pb.SourceState) -> SourceState:
         vertical_units=s.vertical_units,
         tiles_generated=s.tiles_generated,
         details=dict(sorted(s.details.items())),
+        instance_classes=tuple(
+            InstanceClass(class_code=getattr(c, "class"), has_rule=c.has_rule, instances=c.instances, samples=c.samples)
+            for c in s.instance_classes
+        ),
     )
 
 
@@ -344,6 +356,9 @@ def frame(r: pb.RenderResponse) -> Frame:
         # `pass` is a Python keyword: the field is only reachable by name.
         passes=tuple(PassTiming(name=str(getattr(p, "pass")), elapsed_ms=p.elapsed_ms) for p in r.passes),
         pass_counters=pass_states(r.pass_counters),
+        drawn=FrameDrawn(buildings=r.drawn.buildings, models=r.drawn.models, billboards=r.drawn.billboards)
+        if r.HasField("drawn")
+        else None,
     )
 
 

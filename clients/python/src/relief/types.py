@@ -71,8 +71,14 @@ class Quality:
     reprojection_error_px: float | None = None
     clipmap_grid_size: int | None = None
     clipmap_levels: int | None = None
+    #: Not drawn yet: reliefd refuses them (INVALID_ARGUMENT) rather than ignore them.
     precision: str | None = None
     atmosphere_steps: int | None = None
+    #: The instances layer's distance bands: three outer edges in metres,
+    #: the share drawn in each band, and where models give way to billboards.
+    instance_bands_m: tuple[float, float, float] | None = None
+    instance_band_densities: tuple[float, float, float] | None = None
+    instance_model_distance_m: float | None = None
 
 
 class ImageFormat(str, enum.Enum):
@@ -128,6 +134,20 @@ class SourceState:
     tiles_generated: int
     #: Free-form facts about the data (raster size, band types, nodata...).
     details: Mapping[str, str]
+    #: For `scatter`: each land-cover class seen in the tiles built so far.
+    instance_classes: tuple[InstanceClass, ...] = ()
+
+
+@dataclass(frozen=True)
+class InstanceClass:
+    """A land-cover class a `scatter` source has met."""
+
+    class_code: int
+    #: False for a class the data has but the rules do not mention.
+    has_rule: bool
+    #: Instances placed, and class samples read, in the tiles built so far.
+    instances: int
+    samples: int
 
 
 @dataclass(frozen=True)
@@ -298,6 +318,15 @@ class PassTiming:
     elapsed_ms: float
 
 
+@dataclass(frozen=True)
+class FrameDrawn:
+    buildings: int
+    #: Instances drawn as models and as billboards (one cross-fading from
+    #: one to the other counts in both).
+    models: int
+    billboards: int
+
+
 @dataclass(frozen=True, eq=False)
 class Frame:
     """A rendered view: the image (PNG or raw RGBA8), the generation it
@@ -312,6 +341,8 @@ class Frame:
     passes: tuple[PassTiming, ...]
     #: Every pass of the renderer as of this frame (as SceneState.passes).
     pass_counters: tuple[PassState, ...] = ()
+    #: What the frame drew besides the terrain.
+    drawn: FrameDrawn | None = None
 
     def to_numpy(self) -> npt.NDArray[np.uint8]:
         """The pixels, H x W x 4 uint8 (straight RGBA)."""

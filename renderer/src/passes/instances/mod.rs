@@ -46,6 +46,8 @@ pub struct InstancesView<'a> {
     pub aspect: f64,
     /// The camera's grid point and height (metres).
     pub camera: [f64; 3],
+    /// The drawn ground under the camera, when the terrain is there.
+    pub ground_m: Option<f64>,
     pub bands: &'a InstanceBands,
 }
 
@@ -227,7 +229,7 @@ impl InstancesPass {
             unknown_models: 0,
         };
         let reach = at.bands.reach_m();
-        let keys = keys_in_reach(at.surface, source.level(), at.camera, reach);
+        let keys = keys_in_reach(at, source.level(), reach);
         let fetched = if keys.is_empty() { Vec::new() } else { source.instances(&keys) };
         for (key, payload) in keys.iter().zip(fetched) {
             let Some(payload) = payload else {
@@ -397,11 +399,13 @@ impl InstancesPass {
 }
 
 /// The instance tiles at `level` within `reach` metres of the camera's
-/// ground point (on the planet, whole across the antimeridian); none when the camera is higher than the reach (plus the
-/// highest ground).
-fn keys_in_reach(surface: &Surface, level: u8, camera: [f64; 3], reach: f64) -> Vec<TileKey> {
+/// ground point (on the planet, whole across the antimeridian); none
+/// when the camera is higher above the ground than the reach.
+fn keys_in_reach(at: &InstancesView<'_>, level: u8, reach: f64) -> Vec<TileKey> {
+    /// Above the highest ground on Earth, for a camera over no terrain.
     const HIGHEST_GROUND_M: f64 = 9000.0;
-    if camera[2] > reach + HIGHEST_GROUND_M {
+    let (surface, camera) = (at.surface, at.camera);
+    if camera[2] - at.ground_m.unwrap_or(HIGHEST_GROUND_M) > reach {
         return Vec::new();
     }
     let around = surface.around(camera[0], camera[1], reach / surface.metres_per_unit());

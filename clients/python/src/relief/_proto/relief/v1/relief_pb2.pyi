@@ -84,20 +84,26 @@ class GeodeticPoint(_message.Message):
     def __init__(self, lon_deg: _Optional[float] = ..., lat_deg: _Optional[float] = ...) -> None: ...
 
 class QualityOverrides(_message.Message):
-    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps")
+    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m")
     RESAMPLING_FIELD_NUMBER: _ClassVar[int]
     REPROJECTION_ERROR_PX_FIELD_NUMBER: _ClassVar[int]
     CLIPMAP_GRID_SIZE_FIELD_NUMBER: _ClassVar[int]
     CLIPMAP_LEVELS_FIELD_NUMBER: _ClassVar[int]
     PRECISION_FIELD_NUMBER: _ClassVar[int]
     ATMOSPHERE_STEPS_FIELD_NUMBER: _ClassVar[int]
+    INSTANCE_BANDS_M_FIELD_NUMBER: _ClassVar[int]
+    INSTANCE_BAND_DENSITIES_FIELD_NUMBER: _ClassVar[int]
+    INSTANCE_MODEL_DISTANCE_M_FIELD_NUMBER: _ClassVar[int]
     resampling: str
     reprojection_error_px: float
     clipmap_grid_size: int
     clipmap_levels: int
     precision: str
     atmosphere_steps: int
-    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ...) -> None: ...
+    instance_bands_m: _containers.RepeatedScalarFieldContainer[float]
+    instance_band_densities: _containers.RepeatedScalarFieldContainer[float]
+    instance_model_distance_m: float
+    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ...) -> None: ...
 
 class GetStateRequest(_message.Message):
     __slots__ = ()
@@ -134,7 +140,7 @@ class ReloadRequest(_message.Message):
     def __init__(self, source_ids: _Optional[_Iterable[str]] = ...) -> None: ...
 
 class SourceState(_message.Message):
-    __slots__ = ("id", "kind", "output", "inputs", "status", "error", "files", "version", "active", "extent", "crs", "vertical_datum", "vertical_units", "tiles_generated", "details")
+    __slots__ = ("id", "kind", "output", "inputs", "status", "error", "files", "version", "active", "extent", "crs", "vertical_datum", "vertical_units", "tiles_generated", "details", "instance_classes")
     class DetailsEntry(_message.Message):
         __slots__ = ("key", "value")
         KEY_FIELD_NUMBER: _ClassVar[int]
@@ -157,6 +163,7 @@ class SourceState(_message.Message):
     VERTICAL_UNITS_FIELD_NUMBER: _ClassVar[int]
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     DETAILS_FIELD_NUMBER: _ClassVar[int]
+    INSTANCE_CLASSES_FIELD_NUMBER: _ClassVar[int]
     id: str
     kind: str
     output: PayloadKind
@@ -172,7 +179,19 @@ class SourceState(_message.Message):
     vertical_units: str
     tiles_generated: int
     details: _containers.ScalarMap[str, str]
-    def __init__(self, id: _Optional[str] = ..., kind: _Optional[str] = ..., output: _Optional[_Union[PayloadKind, str]] = ..., inputs: _Optional[_Iterable[str]] = ..., status: _Optional[_Union[SourceStatus, str]] = ..., error: _Optional[str] = ..., files: _Optional[_Iterable[str]] = ..., version: _Optional[int] = ..., active: _Optional[bool] = ..., extent: _Optional[_Union[Extent, _Mapping]] = ..., crs: _Optional[str] = ..., vertical_datum: _Optional[str] = ..., vertical_units: _Optional[str] = ..., tiles_generated: _Optional[int] = ..., details: _Optional[_Mapping[str, str]] = ...) -> None: ...
+    instance_classes: _containers.RepeatedCompositeFieldContainer[InstanceClass]
+    def __init__(self, id: _Optional[str] = ..., kind: _Optional[str] = ..., output: _Optional[_Union[PayloadKind, str]] = ..., inputs: _Optional[_Iterable[str]] = ..., status: _Optional[_Union[SourceStatus, str]] = ..., error: _Optional[str] = ..., files: _Optional[_Iterable[str]] = ..., version: _Optional[int] = ..., active: _Optional[bool] = ..., extent: _Optional[_Union[Extent, _Mapping]] = ..., crs: _Optional[str] = ..., vertical_datum: _Optional[str] = ..., vertical_units: _Optional[str] = ..., tiles_generated: _Optional[int] = ..., details: _Optional[_Mapping[str, str]] = ..., instance_classes: _Optional[_Iterable[_Union[InstanceClass, _Mapping]]] = ...) -> None: ...
+
+class InstanceClass(_message.Message):
+    __slots__ = ("has_rule", "instances", "samples")
+    CLASS_FIELD_NUMBER: _ClassVar[int]
+    HAS_RULE_FIELD_NUMBER: _ClassVar[int]
+    INSTANCES_FIELD_NUMBER: _ClassVar[int]
+    SAMPLES_FIELD_NUMBER: _ClassVar[int]
+    has_rule: bool
+    instances: int
+    samples: int
+    def __init__(self, has_rule: _Optional[bool] = ..., instances: _Optional[int] = ..., samples: _Optional[int] = ..., **kwargs) -> None: ...
 
 class EffectState(_message.Message):
     __slots__ = ("name", "sources", "ran", "last_cost_ms")
@@ -390,7 +409,7 @@ class PassTiming(_message.Message):
     def __init__(self, elapsed_ms: _Optional[float] = ..., **kwargs) -> None: ...
 
 class RenderResponse(_message.Message):
-    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters")
+    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters", "drawn")
     GENERATION_FIELD_NUMBER: _ClassVar[int]
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
@@ -399,6 +418,7 @@ class RenderResponse(_message.Message):
     PASSES_FIELD_NUMBER: _ClassVar[int]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     PASS_COUNTERS_FIELD_NUMBER: _ClassVar[int]
+    DRAWN_FIELD_NUMBER: _ClassVar[int]
     generation: int
     width: int
     height: int
@@ -407,7 +427,18 @@ class RenderResponse(_message.Message):
     passes: _containers.RepeatedCompositeFieldContainer[PassTiming]
     camera: Camera
     pass_counters: _containers.RepeatedCompositeFieldContainer[PassState]
-    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ...) -> None: ...
+    drawn: FrameDrawn
+    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., drawn: _Optional[_Union[FrameDrawn, _Mapping]] = ...) -> None: ...
+
+class FrameDrawn(_message.Message):
+    __slots__ = ("buildings", "models", "billboards")
+    BUILDINGS_FIELD_NUMBER: _ClassVar[int]
+    MODELS_FIELD_NUMBER: _ClassVar[int]
+    BILLBOARDS_FIELD_NUMBER: _ClassVar[int]
+    buildings: int
+    models: int
+    billboards: int
+    def __init__(self, buildings: _Optional[int] = ..., models: _Optional[int] = ..., billboards: _Optional[int] = ...) -> None: ...
 
 class StreamFramesRequest(_message.Message):
     __slots__ = ("width", "height", "format", "max_fps", "quality", "camera", "view_id")
