@@ -44,9 +44,14 @@ step "$bin/relief" render --camera 6.5,45.3,120000,0,-90,0 -o "$out/view-above.p
 step "$bin/relief" render --camera 6.5,30,15000000,0,-90,0 -o "$out/view-planet.png"
 # The town in the valley: 2,000 buildings extruded from town.shp, coloured by use.
 step "$bin/relief" render --camera 6.60,45.065,800,5,-18,0 -o "$out/view-town.png"
+# The forest scatter grows from the land cover (landcover.tif): from inside
+# the wood south of the town, and over the slopes from above.
+step "$bin/relief" render --camera 6.60,45.055,450,5,-8,0 -o "$out/view-forest.png"
+step "$bin/relief" render --camera 6.50,45.13,1900,40,-20,0 -o "$out/view-slopes.png"
+step "$bin/relief" state
 echo
 echo "views written:"
-for v in range valley above planet town; do echo "  $out/view-$v.png"; done
+for v in range valley above planet town forest slopes; do echo "  $out/view-$v.png"; done
 
 cat <<MSG
 

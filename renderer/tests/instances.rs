@@ -148,7 +148,7 @@ fn largest_step_share(forest: &Forest, view: &Pose, bands: impl Fn(f64) -> Insta
     let (mut renderer, source) = scene(flat);
     let frames: Vec<Frame> = knob.iter().map(|&k| draw(&mut renderer, &source, forest, view, bands(k))).collect();
     let total = mse(&frames[0], &frames[frames.len() - 1]);
-    assert!(total > 1.0, "the knob changes the image ({total})");
+    assert!(total > 0.05, "the knob changes the image ({total})");
     let steps: Vec<f64> = frames.windows(2).map(|w| mse(&w[0], &w[1])).collect();
     steps.iter().copied().fold(0.0, f64::max) / total
 }

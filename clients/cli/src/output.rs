@@ -51,6 +51,9 @@ pub fn state_json(s: &pb::SceneState) -> Value {
                 "extent": extent_json(src.extent.as_ref()), "crs": src.crs,
                 "vertical_datum": src.vertical_datum, "vertical_units": src.vertical_units,
                 "tiles_generated": src.tiles_generated, "details": src.details,
+                "instance_classes": src.instance_classes.iter().map(|k| json!({
+                    "class": k.class, "has_rule": k.has_rule, "instances": k.instances, "samples": k.samples,
+                })).collect::<Vec<Value>>(),
             })
         })
         .collect();
@@ -101,6 +104,14 @@ pub fn state_text(s: &pb::SceneState) -> String {
         }
         if !src.error.is_empty() {
             let _ = writeln!(out, "                 error: {}", src.error);
+        }
+        for k in &src.instance_classes {
+            let rule = if k.has_rule { String::new() } else { " (no rule)".to_owned() };
+            let _ = writeln!(
+                out,
+                "                 class {}{rule}: {} instances over {} samples",
+                k.class, k.instances, k.samples
+            );
         }
     }
     let mut layers: Vec<_> = s.layers.iter().collect();

@@ -218,6 +218,20 @@ def test_render_answers_a_png_frame(shared_client: relief.Client, tmp_path: Path
         assert np.array_equal(np.asarray(img.convert("RGBA")), pixels)
 
 
+def test_frames_say_what_they_drew_and_instance_knobs_are_checked(shared_client: relief.Client) -> None:
+    bands = relief.Quality(instance_bands_m=(500, 1000, 2000), instance_band_densities=(1, 0.5, 0.25))
+    frame = shared_client.render(CAMERA, size=SIZE, quality=bands)
+    # The hill scene has no instances layer: nothing placed, no pass built.
+    assert frame.drawn is not None and (frame.drawn.models, frame.drawn.billboards) == (0, 0)
+    instances = next(p for p in frame.pass_counters if p.name == "instances")
+    assert not instances.built and instances.runs == 0
+    assert all(s.instance_classes == () for s in shared_client.state().sources)
+    with pytest.raises(relief.InvalidArgument, match="instance_bands_m"):
+        shared_client.render(CAMERA, size=SIZE, quality=relief.Quality(instance_bands_m=(700, 600, 3000)))
+    with pytest.raises(relief.InvalidArgument, match="atmosphere"):
+        shared_client.render(CAMERA, size=SIZE, quality=relief.Quality(atmosphere_steps=8))
+
+
 def test_render_answers_raw_rgba_too(shared_client: relief.Client, tmp_path: Path) -> None:
     png = shared_client.render(CAMERA, size=SIZE)
     raw = shared_client.render(CAMERA, size=SIZE, format="rgba8")

@@ -16,8 +16,11 @@ struct Instance {
     @location(7) billboard: vec4<f32>,
 }
 
+// Each model's billboard: its colours, and its normals (model axes, as
+// 0..1), both with coverage in alpha and premultiplied by it.
 @group(0) @binding(1) var atlas: texture_2d_array<f32>;
 @group(0) @binding(2) var atlas_sampler: sampler;
+@group(0) @binding(3) var normals: texture_2d_array<f32>;
 
 // A 4 x 4 ordered dither, 0..1.
 fn dither(pixel: vec4<f32>) -> f32 {
@@ -71,12 +74,20 @@ fn fs_model(in: ModelOut) -> @location(0) vec4<f32> {
     return vec4<f32>(in.color.rgb * light, in.color.a);
 }
 
+// The billboard bake's second image: the model's normals, as colours.
+@fragment
+fn fs_model_normal(in: ModelOut) -> @location(0) vec4<f32> {
+    return vec4<f32>(safe_normalize(in.normal) * 0.5 + 0.5, 1.0);
+}
+
 struct BillboardOut {
     @builtin(position) clip: vec4<f32>,
     @location(0) uv: vec2<f32>,
     @location(1) @interpolate(flat) layer: u32,
-    @location(2) normal: vec3<f32>,
-    @location(3) range: vec2<f32>,
+    @location(2) right: vec3<f32>,
+    @location(3) up: vec3<f32>,
+    @location(4) facing: vec3<f32>,
+    @location(5) range: vec2<f32>,
 }
 
 // Two triangles turning about the local vertical to face the eye.
@@ -101,8 +112,11 @@ fn vs_billboard(@builtin(vertex_index) vertex: u32, inst: Instance) -> Billboard
     out.clip = frame.view_proj * vec4<f32>(inst.pos.xyz + local, 1.0);
     out.uv = vec2<f32>(c.x * 0.5 + 0.5, 1.0 - c.y);
     out.layer = u32(b.w);
-    // Lit as a crown facing the eye and the sky.
-    out.normal = normalize(up + 0.7 * normalize(cross(right, up)));
+    // The model's axes as the billboard shows it: x to the right, y up, z
+    // towards the eye (it was rendered looking down its -z).
+    out.right = right;
+    out.up = up;
+    out.facing = normalize(cross(right, up));
     out.range = vec2<f32>(inst.east.w, inst.up.w);
     return out;
 }
@@ -115,7 +129,10 @@ fn fs_billboard(in: BillboardOut) -> @location(0) vec4<f32> {
     }
     var light = 1.0;
     if frame.light.z > 0.5 {
-        light = sunlight(in.normal);
+        // Lit per texel as the model is, from the normals it was baked with.
+        let baked = textureSample(normals, atlas_sampler, in.uv, in.layer);
+        let n = baked.xyz / max(baked.a, 1e-3) * 2.0 - 1.0;
+        light = sunlight(n.x * in.right + n.y * in.up + n.z * in.facing);
     }
     return vec4<f32>(texel.rgb / texel.a * light, 1.0);
 }

@@ -10,18 +10,20 @@
 
 mod bands;
 mod models;
+mod sort;
 
 use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::Arc;
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use relief_models::Model;
 use relief_source::{InstanceKind, Payload, TileKey};
 use wgpu::util::DeviceExt;
 
 pub use bands::InstanceBands;
 use models::{GpuInstance, GpuModel, INSTANCE_ATTRIBUTES, MAX_MODELS, MODEL_ATTRIBUTES, ModelVertex};
+use sort::{Placed, PlacedTile};
 
 use crate::camera::View;
 use crate::error::RenderError;
@@ -51,25 +53,6 @@ pub struct InstancesView<'a> {
     pub bands: &'a InstanceBands,
 }
 
-/// One instance of a tile, ready for sorting.
-struct Placed {
-    world: DVec3,
-    east: Vec3,
-    up: Vec3,
-    scale: f32,
-    /// Its own random number (0..1, from its feature id): thinning keeps
-    /// the instances whose number is under the band's density.
-    random: f64,
-    slot: u32,
-    /// Placed as a billboard whatever its distance (`render_as`).
-    billboard_only: bool,
-}
-
-struct PlacedTile {
-    payload: Arc<Payload>,
-    placed: Vec<Placed>,
-}
-
 /// What a frame draws: one buffer of instances, models first (a range per
 /// model), then the billboards.
 pub struct InstancesDraw {
@@ -92,7 +75,11 @@ pub struct InstancesPass {
     model_bind_group: wgpu::BindGroup,
     billboard_pipeline: wgpu::RenderPipeline,
     billboard_bind_group: wgpu::BindGroup,
+    /// Bakes a model's normals for its billboard.
+    normal_pipeline: wgpu::RenderPipeline,
+    /// Billboards' colours and normals, a layer per model.
     atlas: wgpu::Texture,
+    normals: wgpu::Texture,
     models: Vec<GpuModel>,
     by_name: HashMap<String, u32>,
     tiles: HashMap<TileKey, PlacedTile>,
@@ -131,6 +118,14 @@ impl InstancesPass {
                     },
                 ),
                 entry(2, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
+                entry(
+                    3,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                ),
             ],
         });
         let layout = |label, bind: &wgpu::BindGroupLayout| {
@@ -153,12 +148,21 @@ impl InstancesPass {
             }),
             Some(instance_buffer.clone()),
         ];
+        let model_pipeline_layout = layout("instance models", &model_layout);
         let model_pipeline = super::pipeline(
             device,
             "instance models",
-            &layout("instance models", &model_layout),
+            &model_pipeline_layout,
             &shader,
             ("vs_model", "fs_model"),
+            &model_buffers,
+        );
+        let normal_pipeline = super::pipeline(
+            device,
+            "billboard normals",
+            &model_pipeline_layout,
+            &shader,
+            ("vs_model", "fs_model_normal"),
             &model_buffers,
         );
         let billboard_pipeline = super::pipeline(
@@ -169,11 +173,14 @@ impl InstancesPass {
             ("vs_billboard", "fs_billboard"),
             &[Some(instance_buffer)],
         );
-        let atlas = models::atlas(device);
-        let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor {
-            dimension: Some(wgpu::TextureViewDimension::D2Array),
-            ..Default::default()
-        });
+        let (atlas, normals) = (models::atlas(device), models::atlas(device));
+        let array = |t: &wgpu::Texture| {
+            t.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            })
+        };
+        let (atlas_view, normals_view) = (array(&atlas), array(&normals));
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("billboards"),
             mag_filter: wgpu::FilterMode::Linear,
@@ -193,6 +200,7 @@ impl InstancesPass {
                 wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&atlas_view) },
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(&sampler) },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&normals_view) },
             ],
         });
         Self {
@@ -201,7 +209,9 @@ impl InstancesPass {
             model_bind_group,
             billboard_pipeline,
             billboard_bind_group,
+            normal_pipeline,
             atlas,
+            normals,
             models: Vec::new(),
             by_name: HashMap::new(),
             tiles: HashMap::new(),
@@ -244,48 +254,11 @@ impl InstancesPass {
         }
         self.tiles.retain(|k, _| keys.contains(k));
 
-        let mut per_model: Vec<Vec<GpuInstance>> = vec![Vec::new(); self.models.len()];
-        let mut billboards: Vec<GpuInstance> = Vec::new();
-        let cull = Frustum::new(at.view, at.aspect);
-        let shape: Vec<(f32, f32)> = self.models.iter().map(|m| (m.model.radius(), m.model.height())).collect();
-        for tile in keys.iter().filter_map(|k| self.tiles.get(k)) {
-            for p in &tile.placed {
-                let rel = p.world - at.view.eye;
-                let d = rel.length();
-                if d > reach {
-                    continue;
-                }
-                let (radius, height) = shape[p.slot as usize];
-                let centre = rel + (p.up * p.scale * height / 2.0).as_dvec3();
-                if !cull.sees(centre, f64::from(p.scale * (radius.max(height / 2.0) + 1.0))) {
-                    continue;
-                }
-                draw.in_view += 1;
-                let (shown, mut model_share) = at.bands.coverage(d, p.random);
-                if p.billboard_only {
-                    model_share = 0.0;
-                }
-                if shown <= 0.0 {
-                    continue;
-                }
-                let split = (shown * model_share) as f32;
-                let r = rel.as_vec3();
-                let mut instance = GpuInstance {
-                    pos: [r.x, r.y, r.z, p.scale],
-                    east: [p.east.x, p.east.y, p.east.z, 0.0],
-                    up: [p.up.x, p.up.y, p.up.z, split],
-                    billboard: self.models[p.slot as usize].billboard(p.scale),
-                };
-                if model_share > 0.0 {
-                    per_model[p.slot as usize].push(instance);
-                }
-                if model_share < 1.0 {
-                    instance.east[3] = split;
-                    instance.up[3] = shown as f32;
-                    billboards.push(instance);
-                }
-            }
-        }
+        let tiles: Vec<&PlacedTile> = keys.iter().filter_map(|k| self.tiles.get(k)).collect();
+        let shapes: Vec<sort::Shape> = self.models.iter().map(sort::Shape::of).collect();
+        let sorted = sort::sort(&tiles, at, &shapes);
+        draw.in_view = sorted.in_view;
+        let (per_model, billboards) = (sorted.models, sorted.billboards);
         let mut all: Vec<GpuInstance> = Vec::new();
         for (slot, list) in per_model.into_iter().enumerate() {
             if !list.is_empty() {
@@ -369,7 +342,14 @@ impl InstancesPass {
                 });
             }
         }
-        Ok(PlacedTile { payload, placed })
+        let n = placed.len().max(1) as f64;
+        let centre = placed.iter().fold(DVec3::ZERO, |c, p| c + p.world / n);
+        let size = |p: &Placed| {
+            let m = &self.models[p.slot as usize].model;
+            f64::from(p.scale * (m.radius() + m.height()))
+        };
+        let radius = placed.iter().map(|p| (p.world - centre).length() + size(p)).fold(0.0, f64::max);
+        Ok(PlacedTile { payload, placed, centre, radius })
     }
 
     /// The slot of model `name`: uploaded and baked the first time, again
@@ -387,7 +367,8 @@ impl InstancesPass {
             None => self.models.len() as u32,
         };
         let gpu_model = GpuModel::new(&gpu.device, model, slot);
-        models::bake(gpu, &self.model_pipeline, &self.model_layout, &gpu_model, &self.atlas)?;
+        let images = [(&self.model_pipeline, &self.atlas), (&self.normal_pipeline, &self.normals)];
+        models::bake(gpu, &self.model_layout, &gpu_model, &images)?;
         if (slot as usize) < self.models.len() {
             self.models[slot as usize] = gpu_model;
         } else {
@@ -427,34 +408,6 @@ fn unit_random(id: u64) -> f64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^= z >> 31;
     (z >> 11) as f64 / (1u64 << 53) as f64
-}
-
-/// The view's four side planes and its near side, for spheres relative to
-/// the eye.
-struct Frustum {
-    right: DVec3,
-    up: DVec3,
-    forward: DVec3,
-    tan_x: f64,
-    tan_y: f64,
-}
-
-impl Frustum {
-    fn new(view: &View, aspect: f64) -> Self {
-        let tan_y = (view.vertical_fov_deg.to_radians() / 2.0).tan();
-        Self { right: view.right, up: view.up, forward: view.forward, tan_x: tan_y * aspect, tan_y }
-    }
-
-    fn sees(&self, centre: DVec3, radius: f64) -> bool {
-        let z = centre.dot(self.forward);
-        if z < -radius {
-            return false;
-        }
-        let x = centre.dot(self.right).abs();
-        let y = centre.dot(self.up).abs();
-        x <= z * self.tan_x + radius * (1.0 + self.tan_x * self.tan_x).sqrt()
-            && y <= z * self.tan_y + radius * (1.0 + self.tan_y * self.tan_y).sqrt()
-    }
 }
 
 #[cfg(test)]

@@ -94,14 +94,15 @@ pub fn atlas(device: &wgpu::Device) -> wgpu::Texture {
 }
 
 /// Renders `model` from the south (looking north, its x axis to the
-/// right) with an orthographic camera fitted to its bounds, unlit, onto a
-/// clear background, and stores it with its mips in its atlas layer.
+/// right) with an orthographic camera fitted to its bounds, onto a clear
+/// background, once per (pipeline, atlas): its colours unlit, and its
+/// normals (the frame lights the billboard with them); each stored with
+/// its mips in the model's layer.
 pub fn bake(
     gpu: &Gpu,
-    pipeline: &wgpu::RenderPipeline,
     layout: &wgpu::BindGroupLayout,
     model: &GpuModel,
-    atlas: &wgpu::Texture,
+    images: &[(&wgpu::RenderPipeline, &wgpu::Texture)],
 ) -> Result<(), RenderError> {
     let device = &gpu.device;
     let b = model.model.bounds;
@@ -146,35 +147,38 @@ pub fn bake(
         usage: wgpu::BufferUsages::VERTEX,
     });
     let (w, h) = BILLBOARD_SIZE;
-    let target = Target::new(device, w, h);
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("billboard bake") });
-    {
-        let mut pass = target.begin_clearing(&mut encoder, "billboard bake", Some(wgpu::Color::TRANSPARENT));
-        pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &bind_group, &[]);
-        pass.set_vertex_buffer(0, model.vertices.slice(..));
-        pass.set_vertex_buffer(1, instance.slice(..));
-        pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..model.index_count, 0, 0..1);
-    }
-    gpu.queue.submit([encoder.finish()]);
-    let (rgba, _) = target.read_back(gpu)?;
-    let mut level = premultiplied(&rgba);
-    let (mut lw, mut lh) = (w, h);
-    for mip in 0..MIPS {
-        gpu.queue.write_texture(
-            wgpu::TexelCopyTextureInfo {
-                texture: atlas,
-                mip_level: mip,
-                origin: wgpu::Origin3d { x: 0, y: 0, z: model.layer },
-                aspect: wgpu::TextureAspect::All,
-            },
-            &level,
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(lw * 4), rows_per_image: Some(lh) },
-            wgpu::Extent3d { width: lw, height: lh, depth_or_array_layers: 1 },
-        );
-        level = half(&level, lw as usize, lh as usize);
-        (lw, lh) = ((lw / 2).max(1), (lh / 2).max(1));
+    for (pipeline, atlas) in images {
+        let target = Target::new(device, w, h);
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("billboard bake") });
+        {
+            let mut pass = target.begin_clearing(&mut encoder, "billboard bake", Some(wgpu::Color::TRANSPARENT));
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.set_vertex_buffer(0, model.vertices.slice(..));
+            pass.set_vertex_buffer(1, instance.slice(..));
+            pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..model.index_count, 0, 0..1);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        let (rgba, _) = target.read_back(gpu)?;
+        let mut level = premultiplied(&rgba);
+        let (mut lw, mut lh) = (w, h);
+        for mip in 0..MIPS {
+            gpu.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: atlas,
+                    mip_level: mip,
+                    origin: wgpu::Origin3d { x: 0, y: 0, z: model.layer },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                &level,
+                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(lw * 4), rows_per_image: Some(lh) },
+                wgpu::Extent3d { width: lw, height: lh, depth_or_array_layers: 1 },
+            );
+            level = half(&level, lw as usize, lh as usize);
+            (lw, lh) = ((lw / 2).max(1), (lh / 2).max(1));
+        }
     }
     Ok(())
 }

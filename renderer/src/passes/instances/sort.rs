@@ -1,0 +1,158 @@
+//! Each frame's sorting of the instances in reach (f64, on the CPU, tiles
+//! in parallel): whole tiles out of reach or out of view passed over, each
+//! instance culled to the view, thinned by its distance band and split
+//! into its model's list or the billboards', with the dither ranges that
+//! cross-fade the two.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+use relief_source::Payload;
+use std::sync::Arc;
+
+use super::InstancesView;
+use super::models::{GpuInstance, GpuModel};
+use crate::camera::View;
+
+/// One instance of a tile, ready for sorting.
+pub struct Placed {
+    pub world: DVec3,
+    pub east: Vec3,
+    pub up: Vec3,
+    pub scale: f32,
+    /// Its own random number (0..1, from its feature id): thinning keeps
+    /// the instances whose number is under the band's density.
+    pub random: f64,
+    pub slot: u32,
+    /// Placed as a billboard whatever its distance (`render_as`).
+    pub billboard_only: bool,
+}
+
+pub struct PlacedTile {
+    pub payload: Arc<Payload>,
+    pub placed: Vec<Placed>,
+    /// A sphere holding every instance whole (world): whole tiles out of
+    /// reach or out of view are passed over.
+    pub centre: DVec3,
+    pub radius: f64,
+}
+
+/// What sorting needs of a model: its size, and its billboard's quad.
+pub struct Shape {
+    radius: f32,
+    height: f32,
+    billboard: [f32; 4],
+}
+
+impl Shape {
+    pub fn of(model: &GpuModel) -> Self {
+        Self { radius: model.model.radius(), height: model.model.height(), billboard: model.billboard(1.0) }
+    }
+}
+
+/// A frame's instances: a list per model slot, the billboards, and how
+/// many were in reach and in view before the bands thinned them.
+#[derive(Default)]
+pub struct Sorted {
+    pub models: Vec<Vec<GpuInstance>>,
+    pub billboards: Vec<GpuInstance>,
+    pub in_view: usize,
+}
+
+impl Sorted {
+    fn merge(mut self, other: Self) -> Self {
+        if self.models.len() < other.models.len() {
+            self.models.resize(other.models.len(), Vec::new());
+        }
+        for (mine, theirs) in self.models.iter_mut().zip(other.models) {
+            mine.extend(theirs);
+        }
+        self.billboards.extend(other.billboards);
+        self.in_view += other.in_view;
+        self
+    }
+}
+
+pub fn sort(tiles: &[&PlacedTile], at: &InstancesView<'_>, shapes: &[Shape]) -> Sorted {
+    let reach = at.bands.reach_m();
+    let cull = Frustum::new(at.view, at.aspect);
+    tiles
+        .par_iter()
+        .map(|tile| {
+            let mut out = Sorted { models: vec![Vec::new(); shapes.len()], ..Sorted::default() };
+            let rel = tile.centre - at.view.eye;
+            if tile.placed.is_empty() || rel.length() - tile.radius > reach || !cull.sees(rel, tile.radius) {
+                return out;
+            }
+            for p in &tile.placed {
+                place(p, at, &cull, shapes, reach, &mut out);
+            }
+            out
+        })
+        .reduce(Sorted::default, Sorted::merge)
+}
+
+fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], reach: f64, out: &mut Sorted) {
+    let rel = p.world - at.view.eye;
+    let d = rel.length();
+    if d > reach {
+        return;
+    }
+    let shape = &shapes[p.slot as usize];
+    let centre = rel + (p.up * p.scale * shape.height / 2.0).as_dvec3();
+    if !cull.sees(centre, f64::from(p.scale * (shape.radius.max(shape.height / 2.0) + 1.0))) {
+        return;
+    }
+    out.in_view += 1;
+    let (shown, mut model_share) = at.bands.coverage(d, p.random);
+    if p.billboard_only {
+        model_share = 0.0;
+    }
+    if shown <= 0.0 {
+        return;
+    }
+    let split = (shown * model_share) as f32;
+    let r = rel.as_vec3();
+    let [w, bottom, top, layer] = shape.billboard;
+    let mut instance = GpuInstance {
+        pos: [r.x, r.y, r.z, p.scale],
+        east: [p.east.x, p.east.y, p.east.z, 0.0],
+        up: [p.up.x, p.up.y, p.up.z, split],
+        billboard: [w * p.scale, bottom * p.scale, top * p.scale, layer],
+    };
+    if model_share > 0.0 {
+        out.models[p.slot as usize].push(instance);
+    }
+    if model_share < 1.0 {
+        instance.east[3] = split;
+        instance.up[3] = shown as f32;
+        out.billboards.push(instance);
+    }
+}
+
+/// The view's four side planes and its near side, for spheres relative to
+/// the eye.
+struct Frustum {
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    tan_x: f64,
+    tan_y: f64,
+}
+
+impl Frustum {
+    fn new(view: &View, aspect: f64) -> Self {
+        let tan_y = (view.vertical_fov_deg.to_radians() / 2.0).tan();
+        Self { right: view.right, up: view.up, forward: view.forward, tan_x: tan_y * aspect, tan_y }
+    }
+
+    fn sees(&self, centre: DVec3, radius: f64) -> bool {
+        let z = centre.dot(self.forward);
+        if z < -radius {
+            return false;
+        }
+        let x = centre.dot(self.right).abs();
+        let y = centre.dot(self.up).abs();
+        x <= z * self.tan_x + radius * (1.0 + self.tan_x * self.tan_x).sqrt()
+            && y <= z * self.tan_y + radius * (1.0 + self.tan_y * self.tan_y).sqrt()
+    }
+}
