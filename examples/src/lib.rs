@@ -230,7 +230,7 @@ scale = [0.7, 1.3]
 [[source.rule]]
 class = 2
 models = { broadleaf = 0.8, conifer = 0.1, shrub = 0.1 }
-density = 14000
+density = 21000
 spacing = 3
 scale = [0.6, 1.2]
 

@@ -56,7 +56,7 @@ impl InstanceTiles for Forest {
                     .trees
                     .iter()
                     .enumerate()
-                    .filter(|(_, (x, y, _))| self.grid.key_at(LEVEL, *x, *y) == Some(key))
+                    .filter(|(_, (x, y, _))| self.grid.key_at(key.level, *x, *y) == Some(key))
                     .map(|(k, &(x, y, model))| Instance {
                         feature_id: k as u64,
                         position: [x, y, (self.height)(x, y)],

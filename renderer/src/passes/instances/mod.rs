@@ -30,9 +30,17 @@ use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
 
+/// How many levels coarser than the layer's own instance tiles are asked
+/// for near the poles.
+const COARSER_NEAR_POLES: u8 = 3;
+/// The most instance tiles a frame asks for.
+const MAX_TILES: usize = 1024;
+
 /// The scene's instance tiles and models, as the renderer asks for them.
 pub trait InstanceTiles {
-    /// The tile level instance tiles are asked for at.
+    /// The tile level instance tiles are asked for at (up to three levels
+    /// coarser near the poles, where tiles narrow: a coarser tile must hold
+    /// the instances of the finer tiles it covers).
     fn level(&self) -> u8;
     /// The instance tiles `keys` (built when needed); None for one not ready.
     fn instances(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>>;
@@ -389,14 +397,33 @@ fn keys_in_reach(at: &InstancesView<'_>, level: u8, reach: f64) -> Vec<TileKey> 
     if camera[2] - at.ground_m.unwrap_or(HIGHEST_GROUND_M) > reach {
         return Vec::new();
     }
-    let around = surface.around(camera[0], camera[1], reach / surface.metres_per_unit());
+    let half = reach / surface.metres_per_unit();
+    // Towards a pole a tile narrows with the cosine of its latitude: ask
+    // coarser tiles there (up to COARSER_NEAR_POLES levels; a source's
+    // coarser tile holds its finer tiles' instances), so a ring of reach
+    // is not tens of thousands of slivers.
+    let level = if surface.is_planet() {
+        let lat = (camera[1].abs() + half).min(90.0);
+        let narrowing = 1.0 / lat.to_radians().cos().max(1e-9);
+        level.saturating_sub((narrowing.log2().floor() as u8).min(COARSER_NEAR_POLES))
+    } else {
+        level
+    };
+    let mut seen = std::collections::HashSet::new();
     let mut keys: Vec<TileKey> = Vec::new();
-    for part in &around {
-        for key in surface.grid().keys_overlapping(level, part) {
-            if !keys.contains(&key) {
-                keys.push(key);
-            }
-        }
+    for part in &surface.around(camera[0], camera[1], half) {
+        keys.extend(surface.grid().keys_overlapping(level, part).into_iter().filter(|k| seen.insert(*k)));
+    }
+    if keys.len() > MAX_TILES {
+        // The nearest tiles only (on the pole's ring, the ones round the camera).
+        let grid = surface.grid();
+        let distance = |k: &TileKey| {
+            let e = grid.tile_extent(*k);
+            let (x, y) = (f64::midpoint(e.min_x, e.max_x), f64::midpoint(e.min_y, e.max_y));
+            (surface.world(x, y, 0.0) - at.view.eye).length()
+        };
+        keys.sort_by(|a, b| distance(a).total_cmp(&distance(b)));
+        keys.truncate(MAX_TILES);
     }
     keys
 }
