@@ -369,7 +369,7 @@ fn corrupted_stock_files_give_errors_not_panics() {
     };
     for round in 0..3000 {
         let mut bytes = whole.clone();
-        for _ in 0..1 + round % 3 {
+        for _ in 0..=(round % 3) {
             if next() % 2 == 0 {
                 // A different digit in the JSON: counts, offsets, indices and lengths change.
                 let at = digits[next() % digits.len()];

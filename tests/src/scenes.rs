@@ -22,6 +22,21 @@ pub fn hill(dir: &Path, effects: &str) -> anyhow::Result<PathBuf> {
     )
 }
 
+/// One frame from `camera`, `size` pixels, as raw RGBA8.
+pub async fn render_rgba(
+    channel: &tonic::transport::Channel,
+    camera: pb::Camera,
+    (width, height): (u32, u32),
+) -> anyhow::Result<pb::RenderResponse> {
+    let request =
+        pb::RenderRequest { camera: Some(camera), width, height, format: pb::ImageFormat::Rgba8 as i32, quality: None };
+    Ok(relief_proto::v1::view_service_client::ViewServiceClient::new(channel.clone())
+        .max_decoding_message_size(64 << 20)
+        .render(request)
+        .await?
+        .into_inner())
+}
+
 /// A camera with no roll and a 50 degree field of view.
 pub fn camera(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> pb::Camera {
     pb::Camera {

@@ -1,6 +1,6 @@
 //! What the scene holds is drawn, against a real reliefd: a building layer
-//! shows in frames and follows its shapefile, and a scene without one
-//! builds no buildings pass.
+//! shows in frames and follows its shapefile, and a scene without one (or
+//! without instances) builds no buildings (or instances) pass.
 
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
@@ -8,9 +8,8 @@ use std::path::Path;
 
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
-use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_tests::daemon::Reliefd;
-use relief_tests::scenes::{camera, hill};
+use relief_tests::scenes::{camera, hill, render_rgba};
 use relief_tests::vectors::{shapefile, squares};
 use tonic::transport::Channel;
 
@@ -24,19 +23,7 @@ const SIZE: (u32, u32) = (320, 240);
 async fn frame(channel: &Channel) -> pb::RenderResponse {
     // Straight down over the building, 4 km up.
     let camera = camera(WEST + SIDE / 2.0, SOUTH + SIDE / 2.0, 5500.0, 0.0, -90.0);
-    let request = pb::RenderRequest {
-        camera: Some(camera),
-        width: SIZE.0,
-        height: SIZE.1,
-        format: pb::ImageFormat::Rgba8 as i32,
-        quality: None,
-    };
-    ViewServiceClient::new(channel.clone())
-        .max_decoding_message_size(64 << 20)
-        .render(request)
-        .await
-        .unwrap()
-        .into_inner()
+    render_rgba(channel, camera, SIZE).await.unwrap()
 }
 
 /// The blue pixels: their count, centre (column, row) and width in columns.
@@ -112,7 +99,7 @@ async fn a_moved_footprint_moves_in_the_next_frame_and_only_its_tiles_are_rebuil
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_scene_without_buildings_builds_no_buildings_pass() {
+async fn a_scene_without_buildings_or_instances_builds_neither_pass() {
     let dir = tempfile::tempdir().unwrap();
     let daemon = Reliefd::start(&hill(dir.path(), "").unwrap(), &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
@@ -125,6 +112,8 @@ async fn a_scene_without_buildings_builds_no_buildings_pass() {
         let (terrain, buildings) = (pass(&passes, "terrain"), pass(&passes, "buildings"));
         assert!(terrain.built && terrain.runs >= 1, "{terrain:?}");
         assert!(!buildings.built && buildings.runs == 0 && buildings.total_ms == 0.0, "{buildings:?}");
+        let instances = pass(&passes, "instances");
+        assert!(!instances.built && instances.runs == 0 && instances.total_ms == 0.0, "{instances:?}");
     }
     daemon.stop(&[]).unwrap();
 }

@@ -11,12 +11,11 @@ use std::path::Path;
 
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
-use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_source::TileGrid;
 use relief_tests::daemon::Reliefd;
 use relief_tests::edit::{Events, rewrite_window, tile_hash, wait_for};
 use relief_tests::fixtures::{self, RasterSpec};
-use relief_tests::scenes::{camera, hill};
+use relief_tests::scenes::{camera, hill, render_rgba};
 use tonic::transport::Channel;
 
 /// The land cover: 0.0002-degree pixels over the hill's south flank.
@@ -69,19 +68,7 @@ fn low_camera() -> pb::Camera {
 }
 
 async fn render(channel: &Channel, camera: pb::Camera) -> pb::RenderResponse {
-    let request = pb::RenderRequest {
-        camera: Some(camera),
-        width: 480,
-        height: 320,
-        format: pb::ImageFormat::Rgba8 as i32,
-        quality: None,
-    };
-    ViewServiceClient::new(channel.clone())
-        .max_decoding_message_size(64 << 20)
-        .render(request)
-        .await
-        .unwrap()
-        .into_inner()
+    render_rgba(channel, camera, (480, 320)).await.unwrap()
 }
 
 async fn state(channel: &Channel) -> pb::SceneState {

@@ -133,14 +133,12 @@ mod tests {
 
     #[test]
     fn bad_knobs_are_named() {
-        let mut b = InstanceBands::default();
-        b.edges_m = [700.0, 600.0, 3000.0];
+        let b = InstanceBands { edges_m: [700.0, 600.0, 3000.0], ..InstanceBands::default() };
         assert_eq!(b.validate().unwrap_err().0, "instance_bands_m");
         let mut b = InstanceBands::default();
         b.densities[1] = 1.5;
         assert_eq!(b.validate().unwrap_err().0, "instance_band_densities");
-        let mut b = InstanceBands::default();
-        b.model_distance_m = f64::NAN;
+        let b = InstanceBands { model_distance_m: f64::NAN, ..InstanceBands::default() };
         assert_eq!(b.validate().unwrap_err().0, "instance_model_distance_m");
         assert!(InstanceBands::reference(5000.0).validate().is_ok());
     }

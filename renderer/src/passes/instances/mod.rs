@@ -10,6 +10,7 @@
 
 mod bands;
 mod models;
+mod reach;
 mod sort;
 
 use std::collections::HashMap;
@@ -29,12 +30,6 @@ use crate::camera::View;
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
-
-/// How many levels coarser than the layer's own instance tiles are asked
-/// for near the poles.
-const COARSER_NEAR_POLES: u8 = 3;
-/// The most instance tiles a frame asks for.
-const MAX_TILES: usize = 1024;
 
 /// The scene's instance tiles and models, as the renderer asks for them.
 pub trait InstanceTiles {
@@ -247,7 +242,7 @@ impl InstancesPass {
             unknown_models: 0,
         };
         let reach = at.bands.reach_m();
-        let keys = keys_in_reach(at, source.level(), reach);
+        let keys = reach::keys(at, source.level(), reach);
         let fetched = if keys.is_empty() { Vec::new() } else { source.instances(&keys) };
         for (key, payload) in keys.iter().zip(fetched) {
             let Some(payload) = payload else {
@@ -385,47 +380,6 @@ impl InstancesPass {
         self.by_name.insert(name.to_owned(), slot);
         Ok(Some(slot))
     }
-}
-
-/// The instance tiles at `level` within `reach` metres of the camera's
-/// ground point (on the planet, whole across the antimeridian); none
-/// when the camera is higher above the ground than the reach.
-fn keys_in_reach(at: &InstancesView<'_>, level: u8, reach: f64) -> Vec<TileKey> {
-    /// Above the highest ground on Earth, for a camera over no terrain.
-    const HIGHEST_GROUND_M: f64 = 9000.0;
-    let (surface, camera) = (at.surface, at.camera);
-    if camera[2] - at.ground_m.unwrap_or(HIGHEST_GROUND_M) > reach {
-        return Vec::new();
-    }
-    let half = reach / surface.metres_per_unit();
-    // Towards a pole a tile narrows with the cosine of its latitude: ask
-    // coarser tiles there (up to COARSER_NEAR_POLES levels; a source's
-    // coarser tile holds its finer tiles' instances), so a ring of reach
-    // is not tens of thousands of slivers.
-    let level = if surface.is_planet() {
-        let lat = (camera[1].abs() + half).min(90.0);
-        let narrowing = 1.0 / lat.to_radians().cos().max(1e-9);
-        level.saturating_sub((narrowing.log2().floor() as u8).min(COARSER_NEAR_POLES))
-    } else {
-        level
-    };
-    let mut seen = std::collections::HashSet::new();
-    let mut keys: Vec<TileKey> = Vec::new();
-    for part in &surface.around(camera[0], camera[1], half) {
-        keys.extend(surface.grid().keys_overlapping(level, part).into_iter().filter(|k| seen.insert(*k)));
-    }
-    if keys.len() > MAX_TILES {
-        // The nearest tiles only (on the pole's ring, the ones round the camera).
-        let grid = surface.grid();
-        let distance = |k: &TileKey| {
-            let e = grid.tile_extent(*k);
-            let (x, y) = (f64::midpoint(e.min_x, e.max_x), f64::midpoint(e.min_y, e.max_y));
-            (surface.world(x, y, 0.0) - at.view.eye).length()
-        };
-        keys.sort_by(|a, b| distance(a).total_cmp(&distance(b)));
-        keys.truncate(MAX_TILES);
-    }
-    keys
 }
 
 /// A number in 0..1 from a feature id, well mixed (splitmix64).
