@@ -260,6 +260,13 @@ impl InputTiles for Inputs<'_> {
             SourceError::Input { input: self.snap.slots[input_index].spec.id.clone(), message: e.to_string() }
         })
     }
+
+    fn files(&self, input: usize) -> Vec<std::path::PathBuf> {
+        let slot = &self.snap.slots[self.index];
+        let Some(&input_index) = slot.inputs.get(input) else { return Vec::new() };
+        let input = &self.snap.slots[input_index];
+        input.source.as_ref().map(|s| s.info().files).unwrap_or_else(|| input.spec.paths.clone())
+    }
 }
 
 #[cfg(test)]

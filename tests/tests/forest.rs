@@ -208,7 +208,10 @@ async fn bad_models_and_rules_are_named_and_the_rest_of_the_scene_is_served() {
         .unwrap_err()
         .to_string();
     assert!(
-        status.contains("forest") && status.contains("class raster 'landcover'") && status.contains("integers"),
+        status.contains("forest")
+            && status.contains("class raster 'landcover' (reading ")
+            && status.contains("cover.tif")
+            && status.contains("integers"),
         "{status}"
     );
     daemon.stop(&["class raster 'landcover'"]).unwrap();

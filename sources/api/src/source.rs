@@ -137,6 +137,12 @@ pub struct ClassCount {
 pub trait InputTiles: Sync {
     /// The tile `key` of input number `input` (in the order of `Source::inputs`).
     fn tile(&self, input: usize, key: TileKey) -> Result<Arc<Payload>, SourceError>;
+
+    /// The files input number `input` reads, for an error about its data
+    /// to name them; empty when unknown.
+    fn files(&self, _input: usize) -> Vec<PathBuf> {
+        Vec::new()
+    }
 }
 
 /// Inputs for a source that has none.

@@ -20,6 +20,7 @@ const POINT_SALT: u64 = 0x706f_696e_7473;
 /// The inputs of one tile, read at the scatter's level.
 struct Reader<'a, 'c> {
     scatter: &'a Scatter,
+    ctx: &'a GenerateContext<'c>,
     grid: &'a TileGrid,
     level: u8,
     classes: HeightWindow<'a, 'c>,
@@ -31,6 +32,7 @@ impl<'a, 'c> Reader<'a, 'c> {
     fn new(scatter: &'a Scatter, ctx: &'a GenerateContext<'c>, level: u8) -> Self {
         Self {
             scatter,
+            ctx,
             grid: ctx.grid,
             level,
             classes: HeightWindow::new(ctx, 0, level),
@@ -45,7 +47,7 @@ impl<'a, 'c> Reader<'a, 'c> {
         let (i, j) = (gx.round() as i64, gy.round() as i64);
         let value = self.classes.get(i, j).map_err(self.scatter.input_error(0))?;
         let (sx, sy) = self.grid.sample_point(self.level, i, j);
-        class_of(self.scatter, self.grid, value, sx, sy)
+        class_of(self.scatter, self.ctx, value, sx, sy)
     }
 
     /// The density factor at (x, y): bilinear, clamped to 0..1, nodata 0.
@@ -76,7 +78,14 @@ impl<'a, 'c> Reader<'a, 'c> {
 
 /// A class sample's code; nodata is None, a value that is not an integer
 /// fails the tile (a class raster read with an interpolating kernel).
-fn class_of(scatter: &Scatter, grid: &TileGrid, value: f32, x: f64, y: f64) -> Result<Option<i64>, SourceError> {
+fn class_of(
+    scatter: &Scatter,
+    ctx: &GenerateContext<'_>,
+    value: f32,
+    x: f64,
+    y: f64,
+) -> Result<Option<i64>, SourceError> {
+    let grid = ctx.grid;
     if value.is_nan() {
         return Ok(None);
     }
@@ -85,12 +94,13 @@ fn class_of(scatter: &Scatter, grid: &TileGrid, value: f32, x: f64, y: f64) -> R
     }
     let at = if grid.is_geodetic() { format!("({:.7}, {y:.7})", wrap_lon(x)) } else { format!("({x:.2}, {y:.2})") };
     let id = &scatter.inputs[0];
+    let files: Vec<String> = ctx.inputs.files(0).iter().map(|f| f.display().to_string()).collect();
+    let read = if files.is_empty() { String::new() } else { format!(" (reading {})", files.join(", ")) };
     Err(SourceError::Input {
         input: id.clone(),
         message: format!(
-            "class raster '{id}' holds {value} at {at}: class codes are integers (set resampling = \"nearest\" \
-             under [quality], the kernel gdal sources read with, and a scatter level whose samples are no coarser \
-             than the raster's pixels, since coarser reads average them)"
+            "class raster '{id}'{read} holds {value} at {at}: class codes are integers (an integer band, read \
+             with resampling = \"nearest\" on source '{id}', which also keeps classes in its coarser levels)"
         ),
     })
 }
@@ -258,7 +268,7 @@ impl Scatter {
                 let counts = out.entry(child).or_default();
                 for j in 0..owned {
                     for i in 0..owned {
-                        if let Some(class) = class_of(self, grid, h.get(i, j), lattice.x(i), lattice.y(j))? {
+                        if let Some(class) = class_of(self, ctx, h.get(i, j), lattice.x(i), lattice.y(j))? {
                             counts.entry(class).or_default().samples += 1;
                         }
                     }

@@ -109,7 +109,8 @@ fn a_class_raster_that_is_not_integer_fails_naming_the_input() {
     let SourceError::Input { input, message } = &err else { panic!("{err}") };
     assert_eq!(input, "landcover");
     assert!(message.starts_with("class raster 'landcover' holds 12.5 at ("), "{message}");
-    assert!(message.contains("class codes are integers (set resampling = \"nearest\""), "{message}");
+    assert!(message.contains("class codes are integers"), "{message}");
+    assert!(message.contains("resampling = \"nearest\" on source 'landcover'"), "{message}");
 }
 
 #[test]
