@@ -186,7 +186,9 @@ impl Payload {
             Self::Color(t) => t.rgba.len(),
             Self::Mask(t) => t.coverage.len(),
             Self::Features(t) => t.features.len() * 128,
-            Self::Instances(t) => t.instances.len() * 64,
+            // Each instance and its model's name (a scattered forest tile
+            // holds tens of thousands).
+            Self::Instances(t) => t.instances.iter().map(|i| size_of::<Instance>() + i.model.capacity()).sum(),
             Self::Mesh(t) => t.positions.len() * 24 + t.indices.len() * 4 + t.parts.len() * 16,
         }
     }

@@ -21,6 +21,9 @@ impl Default for InstanceBands {
     }
 }
 
+/// The farthest a band may reach: instances are what stands near the
+/// camera (beyond, each frame would sort millions of them).
+pub const MAX_REACH_M: f64 = 20_000.0;
 /// A ramp's width as a share of the distance it is centred on.
 const RAMP: f64 = 0.1;
 /// How much density an instance takes to fade in or out: the share of
@@ -43,8 +46,11 @@ impl InstanceBands {
     /// distance of 0 or more. Names the knob at fault.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
         let [a, b, c] = self.edges_m;
-        if !(a > 0.0 && a <= b && b <= c && c.is_finite()) {
-            return Err(("instance_bands_m", format!("{a}, {b}, {c} are not increasing distances above 0 m")));
+        if !(a > 0.0 && a <= b && b <= c && c <= MAX_REACH_M) {
+            return Err((
+                "instance_bands_m",
+                format!("{a}, {b}, {c} are not increasing distances from above 0 to {MAX_REACH_M} m"),
+            ));
         }
         if let Some(d) = self.densities.iter().find(|d| !(0.0..=1.0).contains(*d)) {
             return Err(("instance_band_densities", format!("{d} is not a share from 0 to 1")));
@@ -138,6 +144,8 @@ mod tests {
         let mut b = InstanceBands::default();
         b.densities[1] = 1.5;
         assert_eq!(b.validate().unwrap_err().0, "instance_band_densities");
+        let far = InstanceBands { edges_m: [700.0, 1400.0, 50_000.0], ..InstanceBands::default() };
+        assert_eq!(far.validate().unwrap_err().0, "instance_bands_m");
         let b = InstanceBands { model_distance_m: f64::NAN, ..InstanceBands::default() };
         assert_eq!(b.validate().unwrap_err().0, "instance_model_distance_m");
         assert!(InstanceBands::reference(5000.0).validate().is_ok());

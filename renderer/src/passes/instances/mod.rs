@@ -261,9 +261,13 @@ impl InstancesPass {
         let shapes: Vec<sort::Shape> = self.models.iter().map(sort::Shape::of).collect();
         let sorted = sort::sort(&tiles, at, &shapes);
         draw.in_view = sorted.in_view;
-        let (per_model, billboards) = (sorted.models, sorted.billboards);
+        let (per_model, mut billboards) = (sorted.models, sorted.billboards);
+        // At most one device buffer of them (knobs reaching tens of
+        // kilometres could ask for more): models first, then billboards.
+        let most = (gpu.device.limits().max_buffer_size / size_of::<GpuInstance>() as u64) as usize;
         let mut all: Vec<GpuInstance> = Vec::new();
-        for (slot, list) in per_model.into_iter().enumerate() {
+        for (slot, mut list) in per_model.into_iter().enumerate() {
+            list.truncate(most - all.len());
             if !list.is_empty() {
                 let start = all.len() as u32;
                 draw.models_drawn += list.len();
@@ -271,6 +275,7 @@ impl InstancesPass {
                 draw.models.push((slot as u32, start..all.len() as u32));
             }
         }
+        billboards.truncate(most - all.len());
         draw.billboards_drawn = billboards.len();
         draw.billboards = all.len() as u32..(all.len() + billboards.len()) as u32;
         all.extend(billboards);
