@@ -74,6 +74,17 @@ impl Registry {
                     input_kinds: None,
                 },
                 Kind {
+                    name: relief_source_ogr::KIND,
+                    open: |spec, grid| {
+                        let crs = Arc::new(relief_source_gdal::OsrTransform);
+                        Ok(Arc::new(relief_source_ogr::OgrSource::open(spec, grid, crs)?))
+                    },
+                    inputs: &[],
+                    required_inputs: 0,
+                    output: Some(PayloadKind::Features),
+                    input_kinds: None,
+                },
+                Kind {
                     name: relief_source_ops::RASTERIZE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Rasterize::open(spec)?)),
                     inputs: relief_source_ops::RASTERIZE_INPUTS,

@@ -66,7 +66,7 @@ fn an_unknown_kind_is_rejected() {
             "unknown kind 'geotiff'",
             "source 'dem'",
             "field 'kind'",
-            "known: gdal, shapefile, kml, rasterize, overlay, hillshade",
+            "known: gdal, shapefile, kml, ogr, rasterize, overlay, hillshade",
             "scene.toml",
         ],
     );

@@ -1,0 +1,132 @@
+//! The `ogr` format: options, opening, layer choice, CRS and details.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use gdal::spatial_ref::SpatialRef;
+use gdal::vector::LayerAccess;
+use gdal::{Dataset, DatasetOptions, GdalOpenFlags};
+use relief_source::{SourceError, SourceSpec, VectorFormat, VectorRead, VectorSource};
+
+use crate::read::read_layer;
+
+pub const KIND: &str = "ogr";
+
+/// Drivers whose FIDs survive edits (a primary key in a database file);
+/// for the others the read order is the id.
+const STABLE_FID_DRIVERS: &[&str] = &["GPKG", "SQLite", "OpenFileGDB", "FileGDB"];
+
+#[derive(Debug)]
+pub struct Ogr;
+
+/// One layer of an OGR vector dataset as a source.
+pub type OgrSource = VectorSource<Ogr>;
+
+/// GDAL's message without GDAL's copy of the path (we put it last, once).
+fn gdal_message(e: gdal::errors::GdalError, path: &Path) -> String {
+    let message = match e {
+        gdal::errors::GdalError::NullPointer { msg, .. } if !msg.trim().is_empty() => msg,
+        gdal::errors::GdalError::NullPointer { .. } => "no GDAL vector driver recognises it".into(),
+        other => other.to_string(),
+    };
+    let message =
+        message.replace(&format!("`{}' ", path.display()), "").replace(&path.display().to_string(), "the file");
+    message.trim().trim_end_matches('.').to_owned()
+}
+
+fn open(path: &Path) -> Result<Dataset, SourceError> {
+    let options = DatasetOptions {
+        open_flags: GdalOpenFlags::GDAL_OF_VECTOR
+            | GdalOpenFlags::GDAL_OF_READONLY
+            | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
+        ..DatasetOptions::default()
+    };
+    Dataset::open_ex(path, options).map_err(|e| {
+        SourceError::format(format!("not a vector dataset GDAL can read: {}", gdal_message(e, path)), path)
+    })
+}
+
+/// A short human name for a CRS: "EPSG:4326 (WGS 84)".
+fn describe(srs: &SpatialRef) -> String {
+    let name = srs.name().unwrap_or_else(|| "unnamed CRS".into());
+    match (srs.auth_name(), srs.auth_code()) {
+        (Some(auth), Ok(code)) => format!("{auth}:{code} ({name})"),
+        _ => name,
+    }
+}
+
+impl VectorFormat for Ogr {
+    const KIND: &'static str = KIND;
+
+    fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
+        spec.only_options(&["layer", "crs"])?;
+        let wanted = spec.text("layer")?;
+        let crs_option = spec.text("crs")?;
+        let ds = open(path)?;
+        let driver = ds.driver().short_name();
+        let names: Vec<String> = ds.layers().map(|l| l.name()).collect();
+        let mut layer = match (wanted, names.as_slice()) {
+            (_, []) => return Err(SourceError::format("the dataset has no layers", path)),
+            (Some(name), _) => ds
+                .layer_by_name(name)
+                .map_err(|_| SourceError::format(format!("no layer '{name}' (layers: {})", names.join(", ")), path))?,
+            (None, [_]) => ds.layer(0).map_err(|e| SourceError::format(gdal_message(e, path), path))?,
+            (None, _) => {
+                return Err(SourceError::format(
+                    format!(
+                        "the dataset has {} layers ({}): choose one with option 'layer'",
+                        names.len(),
+                        names.join(", ")
+                    ),
+                    path,
+                ));
+            }
+        };
+        let stable_fids = STABLE_FID_DRIVERS.contains(&driver.as_str());
+        let read = read_layer(&mut layer, stable_fids, path)?;
+
+        let layer_srs = layer.spatial_ref();
+        let (crs, crs_name, crs_note) = match (crs_option, &layer_srs) {
+            (Some(c), _) => {
+                let name =
+                    SpatialRef::from_definition(c).map_or_else(|_| c.chars().take(80).collect(), |s| describe(&s));
+                (c.to_owned(), name, "from the manifest".to_owned())
+            }
+            (None, Some(srs)) => {
+                let wkt = srs.to_wkt().map_err(|e| SourceError::Crs {
+                    crs: describe(srs),
+                    message: format!("cannot write the layer's CRS as WKT: {}", gdal_message(e, path)),
+                    path: Some(path.to_path_buf()),
+                })?;
+                (wkt, describe(srs), "from the layer".to_owned())
+            }
+            (None, None) => (
+                "EPSG:4326".to_owned(),
+                "EPSG:4326 (WGS 84, assumed)".to_owned(),
+                "the layer has no CRS: WGS84 longitude/latitude assumed".to_owned(),
+            ),
+        };
+
+        let mut details = BTreeMap::new();
+        details.insert("driver".into(), driver);
+        details.insert("layer".into(), layer.name());
+        details.insert("layers".into(), names.join(", "));
+        details.insert("features".into(), read.features.len().to_string());
+        details.insert("null_geometries".into(), read.null_geometries.to_string());
+        for (reason, count) in &read.skipped {
+            details.insert(format!("skipped.{reason}"), count.to_string());
+        }
+        details.insert("fields".into(), read.fields.join(", "));
+        details.insert("ids".into(), if stable_fids { "OGR FIDs" } else { "read order" }.into());
+        details.insert("crs_source".into(), crs_note);
+        Ok(VectorRead {
+            features: read.features,
+            crs,
+            crs_name,
+            crs_file: Some(path.to_path_buf()),
+            files: relief_source::files::dataset_files(path),
+            vertical_datum: String::new(),
+            details,
+        })
+    }
+}
