@@ -462,7 +462,7 @@ mod tests {
     }
 
     #[test]
-    fn arrays_and_tables_become_nested_option_values() {
+    fn arrays_and_tables_become_nested_option_values() -> Result<(), Box<dyn std::error::Error>> {
         let m = parse(
             r#"
             [scene]
@@ -481,11 +481,10 @@ mod tests {
             models = { shrub = 1 }
             scale = 1.5
             "#,
-        )
-        .unwrap();
+        )?;
         let spec = &m.sources[0];
-        assert_eq!(spec.number("seed").unwrap(), Some(7.0));
-        let rules = spec.list("rule").unwrap().unwrap();
+        assert_eq!(spec.number("seed")?, Some(7.0));
+        let rules = spec.list("rule")?.ok_or("no rules")?;
         assert_eq!(rules.len(), 2);
         let OptionValue::Table(first) = &rules[0] else { panic!("{:?}", rules[0]) };
         assert_eq!(first["class"], OptionValue::Number(311.0));
@@ -496,6 +495,7 @@ mod tests {
         assert!(spec.table("rule").unwrap_err().to_string().contains("expected a table, found a list"));
         // Scalars still read as before.
         assert!(spec.text("seed").is_err());
+        Ok(())
     }
 
     #[test]

@@ -152,9 +152,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_scatter_expects_its_inputs_as_its_options_say() {
+    fn a_scatter_expects_its_inputs_as_its_options_say() -> Result<(), Box<dyn std::error::Error>> {
         let registry = Registry::builtin();
-        let scatter = registry.get("scatter").unwrap();
+        let scatter = registry.get("scatter").ok_or("no scatter kind")?;
         let spec = |inputs: &[&str], options: &[(&str, &str)]| SourceSpec {
             id: "forest".into(),
             kind: "scatter".into(),
@@ -169,12 +169,13 @@ mod tests {
         );
         assert_eq!(scatter.expected_inputs(&spec(&["c", "g", "d", "p"], &[])), [Height, Height, Height, Features]);
         // Other kinds: by position.
-        let extrude = registry.get("extrude").unwrap();
+        let extrude = registry.get("extrude").ok_or("no extrude kind")?;
         assert_eq!(extrude.expected_inputs(&spec(&["f"], &[])), [Features, Height]);
+        Ok(())
     }
 
     #[test]
-    fn a_scene_may_give_a_scatter_points_without_a_density_raster() {
+    fn a_scene_may_give_a_scatter_points_without_a_density_raster() -> Result<(), Box<dyn std::error::Error>> {
         let scene = |extra: &str| {
             let text = format!(
                 r#"
@@ -203,14 +204,14 @@ mod tests {
                 density = 21000
                 "#
             );
-            let manifest =
-                crate::manifest::Manifest::parse(&text, std::path::Path::new("/nowhere/scene.toml")).unwrap();
+            let manifest = crate::manifest::Manifest::parse(&text, std::path::Path::new("/nowhere/scene.toml"))
+                .map_err(|e| vec![crate::graph::LoadError::from(e)])?;
             crate::graph::build(manifest, &Registry::builtin(), None)
         };
         // The files are missing (those sources fail to open), but the graph
         // is checked: points named as such are features.
-        let (snapshot, _open_errors) = scene("points_input = \"trees\"").unwrap();
-        let forest = snapshot.slots.iter().find(|s| s.spec.id == "forest").unwrap();
+        let (snapshot, _open_errors) = scene("points_input = \"trees\"").map_err(|e| format!("{e:?}"))?;
+        let forest = snapshot.slots.iter().find(|s| s.spec.id == "forest").ok_or("no forest slot")?;
         assert!(forest.source.is_some(), "{:?}", forest.error);
         // Taken by position, the third input is a density raster.
         let errors = scene("").unwrap_err();
@@ -219,5 +220,6 @@ mod tests {
             text.iter().any(|e| e.contains("source 'forest', field 'inputs[2]'") && e.contains("needs height")),
             "{text:?}"
         );
+        Ok(())
     }
 }

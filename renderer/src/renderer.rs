@@ -17,7 +17,7 @@ use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, Inst
 use crate::passes::terrain::TerrainPass;
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
-use crate::target::{self, Target};
+use crate::target::Target;
 use crate::uniforms::{self, FrameUniform, split};
 
 /// What a frame is drawn with besides the camera.
@@ -150,7 +150,7 @@ impl Renderer {
         let pixel_angle = pose.vertical_fov_deg.to_radians() / f64::from(settings.height);
         let draw = self.terrain.prepare(&self.gpu, &self.surface, source, pose, &view, pixel_angle);
         self.write_frame_uniform(pose, &view, settings, Some(draw.base_sink));
-        self.run(&target, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
+        target.run(&self.gpu, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
         let mut drawn = Drawn::default();
@@ -173,8 +173,7 @@ impl Renderer {
             };
             let shown = buildings.prepare(device, &self.frame_buffer, &on, meshes);
             drawn.buildings = shown.drawn;
-            let buildings = self.buildings.as_ref().expect("built above");
-            self.run(&target, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
+            target.run(&self.gpu, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
             passes.push((passes::BUILDINGS, self.counters.ran(passes::BUILDINGS, started)));
         }
 
@@ -204,8 +203,7 @@ impl Renderer {
             let shown = instances.prepare(&self.gpu, &at, tiles)?;
             (drawn.instances_in_view, drawn.models, drawn.billboards) =
                 (shown.in_view, shown.models_drawn, shown.billboards_drawn);
-            let instances = self.instances.as_ref().expect("built above");
-            self.run(&target, passes::INSTANCES, false, |pass| instances.record(pass, &shown))?;
+            target.run(&self.gpu, passes::INSTANCES, false, |pass| instances.record(pass, &shown))?;
             passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
         }
 
@@ -244,7 +242,7 @@ impl Renderer {
         let mesh_ms = started.elapsed().as_secs_f64() * 1e3;
         let started = Instant::now();
         let target = Target::new(&self.gpu.device, settings.width, settings.height);
-        self.run(&target, "full mesh", true, |pass| self.terrain.record_mesh(pass, &mesh))?;
+        target.run(&self.gpu, "full mesh", true, |pass| self.terrain.record_mesh(pass, &mesh))?;
         let (rgba, depth) = target.read_back(&self.gpu)?;
         let passes = vec![("mesh", mesh_ms), ("draw and read back", started.elapsed().as_secs_f64() * 1e3)];
         let update = UpdateStats::default();
@@ -262,25 +260,6 @@ impl Renderer {
         }
         settings.bands.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
         Ok(())
-    }
-
-    /// One pass into the target, submitted and waited for (so its time is
-    /// its own).
-    fn run(
-        &self,
-        target: &Target,
-        label: &str,
-        first: bool,
-        record: impl FnOnce(&mut wgpu::RenderPass<'_>),
-    ) -> Result<(), RenderError> {
-        let mut encoder =
-            self.gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        {
-            let mut pass = target.begin(&mut encoder, label, first);
-            record(&mut pass);
-        }
-        self.gpu.queue.submit([encoder.finish()]);
-        target::wait(&self.gpu)
     }
 
     /// `base_sink`: Some(metres the base is sunk) when meshes are drawn

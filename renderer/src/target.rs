@@ -38,15 +38,9 @@ impl Target {
         Self { width, height, color, depth, color_view, depth_view }
     }
 
-    /// A render pass over the target: the first pass of a frame clears it
-    /// to the sky and the far plane, later ones draw over what is there.
-    pub fn begin<'e>(&self, encoder: &'e mut wgpu::CommandEncoder, label: &str, first: bool) -> wgpu::RenderPass<'e> {
-        self.begin_clearing(encoder, label, first.then_some(CLEAR))
-    }
-
     /// A render pass over the target, first cleared to `clear` (and the
-    /// far plane) when given.
-    pub fn begin_clearing<'e>(
+    /// far plane) when given, else drawing over what is there.
+    fn begin<'e>(
         &self,
         encoder: &'e mut wgpu::CommandEncoder,
         label: &str,
@@ -74,6 +68,36 @@ impl Target {
             occlusion_query_set: None,
             multiview_mask: None,
         })
+    }
+
+    /// One pass into the target, submitted and waited for (so its time is
+    /// its own): the first pass of a frame clears it to the sky and the far
+    /// plane, later ones draw over what is there.
+    pub fn run(
+        &self,
+        gpu: &Gpu,
+        label: &str,
+        first: bool,
+        record: impl FnOnce(&mut wgpu::RenderPass<'_>),
+    ) -> Result<(), RenderError> {
+        self.run_clearing(gpu, label, first.then_some(CLEAR), record)
+    }
+
+    /// `run`, first clearing to `clear` when given.
+    pub fn run_clearing(
+        &self,
+        gpu: &Gpu,
+        label: &str,
+        clear: Option<wgpu::Color>,
+        record: impl FnOnce(&mut wgpu::RenderPass<'_>),
+    ) -> Result<(), RenderError> {
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        {
+            let mut pass = self.begin(&mut encoder, label, clear);
+            record(&mut pass);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        wait(gpu)
     }
 
     /// Colour (RGBA8, rows from the top) and depth, copied back.

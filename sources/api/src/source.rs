@@ -220,7 +220,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn lists_and_tables_read_as_such_and_scalars_as_before() {
+    fn lists_and_tables_read_as_such_and_scalars_as_before() -> Result<(), Box<dyn std::error::Error>> {
         let rule: BTreeMap<String, OptionValue> = [("class".to_owned(), OptionValue::Number(311.0))].into();
         let spec = SourceSpec {
             options: [
@@ -231,13 +231,14 @@ mod tests {
             .into(),
             ..SourceSpec::default()
         };
-        assert_eq!(spec.list("rule").unwrap(), Some(&[OptionValue::Table(rule.clone())][..]));
-        assert_eq!(spec.table("style").unwrap(), Some(&rule));
-        assert_eq!(spec.list("none").unwrap(), None);
-        assert_eq!(spec.number("seed").unwrap(), Some(7.0));
+        assert_eq!(spec.list("rule")?, Some(&[OptionValue::Table(rule.clone())][..]));
+        assert_eq!(spec.table("style")?, Some(&rule));
+        assert_eq!(spec.list("none")?, None);
+        assert_eq!(spec.number("seed")?, Some(7.0));
         let err = spec.list("style").unwrap_err().to_string();
         assert_eq!(err, "invalid option 'style': expected a list, found a table");
         assert!(spec.table("seed").unwrap_err().to_string().contains("expected a table, found a number"));
         assert!(spec.number("rule").is_err() && spec.text("rule").is_err());
+        Ok(())
     }
 }

@@ -315,7 +315,8 @@ mod tests {
     }
 
     #[test]
-    fn a_building_takes_its_colour_from_color_by_then_its_kml_style_then_color() {
+    fn a_building_takes_its_colour_from_color_by_then_its_kml_style_then_color()
+    -> Result<(), Box<dyn std::error::Error>> {
         let spec = |options: &[(&str, &str)]| SourceSpec {
             id: "b".into(),
             kind: EXTRUDE_KIND.into(),
@@ -328,19 +329,20 @@ mod tests {
         };
         let mut feature =
             Feature { id: 1, geometry: Geometry::Polygons(vec![]), properties: std::collections::BTreeMap::default() };
-        let plain = Extrude::open(&spec(&[("color", "#102030")])).unwrap();
+        let plain = Extrude::open(&spec(&[("color", "#102030")]))?;
         assert_eq!(plain.color_of(&feature), [0x10, 0x20, 0x30, 255]);
         // KML's aabbggrr: a half-transparent red style is drawn opaque red.
         feature.properties.insert("fill_color".into(), "7f0000ff".into());
         assert_eq!(plain.color_of(&feature), [255, 0, 0, 255]);
         // color_by wins, the same value the same colour in every tile.
-        let by = Extrude::open(&spec(&[("color_by", "use")])).unwrap();
+        let by = Extrude::open(&spec(&[("color_by", "use")]))?;
         feature.properties.insert("use".into(), "school".into());
         let school = by.color_of(&feature);
         assert_ne!(school, [255, 0, 0, 255]);
         let other = Feature { id: 2, ..feature.clone() };
         assert_eq!(by.color_of(&other), school);
         assert!(Extrude::open(&spec(&[("color", "blue")])).unwrap_err().to_string().contains("color"));
+        Ok(())
     }
 
     #[test]

@@ -149,18 +149,14 @@ pub fn bake(
     let (w, h) = BILLBOARD_SIZE;
     for (pipeline, atlas) in images {
         let target = Target::new(device, w, h);
-        let mut encoder =
-            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("billboard bake") });
-        {
-            let mut pass = target.begin_clearing(&mut encoder, "billboard bake", Some(wgpu::Color::TRANSPARENT));
+        target.run_clearing(gpu, "billboard bake", Some(wgpu::Color::TRANSPARENT), |pass| {
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
             pass.set_vertex_buffer(0, model.vertices.slice(..));
             pass.set_vertex_buffer(1, instance.slice(..));
             pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..model.index_count, 0, 0..1);
-        }
-        gpu.queue.submit([encoder.finish()]);
+        })?;
         let (rgba, _) = target.read_back(gpu)?;
         let mut level = premultiplied(&rgba);
         let (mut lw, mut lh) = (w, h);
