@@ -201,13 +201,18 @@ impl Scene {
             if only.is_some_and(|ids| !ids.contains(&slot.spec.id)) || !reads_files {
                 continue;
             }
+            // A failure says (transient, worth retrying, error).
             let result = match &slot.source {
-                Some(source) => {
-                    source.refresh(&new.grid).map_err(|e| (e.is_transient(), graph::source_error(&slot.spec, e)))
-                }
+                Some(source) => source.refresh(&new.grid).map_err(|e| {
+                    let (transient, again) = (e.is_transient(), e.retry_later());
+                    (transient, again, graph::source_error(&slot.spec, e))
+                }),
                 None => graph::open_source(&slot.spec, &new.grid, &self.registry)
                     .map(|source| Refresh::Changed { source, dirty: DirtySet::everything() })
-                    .map_err(|e| (matches!(&e, LoadError::Source { error, .. } if error.is_transient()), e)),
+                    .map_err(|e| match &e {
+                        LoadError::Source { error, .. } => (error.is_transient(), error.retry_later(), e),
+                        _ => (false, false, e),
+                    }),
             };
             match result {
                 Ok(Refresh::Unchanged) => {
@@ -230,12 +235,16 @@ impl Scene {
                     dirt.insert(slot.spec.id.clone(), dirty);
                     changed_sources.push(slot.spec.id.clone());
                 }
-                Err((transient, e)) => {
+                Err((transient, again, e)) => {
                     if transient || !report_errors {
                         tracing::debug!(source.id = %slot.spec.id, "not read yet: {e}");
                         retry.push(slot.spec.id.clone());
                         self.reads_retried.fetch_add(1, Ordering::Relaxed);
                         continue;
+                    }
+                    if again {
+                        // Shown, and read again once the lock may be gone.
+                        retry.push(slot.spec.id.clone());
                     }
                     let message = e.to_string();
                     if slot.error.as_deref() != Some(message.as_str()) {

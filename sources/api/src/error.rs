@@ -26,6 +26,10 @@ pub enum SourceError {
     /// error of the data; read again once the writer is done.
     #[error("file changed while it was being read: {}", path.display())]
     Changing { path: PathBuf },
+    /// Another program holds the file locked (a database in the middle of
+    /// a write). Shown on the source, and read again later.
+    #[error("{message}: {}", path.display())]
+    Locked { message: String, path: PathBuf },
 }
 
 fn path_suffix(path: Option<&PathBuf>) -> String {
@@ -36,6 +40,12 @@ impl SourceError {
     /// True when the failure says nothing about the data (a writer was busy).
     pub fn is_transient(&self) -> bool {
         matches!(self, Self::Changing { .. })
+    }
+
+    /// True when the same read may succeed later without any change to the
+    /// files (a writer busy, a lock held): worth trying again.
+    pub fn retry_later(&self) -> bool {
+        matches!(self, Self::Changing { .. } | Self::Locked { .. })
     }
 
     pub fn format(message: impl Into<String>, path: impl Into<PathBuf>) -> Self {

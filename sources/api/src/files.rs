@@ -29,14 +29,35 @@ pub fn is_repack_marker(path: &Path) -> bool {
         .is_some_and(|stem| stem.to_lowercase().ends_with("_packed"))
 }
 
-/// Lock files, editor back-ups and SQLite journals: never data.
+/// The part a file plays in its dataset.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Member {
+    /// The primary file or a sidecar: data.
+    Data,
+    /// A SQLite write-ahead log (`x.gpkg-wal`): committed transactions not
+    /// yet copied into the database. Written only by commits; SQLite opens,
+    /// closes, creates and deletes it for every connection, readers too.
+    SqliteWal,
+    /// A SQLite rollback journal (`x.gpkg-journal`): a write transaction is
+    /// under way while it exists.
+    SqliteJournal,
+    /// Lock files, editor back-ups, temporaries and SQLite's shared-memory
+    /// index (`-shm`, touched by every reader): never data.
+    Ignored,
+}
+
+/// What `path` is to its dataset, from its name alone.
 #[expect(clippy::case_sensitive_file_extension_comparisons, reason = "the name is lower-cased first")]
-pub fn is_lock_or_temp(path: &Path) -> bool {
+pub fn member(path: &Path) -> Member {
     let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
-        return true;
+        return Member::Ignored;
     };
     let lower = name.to_lowercase();
-    lower.starts_with(".~lock.")
+    if lower.ends_with("-wal") {
+        Member::SqliteWal
+    } else if lower.ends_with("-journal") {
+        Member::SqliteJournal
+    } else if lower.starts_with(".~lock.")
         || lower.starts_with("~$")
         || lower.starts_with(".#")
         || lower.ends_with('~')
@@ -44,12 +65,26 @@ pub fn is_lock_or_temp(path: &Path) -> bool {
         || lower.ends_with(".lck")
         || lower.ends_with(".tmp")
         || lower.ends_with(".swp")
-        || lower.ends_with("-journal")
         || lower.ends_with("-shm")
+    {
+        Member::Ignored
+    } else {
+        Member::Data
+    }
+}
+
+/// True for a SQLite database (a GeoPackage, a SpatiaLite file...), by its
+/// header, whatever its name. Its writes are transactions: a reader through
+/// SQLite never sees one half done.
+pub fn is_sqlite(path: &Path) -> bool {
+    use std::io::Read;
+    let mut header = [0u8; 16];
+    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut header)).is_ok() && &header == b"SQLite format 3\0"
 }
 
 /// Every file in the dataset of `primary` that exists now (the primary
-/// first), lock and temporary files left out.
+/// first): data and a SQLite write-ahead log; locks, temporaries and
+/// journals left out.
 pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
     let mut files = vec![primary.to_path_buf()];
     let Some((dir, stem)) = dataset_key(primary) else {
@@ -61,7 +96,7 @@ pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
     let mut sidecars: Vec<PathBuf> = entries
         .flatten()
         .map(|e| e.path())
-        .filter(|p| p != primary && !is_lock_or_temp(p) && !is_repack_marker(p))
+        .filter(|p| p != primary && matches!(member(p), Member::Data | Member::SqliteWal) && !is_repack_marker(p))
         .filter(|p| dataset_key(p).is_some_and(|(_, s)| s == stem))
         .collect();
     sidecars.sort();
@@ -71,7 +106,9 @@ pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
 
 /// What a dataset's files looked like: names, sizes, modification times
 /// and inodes. A refresh compares it; a read that sees it change while
-/// reading is discarded (a writer was at work).
+/// reading is discarded (a writer was at work). An empty SQLite
+/// write-ahead log is left out: every connection, a reader's too, creates
+/// one and deletes it again, and it holds nothing.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Fingerprint(Vec<(PathBuf, u64, Option<std::time::SystemTime>, u64)>);
 
@@ -83,6 +120,7 @@ impl Fingerprint {
         let mut files = Vec::new();
         for (n, file) in dataset_files(primary).into_iter().enumerate() {
             match std::fs::metadata(&file) {
+                Ok(meta) if meta.len() == 0 && member(&file) == Member::SqliteWal => {}
                 Ok(meta) => files.push((file, meta.len(), meta.modified().ok(), meta.ino())),
                 // The primary must be there; a sidecar may vanish between listing and stat.
                 Err(source) if n == 0 => return Err(crate::SourceError::Io { what, path: file, source }),
@@ -111,13 +149,32 @@ mod tests {
 
     #[test]
     fn locks_and_temporaries_are_not_data() {
-        for p in
-            [".~lock.dem.tif#", "dem.tif~", "x.gpkg-journal", "x.gpkg-shm", "dem.tif.lock", "~$dem.tif", ".#dem.tif"]
-        {
-            assert!(is_lock_or_temp(Path::new(p)), "{p}");
+        for p in [".~lock.dem.tif#", "dem.tif~", "x.gpkg-shm", "dem.tif.lock", "~$dem.tif", ".#dem.tif"] {
+            assert_eq!(member(Path::new(p)), Member::Ignored, "{p}");
         }
-        for p in ["dem.tif", "dem.tif.aux.xml", "roads.dbf", "N43E007.hgt"] {
-            assert!(!is_lock_or_temp(Path::new(p)), "{p}");
+        for p in ["dem.tif", "dem.tif.aux.xml", "roads.dbf", "N43E007.hgt", "town.gpkg"] {
+            assert_eq!(member(Path::new(p)), Member::Data, "{p}");
         }
+        assert_eq!(member(Path::new("/d/Town.GPKG-wal")), Member::SqliteWal);
+        assert_eq!(member(Path::new("/d/town.gpkg-journal")), Member::SqliteJournal);
+        assert_eq!(dataset_key(Path::new("/d/town.gpkg-wal")), dataset_key(Path::new("/d/town.gpkg")));
+    }
+
+    #[test]
+    fn an_empty_write_ahead_log_is_not_part_of_the_fingerprint() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let db = dir.path().join("town.gpkg");
+        std::fs::write(&db, b"SQLite format 3\0 and the rest")?;
+        assert!(is_sqlite(&db));
+        assert!(!is_sqlite(&dir.path().join("absent.gpkg")));
+        let before = Fingerprint::of(&db, "test")?;
+        // A reader's connection makes an empty log and shared-memory index.
+        std::fs::write(dir.path().join("town.gpkg-wal"), b"")?;
+        std::fs::write(dir.path().join("town.gpkg-shm"), b"0123")?;
+        assert_eq!(Fingerprint::of(&db, "test")?, before);
+        // A commit writes frames into it.
+        std::fs::write(dir.path().join("town.gpkg-wal"), b"frames")?;
+        assert_ne!(Fingerprint::of(&db, "test")?, before);
+        Ok(())
     }
 }

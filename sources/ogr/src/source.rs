@@ -5,7 +5,7 @@ use std::path::Path;
 
 use gdal::spatial_ref::SpatialRef;
 use gdal::vector::LayerAccess;
-use gdal::{Dataset, DatasetOptions, GdalOpenFlags};
+use gdal::{Dataset, DatasetCapability, DatasetOptions, GdalOpenFlags};
 use relief_source::{SourceError, SourceSpec, VectorFormat, VectorRead, VectorSource};
 
 use crate::read::read_layer;
@@ -34,7 +34,12 @@ fn gdal_message(e: gdal::errors::GdalError, path: &Path) -> String {
     message.trim().trim_end_matches('.').to_owned()
 }
 
-fn open(path: &Path) -> Result<Dataset, SourceError> {
+/// " layer 'name'" when the manifest names one: errors say which layer.
+fn which(layer: Option<&str>) -> String {
+    layer.map(|l| format!(" (layer '{l}')")).unwrap_or_default()
+}
+
+fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
     let options = DatasetOptions {
         open_flags: GdalOpenFlags::GDAL_OF_VECTOR
             | GdalOpenFlags::GDAL_OF_READONLY
@@ -42,8 +47,29 @@ fn open(path: &Path) -> Result<Dataset, SourceError> {
         ..DatasetOptions::default()
     };
     Dataset::open_ex(path, options).map_err(|e| {
-        SourceError::format(format!("not a vector dataset GDAL can read: {}", gdal_message(e, path)), path)
+        let message = gdal_message(e, path);
+        if is_locked(&message) {
+            locked(path, layer)
+        } else {
+            SourceError::format(format!("not a vector dataset GDAL can read{}: {message}", which(layer)), path)
+        }
     })
+}
+
+/// SQLite's words for a database another connection holds locked.
+fn is_locked(message: &str) -> bool {
+    message.contains("database is locked") || message.contains("database is busy")
+}
+
+fn locked(path: &Path, layer: Option<&str>) -> SourceError {
+    SourceError::Locked {
+        message: format!(
+            "the database is locked by another program (a write under way){}; the last good version stays and \
+             it is read again when the lock is gone",
+            which(layer)
+        ),
+        path: path.to_path_buf(),
+    }
 }
 
 /// A short human name for a CRS: "EPSG:4326 (WGS 84)".
@@ -62,71 +88,95 @@ impl VectorFormat for Ogr {
         spec.only_options(&["layer", "crs"])?;
         let wanted = spec.text("layer")?;
         let crs_option = spec.text("crs")?;
-        let ds = open(path)?;
-        let driver = ds.driver().short_name();
-        let names: Vec<String> = ds.layers().map(|l| l.name()).collect();
-        let mut layer = match (wanted, names.as_slice()) {
-            (_, []) => return Err(SourceError::format("the dataset has no layers", path)),
-            (Some(name), _) => ds
-                .layer_by_name(name)
-                .map_err(|_| SourceError::format(format!("no layer '{name}' (layers: {})", names.join(", ")), path))?,
-            (None, [_]) => ds.layer(0).map_err(|e| SourceError::format(gdal_message(e, path), path))?,
-            (None, _) => {
-                return Err(SourceError::format(
-                    format!(
-                        "the dataset has {} layers ({}): choose one with option 'layer'",
-                        names.len(),
-                        names.join(", ")
-                    ),
-                    path,
-                ));
-            }
-        };
-        let stable_fids = STABLE_FID_DRIVERS.contains(&driver.as_str());
-        let read = read_layer(&mut layer, stable_fids, path)?;
-
-        let layer_srs = layer.spatial_ref();
-        let (crs, crs_name, crs_note) = match (crs_option, &layer_srs) {
-            (Some(c), _) => {
-                let name =
-                    SpatialRef::from_definition(c).map_or_else(|_| c.chars().take(80).collect(), |s| describe(&s));
-                (c.to_owned(), name, "from the manifest".to_owned())
-            }
-            (None, Some(srs)) => {
-                let wkt = srs.to_wkt().map_err(|e| SourceError::Crs {
-                    crs: describe(srs),
-                    message: format!("cannot write the layer's CRS as WKT: {}", gdal_message(e, path)),
-                    path: Some(path.to_path_buf()),
-                })?;
-                (wkt, describe(srs), "from the layer".to_owned())
-            }
-            (None, None) => (
-                "EPSG:4326".to_owned(),
-                "EPSG:4326 (WGS 84, assumed)".to_owned(),
-                "the layer has no CRS: WGS84 longitude/latitude assumed".to_owned(),
-            ),
-        };
-
-        let mut details = BTreeMap::new();
-        details.insert("driver".into(), driver);
-        details.insert("layer".into(), layer.name());
-        details.insert("layers".into(), names.join(", "));
-        details.insert("features".into(), read.features.len().to_string());
-        details.insert("null_geometries".into(), read.null_geometries.to_string());
-        for (reason, count) in &read.skipped {
-            details.insert(format!("skipped.{reason}"), count.to_string());
+        let mut ds = open(path, wanted)?;
+        if ds.has_capability(DatasetCapability::TRANSACTIONS) {
+            // A database (GeoPackage, SQLite): everything below in one read
+            // transaction, so it is one committed state whatever commits
+            // meanwhile. Nothing is written; dropping it rolls nothing back.
+            let snapshot = ds.start_transaction().map_err(|e| {
+                let message = gdal_message(e, path);
+                if is_locked(&message) {
+                    locked(path, wanted)
+                } else {
+                    SourceError::format(format!("cannot start a read transaction{}: {message}", which(wanted)), path)
+                }
+            })?;
+            read_dataset(&snapshot, wanted, crs_option, path)
+        } else {
+            read_dataset(&ds, wanted, crs_option, path)
         }
-        details.insert("fields".into(), read.fields.join(", "));
-        details.insert("ids".into(), if stable_fids { "OGR FIDs" } else { "read order" }.into());
-        details.insert("crs_source".into(), crs_note);
-        Ok(VectorRead {
-            features: read.features,
-            crs,
-            crs_name,
-            crs_file: Some(path.to_path_buf()),
-            files: relief_source::files::dataset_files(path),
-            vertical_datum: String::new(),
-            details,
-        })
     }
+}
+
+/// The chosen layer of an open dataset, read whole.
+fn read_dataset(
+    ds: &Dataset,
+    wanted: Option<&str>,
+    crs_option: Option<&str>,
+    path: &Path,
+) -> Result<VectorRead, SourceError> {
+    let driver = ds.driver().short_name();
+    let names: Vec<String> = ds.layers().map(|l| l.name()).collect();
+    let mut layer = match (wanted, names.as_slice()) {
+        (_, []) => return Err(SourceError::format("the dataset has no layers", path)),
+        (Some(name), _) => ds
+            .layer_by_name(name)
+            .map_err(|_| SourceError::format(format!("no layer '{name}' (layers: {})", names.join(", ")), path))?,
+        (None, [_]) => ds.layer(0).map_err(|e| SourceError::format(gdal_message(e, path), path))?,
+        (None, _) => {
+            return Err(SourceError::format(
+                format!(
+                    "the dataset has {} layers ({}): choose one with option 'layer'",
+                    names.len(),
+                    names.join(", ")
+                ),
+                path,
+            ));
+        }
+    };
+    let stable_fids = STABLE_FID_DRIVERS.contains(&driver.as_str());
+    let read = read_layer(&mut layer, stable_fids, path)?;
+
+    let layer_srs = layer.spatial_ref();
+    let (crs, crs_name, crs_note) = match (crs_option, &layer_srs) {
+        (Some(c), _) => {
+            let name = SpatialRef::from_definition(c).map_or_else(|_| c.chars().take(80).collect(), |s| describe(&s));
+            (c.to_owned(), name, "from the manifest".to_owned())
+        }
+        (None, Some(srs)) => {
+            let wkt = srs.to_wkt().map_err(|e| SourceError::Crs {
+                crs: describe(srs),
+                message: format!("cannot write the layer's CRS as WKT: {}", gdal_message(e, path)),
+                path: Some(path.to_path_buf()),
+            })?;
+            (wkt, describe(srs), "from the layer".to_owned())
+        }
+        (None, None) => (
+            "EPSG:4326".to_owned(),
+            "EPSG:4326 (WGS 84, assumed)".to_owned(),
+            "the layer has no CRS: WGS84 longitude/latitude assumed".to_owned(),
+        ),
+    };
+
+    let mut details = BTreeMap::new();
+    details.insert("driver".into(), driver);
+    details.insert("layer".into(), layer.name());
+    details.insert("layers".into(), names.join(", "));
+    details.insert("features".into(), read.features.len().to_string());
+    details.insert("null_geometries".into(), read.null_geometries.to_string());
+    for (reason, count) in &read.skipped {
+        details.insert(format!("skipped.{reason}"), count.to_string());
+    }
+    details.insert("fields".into(), read.fields.join(", "));
+    details.insert("ids".into(), if stable_fids { "OGR FIDs" } else { "read order" }.into());
+    details.insert("crs_source".into(), crs_note);
+    Ok(VectorRead {
+        features: read.features,
+        crs,
+        crs_name,
+        crs_file: Some(path.to_path_buf()),
+        files: relief_source::files::dataset_files(path),
+        vertical_datum: String::new(),
+        details,
+    })
 }

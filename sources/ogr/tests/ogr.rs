@@ -332,7 +332,7 @@ fn bad_input_errors_name_the_file_and_the_problem() {
     // that spared what the open reads ends the layer early instead.
     let message = e.to_string();
     assert!(message.contains("malformed") || message.contains("truncated or corrupt"), "{message}");
-    assert_error(&e, &truncated, "");
+    assert_error(&e, &truncated, "'parcels'");
 
     let not_json = dir.path().join("broken.geojson");
     std::fs::write(&not_json, "{\"type\": \"FeatureCollection\", \"features\": [ {\"type\": ").expect("written");
@@ -385,4 +385,36 @@ fn refresh_dirties_only_the_edited_feature() {
     for key in untouched {
         assert!(!dirty.touches_tile(&grid, key), "{key:?} holds no edited feature");
     }
+}
+
+/// Holds an exclusive SQLite lock on `path` (Python's sqlite3, as a script
+/// in the middle of a write would) until the returned child is ended.
+fn hold_exclusive_lock(path: &Path) -> std::process::Child {
+    use std::io::BufRead;
+    let script = "import sqlite3, sys\nc = sqlite3.connect(sys.argv[1], isolation_level=None)\n\
+                  c.execute('BEGIN EXCLUSIVE')\nprint('locked', flush=True)\nsys.stdin.read()\n";
+    let mut child = std::process::Command::new("python3")
+        .args(["-c", script])
+        .arg(path)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("python3 runs");
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.as_mut().expect("stdout")).read_line(&mut line).expect("a line");
+    assert_eq!(line.trim(), "locked");
+    child
+}
+
+#[test]
+fn a_locked_database_is_named_and_read_again_later() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = three_layer_gpkg(dir.path());
+    let mut lock = hold_exclusive_lock(&path);
+    let e = read(&path, &[("layer", "parcels")]).expect_err("locked");
+    drop(lock.stdin.take());
+    lock.wait().expect("the lock is let go");
+    assert_error(&e, &path, "the database is locked by another program (a write under way) (layer 'parcels')");
+    assert!(e.retry_later() && !e.is_transient(), "shown, and tried again");
+    assert_eq!(read(&path, &[("layer", "parcels")]).expect("free again").features.len(), parcels().features.len());
 }

@@ -10,76 +10,47 @@
 //!   failed; errors from this read are shown on the source;
 //! - after `write_timeout_ms` when a file was written but never closed.
 //!
+//! A SQLite database (a GeoPackage) is watched with its write-ahead log and
+//! rollback journal. Its writes are transactions, so a reader through SQLite
+//! never sees one torn; but one QGIS commit is several transactions
+//! (geometries, attributes, deletes, adds) and must be read whole. The
+//! boundary: QGIS leaves edit mode after the last one, copying the log into
+//! the database (a checkpoint) and closing the database after writing it.
+//! So a close-after-write of the database file itself is the closing
+//! event; a write to the log or journal (a transaction committed) waits for
+//! the quiet period instead, as does any database write without that close
+//! (a script's connection kept open, "Save Layer Edits" that stays in edit
+//! mode). No fast read while a journal exists (a transaction under way).
+//! Opening, closing, creating or deleting the log, and the `-shm` index,
+//! are every connection's doing, relief's own reads included: not changes.
+//!
 //! Every read re-stats the files afterwards and is discarded if they
 //! changed meanwhile, so a slow writer is never half read. Events that do
 //! not fit the bounded queue are dropped for a full rescan.
 
 use std::collections::{BTreeSet, HashMap};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use notify::event::{AccessKind, AccessMode, EventKind, ModifyKind, RenameMode};
 use notify::{RecommendedWatcher, RecursiveMode, Watcher};
-use relief_source::files::{dataset_key, is_lock_or_temp, is_repack_marker};
+use relief_source::files::dataset_key;
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 
 use crate::manifest::WatchSettings;
 use crate::scene::Scene;
 
+mod saves;
+
+use saves::{Busy, Change, Pending, Ready, busy, change, readiness};
+
 /// What a group of files belongs to.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, PartialOrd, Ord)]
 enum Target {
     Source(String),
     Manifest,
-}
-
-/// Where a dataset's save stands.
-#[derive(Debug, Clone, Copy)]
-struct Pending {
-    last_event: Instant,
-    /// Written to since its last close: a writer is at work.
-    writing: bool,
-    /// A fast read was tried and failed: wait for the quiet period.
-    fast_failed: bool,
-    /// Earliest next attempt after a discarded read (backoff).
-    not_before: Option<Instant>,
-    backoff: Duration,
-}
-
-impl Pending {
-    fn new(now: Instant) -> Self {
-        Self {
-            last_event: now,
-            writing: false,
-            fast_failed: false,
-            not_before: None,
-            backoff: Duration::from_millis(250),
-        }
-    }
-}
-
-/// The read a pending dataset is ready for, if any.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Ready {
-    Fast,
-    Quiet,
-}
-
-fn readiness(p: &Pending, now: Instant, s: &WatchSettings, repacking: bool) -> Option<Ready> {
-    if p.not_before.is_some_and(|t| now < t) {
-        return None;
-    }
-    let quiet = now.duration_since(p.last_event);
-    if p.writing {
-        return (quiet >= Duration::from_millis(s.write_timeout_ms.max(s.debounce_ms))).then_some(Ready::Quiet);
-    }
-    if quiet >= Duration::from_millis(s.debounce_ms) && !repacking {
-        return Some(Ready::Quiet);
-    }
-    (s.fast_path && !p.fast_failed && !repacking && quiet >= Duration::from_millis(s.settle_ms)).then_some(Ready::Fast)
 }
 
 /// Which datasets (and the manifest) the scene reads, by folder and stem.
@@ -103,15 +74,6 @@ fn interests(scene: &Scene) -> HashMap<(PathBuf, String), BTreeSet<Target>> {
         map.entry(key).or_default().insert(Target::Manifest);
     }
     map
-}
-
-fn is_repacking(dir: &Path, stem: &str) -> bool {
-    std::fs::read_dir(dir).is_ok_and(|entries| {
-        entries.flatten().any(|e| {
-            let p = e.path();
-            is_repack_marker(&p) && dataset_key(&p).is_some_and(|(_, s)| s == stem)
-        })
-    })
 }
 
 /// Folders under watch, and the events from them. Made before reliefd says
@@ -199,14 +161,15 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         let mut quiet = Vec::new();
         let mut manifest = false;
         for (target, p) in &pending {
-            let repacking = match target {
-                Target::Source(id) => {
-                    groups.iter().any(|((dir, stem), t)| t.contains(target) && is_repacking(dir, stem))
-                        && !id.is_empty()
-                }
-                Target::Manifest => false,
+            let busy = match target {
+                Target::Source(_) => groups
+                    .iter()
+                    .filter(|(_, t)| t.contains(target))
+                    .map(|((dir, stem), _)| busy(dir, stem))
+                    .fold(Busy::default(), Busy::or),
+                Target::Manifest => Busy::default(),
             };
-            match (target, readiness(p, now, &settings, repacking)) {
+            match (target, readiness(p, now, &settings, busy)) {
                 (Target::Manifest, Some(_)) => manifest = true,
                 (Target::Source(id), Some(Ready::Fast)) => fast.push(id.clone()),
                 (Target::Source(id), Some(Ready::Quiet)) => quiet.push(id.clone()),
@@ -260,35 +223,19 @@ fn note(
     pending: &mut HashMap<Target, Pending>,
 ) {
     let now = Instant::now();
-    // Reads (ours included) change nothing.
-    let (writing, closing) = match event.kind {
-        EventKind::Access(AccessKind::Close(AccessMode::Write))
-        | EventKind::Modify(ModifyKind::Name(RenameMode::To | RenameMode::Both)) => (false, true),
-        EventKind::Access(_) => return,
-        EventKind::Modify(ModifyKind::Data(_) | ModifyKind::Any) | EventKind::Create(_) => (true, false),
-        EventKind::Remove(_) | EventKind::Modify(_) | EventKind::Any | EventKind::Other => (false, false),
-    };
     for path in &event.paths {
-        if is_lock_or_temp(path) {
-            continue;
-        }
         let Some(key) = dataset_key(path) else {
             continue;
         };
         let Some(targets) = groups.get(&key) else {
             continue;
         };
+        let change = change(event.kind, path);
+        if change == Change::None {
+            continue;
+        }
         for target in targets {
-            let p = pending.entry(target.clone()).or_insert_with(|| Pending::new(now));
-            p.last_event = now;
-            p.fast_failed = false;
-            p.not_before = None;
-            p.backoff = Duration::from_millis(250);
-            if writing {
-                p.writing = true;
-            } else if closing {
-                p.writing = false;
-            }
+            pending.entry(target.clone()).or_insert_with(|| Pending::new(now)).note(change, now);
         }
     }
 }
@@ -311,29 +258,4 @@ fn update_watches(
         }
     }
     *watched = wanted;
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn saves_are_read_fast_only_when_closed() {
-        let s = WatchSettings::default();
-        let t0 = Instant::now();
-        let closed = Pending::new(t0);
-        assert_eq!(readiness(&closed, t0, &s, false), None, "settle first");
-        assert_eq!(readiness(&closed, t0 + Duration::from_millis(6), &s, false), Some(Ready::Fast));
-        assert_eq!(readiness(&closed, t0 + Duration::from_millis(6), &s, true), None, "repack under way");
-        assert_eq!(readiness(&closed, t0 + Duration::from_millis(600), &s, false), Some(Ready::Quiet));
-        let writing = Pending { writing: true, ..closed };
-        assert_eq!(readiness(&writing, t0 + Duration::from_millis(600), &s, false), None, "still open for writing");
-        assert_eq!(readiness(&writing, t0 + Duration::from_millis(2100), &s, false), Some(Ready::Quiet));
-        let failed = Pending { fast_failed: true, ..closed };
-        assert_eq!(readiness(&failed, t0 + Duration::from_millis(100), &s, false), None);
-        let slow = WatchSettings { fast_path: false, ..s };
-        assert_eq!(readiness(&closed, t0 + Duration::from_millis(100), &slow, false), None);
-        let backing_off = Pending { not_before: Some(t0 + Duration::from_secs(1)), ..closed };
-        assert_eq!(readiness(&backing_off, t0 + Duration::from_millis(600), &s, false), None);
-    }
 }
