@@ -122,3 +122,20 @@ pub async fn height_at(channel: Channel, lon: f64, lat: f64) -> anyhow::Result<O
         .samples[0]
         .height_m)
 }
+
+/// Polls GetState until source `id` has `status`, up to 20 s; the state then.
+pub async fn wait_for_status(
+    scene: &mut SceneServiceClient<Channel>,
+    id: &str,
+    status: pb::SourceStatus,
+) -> anyhow::Result<pb::SceneState> {
+    let deadline = std::time::Instant::now() + Duration::from_secs(20);
+    loop {
+        let state = scene.get_state(pb::GetStateRequest {}).await?.into_inner();
+        if state.sources.iter().any(|s| s.id == id && s.status == status as i32) {
+            return Ok(state);
+        }
+        anyhow::ensure!(std::time::Instant::now() < deadline, "source '{id}' never became {status:?}: {state:#?}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}

@@ -6,6 +6,7 @@ pub mod browser;
 pub mod daemon;
 pub mod edit;
 pub mod http;
+pub mod qgis;
 pub mod reference;
 pub mod scenes;
 pub mod tiles;

@@ -49,3 +49,44 @@ pub fn camera(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> pb::Cam
         vertical_fov_deg: 50.0,
     }
 }
+
+/// The parcels a town GeoPackage holds: 30 squares 0.02 degrees wide in
+/// 5 columns and 6 rows over the hill, each with a `name` and a `height`.
+pub fn town_parcels() -> String {
+    let squares: Vec<(String, f64, f64, f64)> = (0..30)
+        .map(|k| {
+            let (col, row) = (f64::from(k % 5), f64::from(k / 5));
+            (
+                format!(r#"{{"name": "p{k}", "height": {}}}"#, 1.5 * f64::from(k)),
+                10.05 + 0.08 * col,
+                45.03 + 0.07 * row,
+                0.02,
+            )
+        })
+        .collect();
+    let borrowed: Vec<(&str, f64, f64, f64)> = squares.iter().map(|(p, w, s, d)| (p.as_str(), *w, *s, *d)).collect();
+    crate::vectors::squares(&borrowed)
+}
+
+/// The roads of the town GeoPackage: three lines.
+pub const TOWN_ROADS: &str = r#"{"type": "FeatureCollection", "features": [
+{"type": "Feature", "properties": {"ref": "A1"}, "geometry": {"type": "LineString", "coordinates": [[10.0, 45.0], [10.5, 45.5]]}},
+{"type": "Feature", "properties": {"ref": "B2"}, "geometry": {"type": "LineString", "coordinates": [[10.1, 45.4], [10.4, 45.1]]}},
+{"type": "Feature", "properties": {"ref": "C3"}, "geometry": {"type": "LineString", "coordinates": [[10.2, 45.0], [10.2, 45.5]]}}]}"#;
+
+/// A town scene over the hill: `town.gpkg` with layers `parcels` and
+/// `roads`, each an `ogr` source of the same name, the parcels drawn
+/// (`drawn`, rasterize) as the colour layer. The manifest and the
+/// GeoPackage; `watch` is a `[watch]` fragment (or empty).
+pub fn town(dir: &Path, watch: &str) -> anyhow::Result<(PathBuf, PathBuf)> {
+    fixtures::write_dem(&dir.join("hill.tif"), &fixtures::hill_spec(), fixtures::hill)?;
+    let gpkg =
+        crate::vectors::geopackage(&dir.join("town.gpkg"), &[("parcels", &town_parcels()), ("roads", TOWN_ROADS)])?;
+    let manifest = fixtures::write_manifest(
+        dir,
+        &format!(
+            "[scene]\nname = \"town\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[[source]]\nid = \"parcels\"\nkind = \"ogr\"\npath = \"town.gpkg\"\nlayer = \"parcels\"\n\n[[source]]\nid = \"roads\"\nkind = \"ogr\"\npath = \"town.gpkg\"\nlayer = \"roads\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"parcels\"]\n\n[layers]\nheight = \"dem\"\ncolor = \"drawn\"\n{watch}"
+        ),
+    )?;
+    Ok((manifest, gpkg))
+}

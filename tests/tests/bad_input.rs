@@ -4,12 +4,12 @@
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
 use std::path::Path;
-use std::time::{Duration, Instant};
 
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_tests::daemon::{Reliefd, check};
+use relief_tests::edit::wait_for_status;
 use relief_tests::fixtures;
 
 fn hill(dir: &Path) -> std::path::PathBuf {
@@ -172,22 +172,6 @@ fn keep_going_serves_what_loaded_and_shows_what_failed() {
     daemon.stop(&["gone.tif"]).unwrap();
 }
 
-async fn wait_for_status(
-    scene: &mut SceneServiceClient<tonic::transport::Channel>,
-    id: &str,
-    status: pb::SourceStatus,
-) -> pb::SceneState {
-    let deadline = Instant::now() + Duration::from_secs(20);
-    loop {
-        let state = scene.get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
-        if state.sources.iter().any(|s| s.id == id && s.status == status as i32) {
-            return state;
-        }
-        assert!(Instant::now() < deadline, "source '{id}' never became {status:?}: {state:#?}");
-        tokio::time::sleep(Duration::from_millis(50)).await;
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -203,7 +187,7 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
 
     for (what, bytes) in [("garbage", b"not a raster".to_vec()), ("truncated", good[..good.len() / 3].to_vec())] {
         std::fs::write(&file, &bytes).unwrap();
-        let state = wait_for_status(&mut scene, "dem", pb::SourceStatus::Error).await;
+        let state = wait_for_status(&mut scene, "dem", pb::SourceStatus::Error).await.unwrap();
         let dem = state.sources.iter().find(|s| s.id == "dem").unwrap();
         assert!(
             dem.error.contains("source 'dem'") && dem.error.contains(file.to_str().unwrap()),
@@ -227,9 +211,9 @@ async fn a_file_that_turns_bad_keeps_the_last_good_tiles_and_shows_the_error() {
 
     // Deleted, then restored with new heights: the error clears and the new data shows.
     std::fs::remove_file(&file).unwrap();
-    wait_for_status(&mut scene, "dem", pb::SourceStatus::Error).await;
+    wait_for_status(&mut scene, "dem", pb::SourceStatus::Error).await.unwrap();
     fixtures::write_dem(&file, &fixtures::hill_spec(), |lon, lat| fixtures::hill(lon, lat) + 10.0).unwrap();
-    let state = wait_for_status(&mut scene, "dem", pb::SourceStatus::Ready).await;
+    let state = wait_for_status(&mut scene, "dem", pb::SourceStatus::Ready).await.unwrap();
     assert!(state.generation > 1);
     let after = tiles.get_tile(get()).await.unwrap().into_inner();
     assert_ne!(after.content_hash, before.content_hash);

@@ -1,47 +1,19 @@
 //! GeoPackage against a real reliefd: two sources on two layers of one
-//! `.gpkg` (an edit to one layer's features changes only its source), and a
+//! `.gpkg` (an edit to one layer's features changes only its source); a
 //! raster GeoPackage (tiled gridded coverage) served by the `gdal` kind
-//! with the heights it was written with.
+//! with the heights it was written with; and bad input (a truncated file,
+//! a locked database, a layer gone, a GeoJSON that is not JSON) named with
+//! file, source and layer while the last good state is served.
 
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
-use std::path::Path;
-
-use gdal::vector::{FieldDefn, Geometry, LayerAccess, LayerOptions, OGRFieldType, OGRwkbGeometryType};
+use gdal::vector::LayerAccess;
 use gdal::{Dataset, DatasetOptions, DriverManager, GdalOpenFlags};
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_tests::daemon::Reliefd;
-use relief_tests::edit::{height_at, wait_for};
-use relief_tests::fixtures;
-
-/// Writes `town.gpkg` with layers `parcels` (two squares) and `wells` (two
-/// points), each feature with a `name`.
-fn write_town(path: &Path) {
-    let driver = DriverManager::get_driver_by_name("GPKG").unwrap();
-    let mut ds = driver.create_vector_only(path).unwrap();
-    let srs = gdal::spatial_ref::SpatialRef::from_epsg(4326).unwrap();
-    for (layer_name, ty, wkts) in [
-        (
-            "parcels",
-            OGRwkbGeometryType::wkbPolygon,
-            [
-                "POLYGON((10.2 45.2,10.21 45.2,10.21 45.21,10.2 45.21,10.2 45.2))",
-                "POLYGON((10.3 45.3,10.31 45.3,10.31 45.31,10.3 45.31,10.3 45.3))",
-            ],
-        ),
-        ("wells", OGRwkbGeometryType::wkbPoint, ["POINT(10.25 45.25)", "POINT(10.35 45.15)"]),
-    ] {
-        let layer = ds.create_layer(LayerOptions { name: layer_name, srs: Some(&srs), ty, options: None }).unwrap();
-        FieldDefn::new("name", OGRFieldType::OFTString).unwrap().add_to_layer(&layer).unwrap();
-        for (k, wkt) in wkts.iter().enumerate() {
-            let mut feature = gdal::vector::Feature::new(layer.defn()).unwrap();
-            feature.set_geometry(Geometry::from_wkt(wkt).unwrap()).unwrap();
-            feature.set_field_string(0, &format!("{layer_name}-{k}")).unwrap();
-            feature.create(&layer).unwrap();
-        }
-    }
-}
+use relief_tests::edit::{height_at, wait_for, wait_for_status};
+use relief_tests::{fixtures, scenes};
 
 fn source_version(state: &pb::SceneState, id: &str) -> u64 {
     state.sources.iter().find(|s| s.id == id).unwrap().version
@@ -50,36 +22,29 @@ fn source_version(state: &pb::SceneState, id: &str) -> u64 {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_edit_to_one_layer_changes_only_the_sources_of_that_layer() {
     let dir = tempfile::tempdir().unwrap();
-    fixtures::write_dem(&dir.path().join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).unwrap();
-    let gpkg = dir.path().join("town.gpkg");
-    write_town(&gpkg);
-    let manifest = fixtures::write_manifest(
-        dir.path(),
-        "[scene]\nname = \"town\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[[source]]\nid = \"parcels\"\nkind = \"ogr\"\npath = \"town.gpkg\"\nlayer = \"parcels\"\n\n[[source]]\nid = \"wells\"\nkind = \"ogr\"\npath = \"town.gpkg\"\nlayer = \"wells\"\n\n[layers]\nheight = \"dem\"\n",
-    )
-    .unwrap();
+    let (manifest, gpkg) = scenes::town(dir.path(), "").unwrap();
     let daemon = Reliefd::start(&manifest, &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
     let before = SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
-    let details = &before.sources.iter().find(|s| s.id == "wells").unwrap().details;
-    assert_eq!(details["features"], "2", "{details:?}");
+    let details = &before.sources.iter().find(|s| s.id == "roads").unwrap().details;
+    assert_eq!(details["features"], "3", "{details:?}");
     assert_eq!(details["driver"], "GPKG");
 
-    // A well renamed through GDAL in update mode, as a script would.
+    // A road renamed through GDAL in update mode, as a script would.
     {
         let options = DatasetOptions {
             open_flags: GdalOpenFlags::GDAL_OF_UPDATE | GdalOpenFlags::GDAL_OF_VECTOR,
             ..DatasetOptions::default()
         };
         let ds = Dataset::open_ex(&gpkg, options).unwrap();
-        let layer = ds.layer_by_name("wells").unwrap();
+        let layer = ds.layer_by_name("roads").unwrap();
         let mut feature = layer.feature(1).unwrap();
         feature.set_field_string(0, "renamed").unwrap();
         layer.set_feature(feature).unwrap();
         ds.close().unwrap();
     }
     let after = wait_for(channel.clone(), before.generation + 1).await.unwrap();
-    assert!(source_version(&after, "wells") > source_version(&before, "wells"), "the edited layer's source is new");
+    assert!(source_version(&after, "roads") > source_version(&before, "roads"), "the edited layer's source is new");
     assert_eq!(source_version(&after, "parcels"), source_version(&before, "parcels"), "the other layer's is not");
     daemon.stop(&[]).unwrap();
 }
@@ -112,4 +77,102 @@ async fn a_raster_geopackage_is_served_by_the_gdal_kind() {
         assert!((h - fixtures::hill(lon, lat)).abs() < 1.0, "({lon}, {lat}): {h} vs {}", fixtures::hill(lon, lat));
     }
     daemon.stop(&[]).unwrap();
+}
+
+/// The number of parcels reliefd serves now, and the `parcels` source's
+/// error (empty when none).
+async fn parcels_now(channel: &tonic::transport::Channel) -> (usize, String) {
+    let state = SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
+    let tile = relief_tests::tiles::get(channel.clone(), "parcels", (0, 1, 0)).await.unwrap();
+    let served = relief_tests::tiles::geojson(&tile)["features"].as_array().unwrap().len();
+    (served, state.sources.iter().find(|s| s.id == "parcels").unwrap().error.clone())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn bad_geopackages_are_named_with_file_source_and_layer_and_the_last_good_state_stays() {
+    let dir = tempfile::tempdir().unwrap();
+    let (manifest, gpkg) = scenes::town(dir.path(), "").unwrap();
+    // A GeoJSON source beside the GeoPackage's two.
+    let survey = dir.path().join("survey.geojson");
+    std::fs::write(&survey, relief_tests::vectors::squares(&[(r#"{"name": "s"}"#, 10.3, 45.3, 0.01)])).unwrap();
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    std::fs::write(
+        &manifest,
+        text.replace("[layers]", "[[source]]\nid = \"survey\"\nkind = \"ogr\"\npath = \"survey.geojson\"\n\n[layers]"),
+    )
+    .unwrap();
+    let mut daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let mut scene = SceneServiceClient::new(channel.clone());
+    assert_eq!(parcels_now(&channel).await, (30, String::new()));
+    let named = |error: &str, what: &str, words: &[&str]| {
+        for w in [gpkg.to_str().unwrap(), "source 'parcels'", "'parcels'"].iter().chain(words) {
+            assert!(error.contains(w), "{what}: '{error}' should say '{w}'");
+        }
+        assert!(!error.contains("NullPointer") && !error.contains("{ "), "{what}: no Debug output: {error}");
+    };
+
+    // Truncated in place: named, the 30 parcels still served; restored, well again.
+    let good = std::fs::read(&gpkg).unwrap();
+    std::fs::write(&gpkg, &good[..good.len() / 2]).unwrap();
+    wait_for_status(&mut scene, "parcels", pb::SourceStatus::Error).await.unwrap();
+    let (served, error) = parcels_now(&channel).await;
+    named(&error, "truncated", &[]);
+    assert_eq!(served, 30, "truncated: the last good parcels");
+    std::fs::write(&gpkg, &good).unwrap();
+    wait_for_status(&mut scene, "parcels", pb::SourceStatus::Ready).await.unwrap();
+
+    // The layer renamed away (DB Manager, ogrinfo -sql): the layers there are listed.
+    let rename = |from: &str, to: &str| {
+        let out = std::process::Command::new("ogrinfo")
+            .arg(&gpkg)
+            .args(["-q", "-sql", &format!("ALTER TABLE {from} RENAME TO {to}")])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    };
+    rename("parcels", "lots");
+    wait_for_status(&mut scene, "parcels", pb::SourceStatus::Error).await.unwrap();
+    let (served, error) = parcels_now(&channel).await;
+    named(&error, "renamed", &["no layer 'parcels'", "lots", "roads"]);
+    assert_eq!(served, 30, "renamed: the last good parcels");
+    rename("lots", "parcels");
+    wait_for_status(&mut scene, "parcels", pb::SourceStatus::Ready).await.unwrap();
+
+    // Locked: a script deletes a parcel, commits, and at once holds the
+    // database in an exclusive transaction. Shown while it lasts, then the
+    // commit is read.
+    let script = "import sqlite3, sys\nc = sqlite3.connect(sys.argv[1], isolation_level=None)\n\
+                  c.execute('DELETE FROM parcels WHERE fid = 7')\nc.execute('BEGIN EXCLUSIVE')\n\
+                  print('locked', flush=True)\nsys.stdin.read()\nc.execute('ROLLBACK')\nc.close()\n";
+    let mut lock = std::process::Command::new("python3")
+        .args(["-c", script])
+        .arg(&gpkg)
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufRead::read_line(&mut std::io::BufReader::new(lock.stdout.as_mut().unwrap()), &mut line).unwrap();
+    assert_eq!(line.trim(), "locked");
+    wait_for_status(&mut scene, "parcels", pb::SourceStatus::Error).await.unwrap();
+    let (served, error) = parcels_now(&channel).await;
+    named(&error, "locked", &["locked by another program"]);
+    assert_eq!(served, 30, "locked: the last good parcels");
+    drop(lock.stdin.take());
+    assert!(lock.wait().unwrap().success());
+    wait_for_status(&mut scene, "parcels", pb::SourceStatus::Ready).await.unwrap();
+    assert_eq!(parcels_now(&channel).await, (29, String::new()), "the delete, once the lock is gone");
+
+    // A GeoJSON that is not JSON.
+    std::fs::write(&survey, "{\"type\": \"FeatureCollection\", \"features\": [").unwrap();
+    let state = wait_for_status(&mut scene, "survey", pb::SourceStatus::Error).await.unwrap();
+    let error = &state.sources.iter().find(|s| s.id == "survey").unwrap().error;
+    for w in ["source 'survey'", survey.to_str().unwrap(), "not a vector dataset GDAL can read"] {
+        assert!(error.contains(w), "not JSON: '{error}' should say '{w}'");
+    }
+    let tile = relief_tests::tiles::get(channel.clone(), "survey", (0, 1, 0)).await.unwrap();
+    assert_eq!(relief_tests::tiles::geojson(&tile)["features"].as_array().unwrap().len(), 1, "the last good survey");
+    assert!(daemon.is_running());
+    daemon.stop(&["keeping the last good version"]).unwrap();
 }
