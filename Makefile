@@ -25,4 +25,5 @@ bench: setup
 	cargo bench -p relief-daemon --bench render
 	cargo bench -p relief-daemon --bench instances
 	cargo bench -p relief-daemon --bench frames
+	cargo bench -p relief-daemon --bench geopackage
 	bash clients/qgis/scripts/bench.sh

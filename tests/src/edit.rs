@@ -139,3 +139,8 @@ pub async fn wait_for_status(
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
 }
+
+/// The version of source `id` in `state` (0 when there is no such source).
+pub fn version(state: &pb::SceneState, id: &str) -> u64 {
+    state.sources.iter().find(|s| s.id == id).map_or(0, |s| s.version)
+}

@@ -12,12 +12,8 @@ use gdal::{Dataset, DatasetOptions, DriverManager, GdalOpenFlags};
 use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_tests::daemon::Reliefd;
-use relief_tests::edit::{height_at, wait_for, wait_for_status};
+use relief_tests::edit::{self, height_at, wait_for, wait_for_status};
 use relief_tests::{fixtures, scenes};
-
-fn source_version(state: &pb::SceneState, id: &str) -> u64 {
-    state.sources.iter().find(|s| s.id == id).unwrap().version
-}
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_edit_to_one_layer_changes_only_the_sources_of_that_layer() {
@@ -44,8 +40,8 @@ async fn an_edit_to_one_layer_changes_only_the_sources_of_that_layer() {
         ds.close().unwrap();
     }
     let after = wait_for(channel.clone(), before.generation + 1).await.unwrap();
-    assert!(source_version(&after, "roads") > source_version(&before, "roads"), "the edited layer's source is new");
-    assert_eq!(source_version(&after, "parcels"), source_version(&before, "parcels"), "the other layer's is not");
+    assert!(edit::version(&after, "roads") > edit::version(&before, "roads"), "the edited layer's source is new");
+    assert_eq!(edit::version(&after, "parcels"), edit::version(&before, "parcels"), "the other layer's is not");
     daemon.stop(&[]).unwrap();
 }
 

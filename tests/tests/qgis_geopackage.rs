@@ -25,9 +25,12 @@ const COORD_TOLERANCE: f64 = 1e-9;
 /// Level-12 tiles (0.044 degrees): each parcel lies in its own few.
 const LEVEL: u32 = 12;
 
+/// Served features by fid: attributes as text, vertices.
+type Served = BTreeMap<u64, (BTreeMap<String, String>, Vec<[f64; 2]>)>;
+
 /// The parcels reliefd serves now, by fid: the generation, and each
 /// feature's attributes (as text) and vertices.
-async fn served(channel: &Channel) -> (u64, BTreeMap<u64, (BTreeMap<String, String>, Vec<[f64; 2]>)>) {
+async fn served(channel: &Channel) -> (u64, Served) {
     // Level 0's eastern tile holds every parcel whole.
     let tile = tiles::get(channel.clone(), "parcels", (0, 1, 0)).await.unwrap();
     let json = tiles::geojson(&tile);
@@ -45,7 +48,7 @@ async fn served(channel: &Channel) -> (u64, BTreeMap<u64, (BTreeMap<String, Stri
 fn flatten(v: &Value, out: &mut Vec<[f64; 2]>) {
     match v.as_array() {
         Some(a) if a.first().is_some_and(Value::is_number) => {
-            out.push([a[0].as_f64().unwrap(), a[1].as_f64().unwrap()])
+            out.push([a[0].as_f64().unwrap(), a[1].as_f64().unwrap()]);
         }
         Some(a) => a.iter().for_each(|p| flatten(p, out)),
         None => {}
@@ -53,10 +56,7 @@ fn flatten(v: &Value, out: &mut Vec<[f64; 2]>) {
 }
 
 /// Why the served parcels differ from what QGIS committed, if they do.
-fn difference(
-    served: &BTreeMap<u64, (BTreeMap<String, String>, Vec<[f64; 2]>)>,
-    committed: &[QgisFeature],
-) -> Option<String> {
+fn difference(served: &Served, committed: &[QgisFeature]) -> Option<String> {
     let fids: BTreeSet<u64> = committed.iter().map(|f| f.fid).collect();
     if fids != served.keys().copied().collect() {
         return Some(format!("fids {:?} served, {fids:?} committed", served.keys().collect::<Vec<_>>()));
@@ -125,7 +125,7 @@ fn parcel_tiles(features: &[QgisFeature]) -> BTreeSet<(u32, u32, u32)> {
         .iter()
         .map(|f| {
             let b = bbox(&f.coords);
-            let (lon, lat) = ((b[0] + b[2]) / 2.0, (b[1] + b[3]) / 2.0);
+            let (lon, lat) = (f64::midpoint(b[0], b[2]), f64::midpoint(b[1], b[3]));
             (LEVEL, ((lon + 180.0) / span) as u32, ((90.0 - lat) / span) as u32)
         })
         .collect()
@@ -147,10 +147,6 @@ async fn hashes(channel: &Channel, keys: &BTreeSet<(u32, u32, u32)>) -> BTreeMap
         out.insert(*key, edit::tile_hash(channel.clone(), "drawn", *key).await.unwrap());
     }
     out
-}
-
-fn version(state: &pb::SceneState, id: &str) -> u64 {
-    state.sources.iter().find(|s| s.id == id).unwrap().version
 }
 
 /// One commit checked: exactly the next generation, the whole commit in
@@ -179,7 +175,7 @@ async fn commit_and_check(
     let event = events.generation(after.generation).await.unwrap();
     assert!(event.changed_sources.contains(&"parcels".to_owned()), "{what}: {event:?}");
     assert!(!event.changed_sources.contains(&"roads".to_owned()), "{what}: the other layer is untouched");
-    assert_eq!(version(&after, "roads"), version(&state, "roads"), "{what}");
+    assert_eq!(edit::version(&after, "roads"), edit::version(&state, "roads"), "{what}");
     let dirt: Vec<[f64; 4]> = event
         .dirty
         .iter()
@@ -208,18 +204,38 @@ async fn commit_and_check(
     commit.features
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn each_qgis_edit_is_one_generation_with_the_whole_commit() {
-    if !qgis::available("each_qgis_edit_is_one_generation_with_the_whole_commit") {
-        return;
+/// The town scene served, followed, and QGIS editing its parcels (with
+/// `also` loaded beside them); None when QGIS is not installed.
+struct Session {
+    _dir: tempfile::TempDir,
+    daemon: Reliefd,
+    channel: Channel,
+    events: Events,
+    editor: QgisEditor,
+    features: Vec<QgisFeature>,
+}
+
+async fn session(test: &str, also: &[&str]) -> Option<Session> {
+    if !qgis::available(test) {
+        return None;
     }
     let dir = tempfile::tempdir().unwrap();
     let (manifest, gpkg) = scenes::town(dir.path(), "").unwrap();
     let daemon = Reliefd::start(&manifest, &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
     let events = Events::follow(channel.clone()).await.unwrap();
+    let (editor, features) = QgisEditor::start(&gpkg, "parcels", also).unwrap();
+    Some(Session { _dir: dir, daemon, channel, events, editor, features })
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn each_qgis_edit_is_one_generation_with_the_whole_commit() {
+    let Some(Session { _dir, daemon, channel, events, mut editor, mut features }) =
+        session("each_qgis_edit_is_one_generation_with_the_whole_commit", &[]).await
+    else {
+        return;
+    };
     let first = events.all()[0].generation;
-    let (mut editor, mut features) = QgisEditor::start(&gpkg, "parcels", &[]).unwrap();
     assert_eq!(difference(&served(&channel).await.1, &features), None, "as loaded");
 
     let square = |x: f64, y: f64| {
@@ -290,17 +306,13 @@ fn random_edits(rng: &mut Lcg, live: &[QgisFeature], n: usize) -> Vec<Edit> {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn twenty_qgis_commits_in_a_row_never_show_a_state_between_transactions() {
-    if !qgis::available("twenty_qgis_commits_in_a_row_never_show_a_state_between_transactions") {
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let (manifest, gpkg) = scenes::town(dir.path(), "").unwrap();
-    let daemon = Reliefd::start(&manifest, &[]).unwrap();
-    let channel = daemon.channel().await.unwrap();
-    let events = Events::follow(channel.clone()).await.unwrap();
     // The roads layer loaded too: QGIS keeps the file in WAL mode, its log
     // and index stay, and every reader of the file uses them.
-    let (mut editor, mut features) = QgisEditor::start(&gpkg, "parcels", &["roads"]).unwrap();
+    let Some(Session { _dir, daemon, channel, events, mut editor, mut features }) =
+        session("twenty_qgis_commits_in_a_row_never_show_a_state_between_transactions", &["roads"]).await
+    else {
+        return;
+    };
     let mut rng = Lcg(12);
 
     // Twenty commits, each waited for: every generation checked.
@@ -322,14 +334,17 @@ async fn twenty_qgis_commits_in_a_row_never_show_a_state_between_transactions() 
         planned.retain(|f| !edits.iter().any(|e| matches!(e, Edit::Delete { fid } if *fid == f.fid)));
         batches.push(edits);
     }
-    let committer = std::thread::spawn(move || {
-        for edits in &batches {
-            editor.send(edits, false).unwrap();
-        }
-        let commits: Vec<_> = (0..batches.len()).map(|_| editor.committed().unwrap()).collect();
-        editor.quit().unwrap();
-        commits
-    });
+    let committer = std::thread::Builder::new()
+        .name("qgis-commits".into())
+        .spawn(move || {
+            for edits in &batches {
+                editor.send(edits, false).unwrap();
+            }
+            let commits: Vec<_> = (0..batches.len()).map(|_| editor.committed().unwrap()).collect();
+            editor.quit().unwrap();
+            commits
+        })
+        .unwrap();
     let mut seen = Vec::new();
     while !committer.is_finished() {
         seen.push(served(&channel).await);
@@ -353,7 +368,7 @@ async fn twenty_qgis_commits_in_a_row_never_show_a_state_between_transactions() 
     eprintln!("burst: {} reads, generations {distinct:?}, last state {last}", seen.len());
     assert!(distinct.len() >= 2, "the reads saw the commits land: {distinct:?}");
     let roads = SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
-    assert_eq!(version(&roads, "roads"), 1, "the roads never changed");
+    assert_eq!(edit::version(&roads, "roads"), 1, "the roads never changed");
     assert!(events.errors().is_empty(), "{:?}", events.errors());
     daemon.stop(&[]).unwrap();
 }
