@@ -11,11 +11,13 @@ export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
 log=$(mktemp)
 pylog=$(mktemp)
 trap 'rm -f "$log" "$pylog"' EXIT
-cargo build --workspace --bins
+# One build with one feature set serves the binaries, the tests and the
+# benches (benches must build; they never run here: timings are not
+# assertions). `cargo build --bins` first would build without the
+# dev-dependencies' features, and build much of the workspace twice.
+cargo test --workspace --all-targets --no-run
 status=0
 cargo test --workspace 2>&1 | tee "$log" || status=$?
-# Benches must build (they never run in CI: timings are not assertions).
-cargo test --workspace --benches --no-run
 # The Python client (clients/python) and its example, against this reliefd.
 RELIEF_BIN=target/debug/reliefd bash clients/python/scripts/test.sh 2>&1 | tee "$pylog" || status=$?
 # The QGIS plugin (clients/qgis) in headless PyQGIS, against this reliefd.
