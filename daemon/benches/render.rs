@@ -104,7 +104,11 @@ fn main() -> anyhow::Result<()> {
             }
             let frame = last.context("no frame rendered")?;
             let (rms, max) = surface_error(&frame);
-            let triangles = frame.update.active.len() * (n - 1) * (n - 1) * 2;
+            // Every cell of every active level, less the finer levels' holes
+            // and the blocks culled outside the view.
+            let d = frame.drawn;
+            let triangles =
+                frame.update.active.len() * (n - 1) * (n - 1) * 2 * d.terrain_blocks_drawn / d.terrain_blocks.max(1);
             let still = median(still);
             if config == ClipmapConfig::default() {
                 default_still = still;
@@ -142,8 +146,45 @@ fn main() -> anyhow::Result<()> {
         "| full-resolution mesh | {brute:.1} | {mesh_ms:.0} | {rms:.2} | {max:.1} | {:.2}x |",
         default_still / brute
     );
+    culling(&gpu, &snap, &terrain, brute)?;
     passes(&gpu, &scene, &terrain)?;
     min_levels(&gpu, &manifest)?;
+    Ok(())
+}
+
+/// The default clipmap's still frame with the level blocks outside the
+/// view culled (the default) and with every block drawn: the same image
+/// (the renderer's tests check it), at what cost.
+fn culling(
+    gpu: &Arc<Gpu>,
+    snap: &relief_daemon::graph::SceneSnapshot,
+    terrain: &SceneTerrain<'_>,
+    brute: f64,
+) -> anyhow::Result<()> {
+    println!("\n### Culling the clipmap's level blocks (16 x 16 cells) outside the view, n 127, L 8, still camera");
+    println!("| blocks | blocks drawn | frame ms (median of 7) | terrain pass ms | brute force / this |");
+    println!("|---|---|---|---|---|");
+    let mut frames = Vec::new();
+    for (label, cull) in [("all drawn", false), ("culled (default)", true)] {
+        let settings = RenderSettings { cull, ..SETTINGS };
+        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+        renderer.render(terrain, &pose(10), &settings)?;
+        let runs = (0..7)
+            .map(|_| Ok(renderer.render(terrain, &pose(10), &settings)?))
+            .collect::<anyhow::Result<Vec<Frame>>>()?;
+        let total = median(runs.iter().map(total_ms).collect());
+        let pass =
+            median(runs.iter().filter_map(|f| f.passes.iter().find(|p| p.0 == "terrain")).map(|p| p.1).collect());
+        let d = runs[0].drawn;
+        println!(
+            "| {label} | {} of {} | {total:.1} | {pass:.1} | {:.2}x |",
+            d.terrain_blocks_drawn,
+            d.terrain_blocks,
+            brute / total
+        );
+        frames.push(total);
+    }
+    println!("culled / all drawn: {:.2}x the frame time", frames[1] / frames[0]);
     Ok(())
 }
 

@@ -113,6 +113,12 @@ impl View {
         projection * view
     }
 
+    /// The view's frustum for images `aspect` wide per unit of height.
+    pub fn frustum(&self, aspect: f64) -> Frustum {
+        let tan_y = (self.vertical_fov_deg.to_radians() / 2.0).tan();
+        Frustum { right: self.right, up: self.up, forward: self.forward, tan_x: tan_y * aspect, tan_y }
+    }
+
     /// The ray through pixel centre (px, py) of a width x height image,
     /// unit length, and the distance along it of a reversed-Z `depth`.
     pub fn unproject(&self, px: f64, py: f64, width: u32, height: u32, depth: f32) -> (DVec3, f64) {
@@ -123,6 +129,31 @@ impl View {
         let dir = (self.forward + sx * self.right + sy * self.up).normalize();
         let along_axis = NEAR_M / f64::from(depth);
         (dir, along_axis / dir.dot(self.forward))
+    }
+}
+
+/// The view's four side planes and its near side, for spheres relative to
+/// the eye.
+pub struct Frustum {
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    tan_x: f64,
+    tan_y: f64,
+}
+
+impl Frustum {
+    /// True unless the sphere (centre relative to the eye) lies wholly
+    /// outside one of the planes.
+    pub fn sees(&self, centre: DVec3, radius: f64) -> bool {
+        let z = centre.dot(self.forward);
+        if z < -radius {
+            return false;
+        }
+        let x = centre.dot(self.right).abs();
+        let y = centre.dot(self.up).abs();
+        x <= z * self.tan_x + radius * (1.0 + self.tan_x * self.tan_x).sqrt()
+            && y <= z * self.tan_y + radius * (1.0 + self.tan_y * self.tan_y).sqrt()
     }
 }
 

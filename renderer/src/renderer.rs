@@ -30,12 +30,16 @@ pub struct RenderSettings {
     pub lighting: bool,
     /// The instances layer's distance bands.
     pub bands: InstanceBands,
+    /// Leave out the terrain's level blocks wholly outside the view (the
+    /// default). Exact: the image is the same either way; off, for
+    /// benchmarks and the test that shows it.
+    pub cull: bool,
 }
 
 impl RenderSettings {
     /// A frame of `width` x `height`, lit or not, at default quality.
     pub const fn new(width: u32, height: u32, lighting: bool) -> Self {
-        Self { width, height, lighting, bands: InstanceBands::DEFAULT }
+        Self { width, height, lighting, bands: InstanceBands::DEFAULT, cull: true }
     }
 }
 
@@ -47,9 +51,13 @@ pub struct SceneLayers<'a> {
     pub instances: Option<&'a dyn InstanceTiles>,
 }
 
-/// What a frame drew besides the terrain.
+/// What a frame drew.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Drawn {
+    /// The terrain levels' blocks (16 x 16 cells) with cells to draw, and
+    /// those inside the view, drawn.
+    pub terrain_blocks: usize,
+    pub terrain_blocks_drawn: usize,
     pub buildings: usize,
     /// Instances within reach and in the view before the distance bands
     /// thin them; those drawn as models, and as billboards (one fading
@@ -148,12 +156,15 @@ impl Renderer {
 
         let started = Instant::now();
         let pixel_angle = pose.vertical_fov_deg.to_radians() / f64::from(settings.height);
-        let draw = self.terrain.prepare(&self.gpu, &self.surface, source, pose, &view, pixel_angle);
+        let aspect = f64::from(settings.width) / f64::from(settings.height);
+        let frustum = settings.cull.then(|| view.frustum(aspect));
+        let draw = self.terrain.prepare(&self.gpu, &self.surface, source, pose, &view, pixel_angle, frustum.as_ref());
         self.write_frame_uniform(pose, &view, settings, Some(draw.base_sink));
         target.run(&self.gpu, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
-        let mut drawn = Drawn::default();
+        let (terrain_blocks, terrain_blocks_drawn) = draw.blocks();
+        let mut drawn = Drawn { terrain_blocks, terrain_blocks_drawn, ..Drawn::default() };
         if layers.buildings.is_none() && self.buildings.take().is_some() {
             self.counters.set_built(passes::BUILDINGS, false);
         }
@@ -189,7 +200,7 @@ impl Renderer {
             let at = InstancesView {
                 surface: &self.surface,
                 view: &view,
-                aspect: f64::from(settings.width) / f64::from(settings.height),
+                aspect,
                 camera: pose.position,
                 ground_m: self.terrain.drawn_height(
                     &self.surface,

@@ -223,6 +223,8 @@ def test_frames_say_what_they_drew_and_instance_knobs_are_checked(shared_client:
     frame = shared_client.render(CAMERA, size=SIZE, quality=bands)
     # The hill scene has no instances layer: nothing placed, no pass built.
     assert frame.drawn is not None and (frame.drawn.models, frame.drawn.billboards) == (0, 0)
+    # The terrain's level blocks outside the view were left out.
+    assert 0 < frame.drawn.terrain_blocks_drawn < frame.drawn.terrain_blocks
     instances = next(p for p in frame.pass_counters if p.name == "instances")
     assert not instances.built and instances.runs == 0
     assert all(s.instance_classes == () for s in shared_client.state().sources)

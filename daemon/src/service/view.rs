@@ -125,6 +125,8 @@ fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
             buildings: f.drawn.buildings as u32,
             models: f.drawn.models as u32,
             billboards: f.drawn.billboards as u32,
+            terrain_blocks: f.drawn.terrain_blocks as u32,
+            terrain_blocks_drawn: f.drawn.terrain_blocks_drawn as u32,
         }),
     })
 }

@@ -356,7 +356,13 @@ def frame(r: pb.RenderResponse) -> Frame:
         # `pass` is a Python keyword: the field is only reachable by name.
         passes=tuple(PassTiming(name=str(getattr(p, "pass")), elapsed_ms=p.elapsed_ms) for p in r.passes),
         pass_counters=pass_states(r.pass_counters),
-        drawn=FrameDrawn(buildings=r.drawn.buildings, models=r.drawn.models, billboards=r.drawn.billboards)
+        drawn=FrameDrawn(
+            buildings=r.drawn.buildings,
+            models=r.drawn.models,
+            billboards=r.drawn.billboards,
+            terrain_blocks=r.drawn.terrain_blocks,
+            terrain_blocks_drawn=r.drawn.terrain_blocks_drawn,
+        )
         if r.HasField("drawn")
         else None,
     )

@@ -325,6 +325,10 @@ class FrameDrawn:
     #: one to the other counts in both).
     models: int
     billboards: int
+    #: The terrain's clipmap level blocks (16 x 16 cells) with cells to
+    #: draw, and those drawn: the rest lay wholly outside the view.
+    terrain_blocks: int = 0
+    terrain_blocks_drawn: int = 0
 
 
 @dataclass(frozen=True, eq=False)

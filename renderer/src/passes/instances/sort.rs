@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use super::InstancesView;
 use super::models::{GpuInstance, GpuModel};
-use crate::camera::View;
+use crate::camera::Frustum;
 
 /// One instance of a tile, ready for sorting.
 pub struct Placed {
@@ -74,7 +74,7 @@ impl Sorted {
 
 pub fn sort(tiles: &[&PlacedTile], at: &InstancesView<'_>, shapes: &[Shape]) -> Sorted {
     let reach = at.bands.reach_m();
-    let cull = Frustum::new(at.view, at.aspect);
+    let cull = at.view.frustum(at.aspect);
     tiles
         .par_iter()
         .map(|tile| {
@@ -126,33 +126,5 @@ fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], r
         instance.east[3] = split;
         instance.up[3] = shown as f32;
         out.billboards.push(instance);
-    }
-}
-
-/// The view's four side planes and its near side, for spheres relative to
-/// the eye.
-struct Frustum {
-    right: DVec3,
-    up: DVec3,
-    forward: DVec3,
-    tan_x: f64,
-    tan_y: f64,
-}
-
-impl Frustum {
-    fn new(view: &View, aspect: f64) -> Self {
-        let tan_y = (view.vertical_fov_deg.to_radians() / 2.0).tan();
-        Self { right: view.right, up: view.up, forward: view.forward, tan_x: tan_y * aspect, tan_y }
-    }
-
-    fn sees(&self, centre: DVec3, radius: f64) -> bool {
-        let z = centre.dot(self.forward);
-        if z < -radius {
-            return false;
-        }
-        let x = centre.dot(self.right).abs();
-        let y = centre.dot(self.up).abs();
-        x <= z * self.tan_x + radius * (1.0 + self.tan_x * self.tan_x).sqrt()
-            && y <= z * self.tan_y + radius * (1.0 + self.tan_y * self.tan_y).sqrt()
     }
 }

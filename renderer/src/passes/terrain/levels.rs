@@ -3,16 +3,52 @@
 //! into the next coarser), and the cells each draws.
 
 use std::collections::HashMap;
+use std::ops::Range;
 
 use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-use crate::camera::{Pose, View};
-use crate::clipmap::{COLOR_DETAIL, Clipmap, StorageRect};
+use crate::camera::{Frustum, Pose, View};
+use crate::clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, StorageRect};
 use crate::surface::Surface;
 
 /// Most clipmap levels a frame draws (the shader's uniform array).
 pub const MAX_LEVELS: usize = 16;
+
+/// Cells per side of the blocks a level is culled by: Losasso & Hoppe draw
+/// each level as blocks, and a block wholly outside the view is not drawn.
+const BLOCK: usize = 16;
+
+/// Samples around a block that its bounds also take in: vertices near a
+/// level's edge are blended onto the coarser level's surface, which is
+/// interpolated from samples up to two of this level's away.
+const BLEND_REACH: usize = 2;
+
+/// One block of a level's cells: its cells `[i0, i1) x [j0, j1)` and the
+/// range of the level's indices that draws them (empty inside the hole).
+#[derive(Debug, Clone)]
+struct Block {
+    cells: [usize; 4],
+    indices: Range<u32>,
+}
+
+/// A level's index buffer (cells in block order) and its blocks.
+struct LevelCells {
+    buffer: wgpu::Buffer,
+    blocks: Vec<Block>,
+}
+
+/// What one level draws in a frame: the index buffer (by its hole) and
+/// the index ranges of the blocks in view, merged where adjacent.
+#[derive(Debug, Clone)]
+pub struct LevelDraw {
+    hole: Option<(i64, i64)>,
+    pub ranges: Vec<Range<u32>>,
+    /// Blocks with cells, and those of them drawn.
+    pub blocks: usize,
+    pub blocks_drawn: usize,
+}
 
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -30,7 +66,7 @@ pub struct Levels {
     /// Which tile level each texture layer holds now.
     layer_holds: Vec<Option<u8>>,
     /// Index buffers by the finer level's hole (in cells), or none.
-    index_cache: HashMap<Option<(i64, i64)>, (wgpu::Buffer, u32)>,
+    index_cache: HashMap<Option<(i64, i64)>, LevelCells>,
 }
 
 impl Levels {
@@ -38,9 +74,9 @@ impl Levels {
         Self { positions, colors, layer_holds: vec![None; layers], index_cache: HashMap::new() }
     }
 
-    /// The index buffer and count for a level drawn with `hole`.
-    pub fn cells(&self, hole: Option<(i64, i64)>) -> &(wgpu::Buffer, u32) {
-        &self.index_cache[&hole]
+    /// The index buffer of a level drawn as `draw` says.
+    pub fn cells(&self, draw: &LevelDraw) -> &wgpu::Buffer {
+        &self.index_cache[&draw.hole].buffer
     }
 
     /// Brings each active level's texture layers up to date: whole when the
@@ -103,17 +139,19 @@ impl Levels {
         out
     }
 
-    /// The index buffer of each active level: every cell but the hole the
-    /// next finer level fills.
+    /// What each active level draws: every cell but the hole the next
+    /// finer level fills, by blocks, leaving out the blocks `cull` (the
+    /// view's frustum and the eye) shows wholly outside the view.
     pub fn draws(
         &mut self,
         device: &wgpu::Device,
         surface: &Surface,
         clipmap: &Clipmap,
         active: &[u8],
-    ) -> Vec<Option<(i64, i64)>> {
+        cull: Option<(&Frustum, DVec3)>,
+    ) -> Vec<LevelDraw> {
         let n = clipmap.config.n;
-        let mut keys = Vec::new();
+        let mut draws = Vec::new();
         for (k, &t) in active.iter().enumerate() {
             let Some(level) = clipmap.level(t) else { continue };
             let hole = active.get(k + 1).and_then(|&f| clipmap.level(f)).map(|finer| {
@@ -124,41 +162,91 @@ impl Levels {
                 }
                 (hx, finer.origin.1 / 2 - level.origin.1)
             });
-            self.index_cache.entry(hole).or_insert_with(|| {
-                let indices = cell_indices(n, hole);
+            let cells = self.index_cache.entry(hole).or_insert_with(|| {
+                let (indices, blocks) = cell_indices(n, hole);
                 let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("level cells"),
                     contents: bytemuck::cast_slice(&indices),
                     usage: wgpu::BufferUsages::INDEX,
                 });
-                (buffer, indices.len() as u32)
+                LevelCells { buffer, blocks }
             });
-            keys.push(hole);
+            let mut draw = LevelDraw { hole, ranges: Vec::new(), blocks: 0, blocks_drawn: 0 };
+            for block in cells.blocks.iter().filter(|b| !b.indices.is_empty()) {
+                draw.blocks += 1;
+                if cull.is_some_and(|(frustum, eye)| !in_view(level, block, frustum, eye)) {
+                    continue;
+                }
+                draw.blocks_drawn += 1;
+                match draw.ranges.last_mut() {
+                    Some(last) if last.end == block.indices.start => last.end = block.indices.end,
+                    _ => draw.ranges.push(block.indices.clone()),
+                }
+            }
+            draws.push(draw);
         }
-        keys
+        draws
     }
 }
 
-/// Two triangles per cell of an n x n vertex grid (diagonal north-west to
-/// south-east, as the shader's coarse midpoints assume), leaving out the
-/// `hole` of side (n - 1) / 2 cells at cell (hx, hy) but for its outer ring
-/// of cells: there the finer level has blended onto this level's surface,
-/// and the overlap covers the pinholes f32 rounding leaves at T-junctions.
-fn cell_indices(n: usize, hole: Option<(i64, i64)>) -> Vec<u32> {
-    let side = ((n - 1) / 2) as i64;
-    let mut out = Vec::with_capacity((n - 1) * (n - 1) * 6);
-    for j in 0..n as i64 - 1 {
-        for i in 0..n as i64 - 1 {
-            if hole.is_some_and(|(hx, hy)| (hx + 1..hx + side - 1).contains(&i) && (hy + 1..hy + side - 1).contains(&j))
-            {
-                continue;
+/// False when `block` of `level`, as drawn (its own samples and those its
+/// edge may blend towards), lies wholly outside `frustum`. Bounds are taken
+/// in f64 from the level's stored positions; a block without terrain is
+/// out of view.
+fn in_view(level: &ClipLevel, block: &Block, frustum: &Frustum, eye: DVec3) -> bool {
+    let n = level.n;
+    let [i0, i1, j0, j1] = block.cells;
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for j in j0.saturating_sub(BLEND_REACH)..=(j1 + BLEND_REACH).min(n - 1) {
+        let row = (level.origin.1 + j as i64).rem_euclid(n as i64) as usize * n;
+        for i in i0.saturating_sub(BLEND_REACH)..=(i1 + BLEND_REACH).min(n - 1) {
+            let p = level.positions[row + (level.origin.0 + i as i64).rem_euclid(n as i64) as usize];
+            if p[3] >= 0.5 {
+                let p = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
+                (lo, hi) = (lo.min(p), hi.max(p));
             }
-            let a = (j * n as i64 + i) as u32;
-            let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
-            out.extend([a, c, d, a, d, b]);
         }
     }
-    out
+    if !lo.is_finite() {
+        return false;
+    }
+    let centre = level.anchor + (lo + hi) / 2.0 - eye;
+    // A hundredth more than the half-diagonal: f32 positions and the
+    // shader's own rounding never reach it.
+    frustum.sees(centre, (hi - lo).length() / 2.0 * 1.01 + 1.0)
+}
+
+/// Two triangles per cell of an n x n vertex grid (diagonal north-west to
+/// south-east, as the shader's coarse midpoints assume), block by block,
+/// leaving out the `hole` of side (n - 1) / 2 cells at cell (hx, hy) but
+/// for its outer ring of cells: there the finer level has blended onto this
+/// level's surface, and the overlap covers the pinholes f32 rounding leaves
+/// at T-junctions. The indices and the blocks with their index ranges.
+fn cell_indices(n: usize, hole: Option<(i64, i64)>) -> (Vec<u32>, Vec<Block>) {
+    let side = ((n - 1) / 2) as i64;
+    let cells = n - 1;
+    let mut out = Vec::with_capacity(cells * cells * 6);
+    let mut blocks = Vec::new();
+    for bj in (0..cells).step_by(BLOCK) {
+        for bi in (0..cells).step_by(BLOCK) {
+            let start = out.len() as u32;
+            let (i1, j1) = ((bi + BLOCK).min(cells), (bj + BLOCK).min(cells));
+            for j in bj as i64..j1 as i64 {
+                for i in bi as i64..i1 as i64 {
+                    if hole.is_some_and(|(hx, hy)| {
+                        (hx + 1..hx + side - 1).contains(&i) && (hy + 1..hy + side - 1).contains(&j)
+                    }) {
+                        continue;
+                    }
+                    let a = (j * n as i64 + i) as u32;
+                    let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
+                    out.extend([a, c, d, a, d, b]);
+                }
+            }
+            blocks.push(Block { cells: [bi, i1, bj, j1], indices: start..out.len() as u32 });
+        }
+    }
+    (out, blocks)
 }
 
 /// Writes rectangle `r` of a toroidal `side` x `side` array into `layer` of

@@ -11,8 +11,8 @@ use wgpu::util::DeviceExt;
 
 use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
-use self::levels::{LevelUniform, Levels};
-use crate::camera::{Pose, View};
+use self::levels::{LevelDraw, LevelUniform, Levels};
+use crate::camera::{Frustum, Pose, View};
 use crate::clipmap::{COLOR_DETAIL, Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
@@ -36,8 +36,16 @@ pub struct TerrainPass {
 pub struct TerrainDraw {
     base: Option<Mesh>,
     pub base_sink: f64,
-    levels: Vec<Option<(i64, i64)>>,
+    levels: Vec<LevelDraw>,
     pub update: UpdateStats,
+}
+
+impl TerrainDraw {
+    /// Blocks of the levels' cells, and those drawn (the rest were out of
+    /// view).
+    pub fn blocks(&self) -> (usize, usize) {
+        self.levels.iter().fold((0, 0), |(all, drawn), l| (all + l.blocks, drawn + l.blocks_drawn))
+    }
 }
 
 impl TerrainPass {
@@ -172,7 +180,8 @@ impl TerrainPass {
     }
 
     /// Brings the clipmap to the camera and the device up to date; what to
-    /// draw.
+    /// draw: with `cull`, only the level blocks inside that frustum.
+    #[expect(clippy::too_many_arguments, reason = "the frame's parts, each used once")]
     pub fn prepare(
         &mut self,
         gpu: &Gpu,
@@ -181,6 +190,7 @@ impl TerrainPass {
         pose: &Pose,
         view: &View,
         pixel_angle: f64,
+        cull: Option<&Frustum>,
     ) -> TerrainDraw {
         let update = self.clipmap.update(surface, source, pose, pixel_angle);
         if self.base.is_none() {
@@ -194,7 +204,8 @@ impl TerrainPass {
             .as_ref()
             .and_then(|b| b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle))
             .unzip();
-        let levels = self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active);
+        let cull = cull.map(|f| (f, view.eye));
+        let levels = self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active, cull);
         TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update }
     }
 
@@ -205,10 +216,11 @@ impl TerrainPass {
             self.record_mesh(pass, mesh);
         }
         pass.set_pipeline(&self.level_pipeline);
-        for (slot, key) in draw.levels.iter().enumerate() {
-            let (indices, count) = self.levels.cells(*key);
-            pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..*count, 0, slot as u32..slot as u32 + 1);
+        for (slot, level) in draw.levels.iter().enumerate() {
+            pass.set_index_buffer(self.levels.cells(level).slice(..), wgpu::IndexFormat::Uint32);
+            for range in &level.ranges {
+                pass.draw_indexed(range.clone(), 0, slot as u32..slot as u32 + 1);
+            }
         }
     }
 
