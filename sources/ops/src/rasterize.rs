@@ -111,6 +111,37 @@ fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Vec<Vec<[f64; 2]>>>
     vec![east, west]
 }
 
+/// Adds the sub-samples `start..end` of one sub-row (`ss` to a texel) to
+/// `row`: the partial texels at either end at once, the whole texels
+/// between as differences in `runs` for `sum_runs`.
+fn add_run(row: &mut [u32], runs: &mut [i32], start: usize, end: usize, ss: usize) {
+    if start >= end {
+        return;
+    }
+    let (first, last) = (start / ss, end / ss);
+    if first == last {
+        row[first] += (end - start) as u32;
+        return;
+    }
+    row[first] += ((first + 1) * ss - start) as u32;
+    runs[first + 1] += ss as i32;
+    runs[last] -= ss as i32;
+    if !end.is_multiple_of(ss) {
+        row[last] += (end - last * ss) as u32;
+    }
+}
+
+/// Adds the whole texels `add_run` noted to `row`, and clears the notes.
+fn sum_runs(row: &mut [u32], runs: &mut [i32]) {
+    let mut level = 0i32;
+    for (texel, d) in row.iter_mut().zip(runs.iter_mut()) {
+        level += *d;
+        *d = 0;
+        *texel = (*texel as i32 + level) as u32;
+    }
+    runs[row.len()] = 0;
+}
+
 /// Draws `features` on `lattice` (texel centres, border included): RGBA8.
 pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &Style) -> Vec<u8> {
     let (cols, rows) = (lattice.cols, lattice.rows);
@@ -178,16 +209,25 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
     // One coverage buffer for every shape; only the rows a shape touched
     // are composited and cleared (a tile at level 0 holds hundreds of shapes).
     let mut coverage = vec![0u32; cols * rows];
+    // Whole texels covered by runs, as differences along the row (summed
+    // once a row's sub-rows are done): a run costs the same whatever its
+    // length.
+    let mut runs = vec![0i32; cols + 1];
     let full = (ss * ss) as f64;
-    let mut flush = |coverage: &mut [u32], rows_touched: std::ops::Range<usize>, color: [f64; 4]| {
-        if rows_touched.is_empty() {
+    let mut flush = |coverage: &mut [u32],
+                     rows_touched: std::ops::Range<usize>,
+                     columns: std::ops::Range<usize>,
+                     color: [f64; 4]| {
+        if rows_touched.is_empty() || columns.is_empty() {
             return;
         }
-        let span = rows_touched.start * cols..rows_touched.end * cols;
-        for (dst, c) in premul[span.clone()].iter_mut().zip(&mut coverage[span]) {
-            if *c > 0 {
-                over(dst, color, f64::from(*c) / full);
-                *c = 0;
+        for j in rows_touched {
+            let span = j * cols + columns.start..j * cols + columns.end;
+            for (dst, c) in premul[span.clone()].iter_mut().zip(&mut coverage[span]) {
+                if *c > 0 {
+                    over(dst, color, f64::from(*c) / full);
+                    *c = 0;
+                }
             }
         }
     };
@@ -212,13 +252,21 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
         let mut next = 0;
         let mut active: Vec<[f64; 4]> = Vec::new();
         let mut xs: Vec<f64> = Vec::new();
-        let mut touched = rows..0;
+        let (mut touched, mut columns) = (rows..0, cols..0);
         // Sub-sample s of a row sits at x(0) + ((s + 0.5) / ss - 0.5) * step:
         // the first one at or east of x.
         let first_at_or_after = |x: f64| {
             ((((x - lattice.x(0)) / lattice.step_x + 0.5) * ss as f64 - 0.5).ceil().max(0.0) as usize).min(cols * ss)
         };
-        for j in 0..rows {
+        // From the row above the shape's northernmost point; done once
+        // every edge has been passed.
+        let north = edges[0][1].max(edges[0][3]);
+        let first_row = ((lattice.y(0) - north) / lattice.step_y - 1.0).floor().clamp(0.0, rows as f64) as usize;
+        for j in first_row..rows {
+            if next == edges.len() && active.is_empty() {
+                break;
+            }
+            let mut runs_open = false;
             for oy in &off {
                 let y = lattice.y(j) - oy * lattice.step_y;
                 while next < edges.len() && edges[next][1].max(edges[next][3]) >= y {
@@ -229,6 +277,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                 if active.is_empty() {
                     continue;
                 }
+                runs_open = true;
                 touched = touched.start.min(j)..touched.end.max(j + 1);
                 xs.clear();
                 for &[x0, y0, x1, y1] in &active {
@@ -238,23 +287,24 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                 }
                 xs.sort_by(f64::total_cmp);
                 // Even-odd: sub-samples in [x_2k, x_2k+1) are inside; add
-                // whole runs of them to their texels.
+                // whole runs of them to their texels. Edges wholly east of
+                // the tile were dropped: a run left open at the end reaches
+                // past the east edge.
                 let row = &mut coverage[j * cols..(j + 1) * cols];
-                // Edges wholly east of the tile were dropped: a run left open
-                // at the end reaches past the east edge.
                 for pair in xs.chunks(2) {
-                    let mut s = first_at_or_after(pair[0]);
+                    let start = first_at_or_after(pair[0]);
                     let end = pair.get(1).map_or(cols * ss, |&x| first_at_or_after(x));
-                    while s < end {
-                        let i = s / ss;
-                        let stop = ((i + 1) * ss).min(end);
-                        row[i] += (stop - s) as u32;
-                        s = stop;
+                    if start < end {
+                        columns = columns.start.min(start / ss)..columns.end.max((end - 1) / ss + 1);
                     }
+                    add_run(row, &mut runs, start, end, ss);
                 }
             }
+            if runs_open {
+                sum_runs(&mut coverage[j * cols..(j + 1) * cols], &mut runs);
+            }
         }
-        flush(&mut coverage, touched, *color);
+        flush(&mut coverage, touched, columns, *color);
     }
     // Strokes: sub-samples within half the width of a segment.
     if let Some(stroke) = style.stroke {
@@ -311,7 +361,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                     }
                 }
             }
-            flush(&mut coverage, touched, color);
+            flush(&mut coverage, touched, 0..cols, color);
         }
     }
     let mut rgba = Vec::with_capacity(cols * rows * 4);
@@ -510,6 +560,26 @@ mod tests {
             let rgba =
                 render(&[&f], &grid.lattice(TileKey::new(2, x, rows - 1), SampleKind::TexelWithBorder), true, &style);
             assert!((1..65).all(|i| rgba[(64 * 66 + i) * 4 + 3] > 0), "tile {x}: gap at the pole");
+        }
+    }
+
+    proptest::proptest! {
+        /// Runs added as partial texels and differences give what adding
+        /// every sub-sample to its texel gives.
+        #[test]
+        fn runs_add_up_as_their_sub_samples(ss in 1usize..9, runs in proptest::collection::vec((0usize..80, 0usize..80), 0..12)) {
+            let cols = 10;
+            let (mut fast, mut notes, mut slow) = (vec![0u32; cols], vec![0i32; cols + 1], vec![0u32; cols]);
+            for (a, b) in runs {
+                let (start, end) = (a.min(b).min(cols * ss), a.max(b).min(cols * ss));
+                add_run(&mut fast, &mut notes, start, end, ss);
+                for s in start..end {
+                    slow[s / ss] += 1;
+                }
+            }
+            sum_runs(&mut fast, &mut notes);
+            proptest::prop_assert_eq!(fast, slow);
+            proptest::prop_assert!(notes.iter().all(|d| *d == 0));
         }
     }
 

@@ -7,7 +7,7 @@ use glam::DVec3;
 use relief_source::{Extent, geodesy};
 use wgpu::util::DeviceExt;
 
-use crate::camera::{Pose, View};
+use crate::camera::{Frustum, Pose, View};
 use crate::clipmap::{Clipmap, TerrainSamples};
 use crate::surface::Surface;
 use crate::uniforms::split;
@@ -121,6 +121,7 @@ impl Base {
         view: &View,
         pose: &Pose,
         pixel_angle: f64,
+        cull: Option<&Frustum>,
     ) -> Option<((wgpu::Buffer, wgpu::Buffer, u32), f64)> {
         let base = self;
         let planet = surface.is_planet();
@@ -170,6 +171,16 @@ impl Base {
                 }
                 let corner = |i: i64, j: i64| (j * base.cols + i) as u32;
                 let (a, b, c, d) = (corner(i, j), corner(i1, j), corner(i, j1), corner(i1, j1));
+                if let Some(frustum) = cull {
+                    // The cell's two triangles lie within the sphere round
+                    // its four corners.
+                    let corners = [a, b, c, d].map(|k| base.world[k as usize]);
+                    let centre = corners.iter().sum::<DVec3>() / 4.0;
+                    let radius = corners.iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
+                    if !frustum.sees(centre - view.eye, radius * 1.01 + cell * 0.01 + 1.0) {
+                        continue;
+                    }
+                }
                 indices.extend([a, c, d, a, d, b]);
             }
         }

@@ -202,10 +202,10 @@ impl TerrainPass {
         let (base, sink) = self
             .base
             .as_ref()
-            .and_then(|b| b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle))
+            .and_then(|b| b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle, cull))
             .unzip();
-        let cull = cull.map(|f| (f, view.eye));
-        let levels = self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active, cull);
+        let levels =
+            self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active, cull.map(|f| (f, view.eye)));
         TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update }
     }
 
