@@ -208,17 +208,100 @@ impl Payload {
             }
             Self::Color(t) => h.update(&t.rgba),
             Self::Mask(t) => h.update(&t.coverage),
-            Self::Features(t) => h.update(format!("{:?}", t.features).as_bytes()),
-            Self::Instances(t) => h.update(format!("{:?}", t.instances).as_bytes()),
+            Self::Features(t) => {
+                let mut b = Bytes::default();
+                b.len(t.features.len());
+                for f in &t.features {
+                    b.u64(f.id);
+                    let (tag, parts): (u8, Vec<&[[f64; 3]]>) = match &f.geometry {
+                        Geometry::Points(p) => (0, vec![p.as_slice()]),
+                        Geometry::Lines(ls) => (1, ls.iter().map(Vec::as_slice).collect()),
+                        Geometry::Polygons(ps) => {
+                            b.len(ps.len());
+                            for rings in ps {
+                                b.len(rings.len());
+                            }
+                            (2, ps.iter().flatten().map(Vec::as_slice).collect())
+                        }
+                    };
+                    b.0.push(tag);
+                    b.len(parts.len());
+                    for part in parts {
+                        b.len(part.len());
+                        part.iter().flatten().for_each(|v| b.f64(*v));
+                    }
+                    b.len(f.properties.len());
+                    for (k, v) in &f.properties {
+                        b.text(k);
+                        b.text(v);
+                    }
+                }
+                h.update(&b.0);
+            }
+            Self::Instances(t) => {
+                let mut b = Bytes::default();
+                b.len(t.instances.len());
+                for i in &t.instances {
+                    b.u64(i.feature_id);
+                    i.position.iter().for_each(|v| b.f64(*v));
+                    b.0.push(u8::from(i.kind == InstanceKind::Model));
+                    b.text(&i.model);
+                    b.f64(i.scale);
+                    b.f64(i.rotation_deg);
+                }
+                b.skipped(&t.skipped);
+                h.update(&b.0);
+            }
             Self::Mesh(t) => {
                 let positions: Vec<u8> = t.positions.iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
                 h.update(&positions);
                 let indices: Vec<u8> = t.indices.iter().flat_map(|v| v.to_le_bytes()).collect();
                 h.update(&indices);
-                h.update(format!("{:?}{:?}", t.parts, t.skipped).as_bytes());
+                let mut b = Bytes::default();
+                b.len(t.parts.len());
+                for p in &t.parts {
+                    b.u64(p.feature_id);
+                    b.u64(u64::from(p.first_index));
+                    b.u64(u64::from(p.index_count));
+                    b.0.extend(p.color);
+                }
+                b.skipped(&t.skipped);
+                h.update(&b.0);
             }
         }
         h.digest()
+    }
+}
+
+/// A payload's values in one fixed byte layout for its content hash:
+/// little-endian, every list's length before it, all NaNs alike.
+#[derive(Default)]
+struct Bytes(Vec<u8>);
+
+impl Bytes {
+    fn u64(&mut self, v: u64) {
+        self.0.extend(v.to_le_bytes());
+    }
+
+    fn len(&mut self, n: usize) {
+        self.u64(n as u64);
+    }
+
+    fn f64(&mut self, v: f64) {
+        self.0.extend(if v.is_nan() { f64::NAN } else { v }.to_le_bytes());
+    }
+
+    fn text(&mut self, s: &str) {
+        self.len(s.len());
+        self.0.extend(s.as_bytes());
+    }
+
+    fn skipped(&mut self, list: &[Skipped]) {
+        self.len(list.len());
+        for s in list {
+            self.u64(s.feature_id);
+            self.text(&s.reason);
+        }
     }
 }
 
@@ -233,5 +316,41 @@ mod tests {
         let c = Payload::Height(HeightTile { size: 2, heights: vec![1.0, f32::NAN, 3.0, 4.5] });
         assert_eq!(a.content_hash(), b.content_hash());
         assert_ne!(a.content_hash(), c.content_hash());
+    }
+
+    #[test]
+    fn feature_hashes_see_every_value_and_no_layout_accident() {
+        let feature = |id: u64, geometry: Geometry, name: &str| Feature {
+            id,
+            geometry,
+            properties: [("name".to_owned(), name.to_owned())].into(),
+        };
+        let tile = |features: Vec<Feature>| Payload::Features(FeatureTile { features });
+        let square = vec![vec![[0.0, 0.0, f64::NAN], [1.0, 0.0, f64::NAN], [1.0, 1.0, f64::NAN], [0.0, 0.0, f64::NAN]]];
+        let base = tile(vec![feature(1, Geometry::Polygons(vec![square.clone()]), "a")]);
+        assert_eq!(base.content_hash(), base.clone().content_hash(), "stable");
+        let mut other_nan = square.clone();
+        other_nan[0][0][2] = f64::from_bits(0x7ff8_0000_0000_0001);
+        assert_eq!(
+            base.content_hash(),
+            tile(vec![feature(1, Geometry::Polygons(vec![other_nan]), "a")]).content_hash()
+        );
+        let mut moved = square.clone();
+        moved[0][1][0] = 1.000_000_1;
+        for changed in [
+            tile(vec![feature(2, Geometry::Polygons(vec![square.clone()]), "a")]),
+            tile(vec![feature(1, Geometry::Polygons(vec![moved]), "a")]),
+            tile(vec![feature(1, Geometry::Polygons(vec![square.clone()]), "b")]),
+            tile(vec![feature(1, Geometry::Lines(square.clone()), "a")]),
+            // The same vertices as two rings of one polygon, not one ring each of two.
+            tile(vec![feature(1, Geometry::Polygons(vec![vec![square[0].clone(), square[0].clone()]]), "a")]),
+            tile(vec![feature(1, Geometry::Polygons(vec![square.clone(), square.clone()]), "a")]),
+        ] {
+            assert_ne!(changed.content_hash(), base.content_hash(), "{changed:?}");
+        }
+        let two_rings =
+            tile(vec![feature(1, Geometry::Polygons(vec![vec![square[0].clone(), square[0].clone()]]), "a")]);
+        let two_polygons = tile(vec![feature(1, Geometry::Polygons(vec![square.clone(), square]), "a")]);
+        assert_ne!(two_rings.content_hash(), two_polygons.content_hash());
     }
 }

@@ -89,26 +89,60 @@ impl Rasterize {
 
 /// A polygon's rings, or a line, ready to draw, in grid coordinates.
 enum Shape<'a> {
-    Rings(Vec<Vec<[f64; 2]>>, [f64; 4]),
+    Rings(Rings<'a>, [f64; 4]),
     Line(Vec<[f64; 2]>, &'a Feature),
+}
+
+/// A polygon's rings as drawn: the feature's own (x and y of each vertex,
+/// read in place), or copies unwrapped across the antimeridian.
+enum Rings<'a> {
+    Own(&'a [Vec<[f64; 3]>]),
+    Unwrapped(Vec<Vec<[f64; 2]>>),
+}
+
+impl Rings<'_> {
+    /// Every edge of every ring: x0, y0, x1, y1.
+    fn edges(&self) -> Box<dyn Iterator<Item = [f64; 4]> + '_> {
+        match self {
+            Self::Own(rings) => {
+                Box::new(rings.iter().flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]])))
+            }
+            Self::Unwrapped(rings) => {
+                Box::new(rings.iter().flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]])))
+            }
+        }
+    }
+
+    /// The box round the exterior ring: (west, south), (east, north).
+    fn exterior_box(&self) -> ([f64; 2], [f64; 2]) {
+        let fold = |(lo, hi): ([f64; 2], [f64; 2]), x: f64, y: f64| {
+            ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)])
+        };
+        let empty = ([f64::MAX; 2], [f64::MIN; 2]);
+        match self {
+            Self::Own(rings) => rings.first().map_or(empty, |r| r.iter().fold(empty, |b, p| fold(b, p[0], p[1]))),
+            Self::Unwrapped(rings) => rings.first().map_or(empty, |r| r.iter().fold(empty, |b, p| fold(b, p[0], p[1]))),
+        }
+    }
 }
 
 /// On the geodetic grid a ring that jumps across the antimeridian is drawn
 /// twice, unwrapped east and west, rather than smeared round the planet.
-fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Vec<Vec<[f64; 2]>>> {
-    let flat: Vec<Vec<[f64; 2]>> = rings.iter().map(|r| r.iter().map(|p| [p[0], p[1]]).collect()).collect();
+fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Rings<'_>> {
     // An edge along a pole from -180 to 180 closes a polar cap (Natural
     // Earth's Antarctica); it is not a crossing.
-    let along_pole = |w: &[[f64; 2]]| w[0][1].abs() == 90.0 && w[1][1].abs() == 90.0;
+    let along_pole = |w: &[[f64; 3]]| w[0][1].abs() == 90.0 && w[1][1].abs() == 90.0;
     let crosses =
-        geodetic && flat.iter().any(|r| r.windows(2).any(|w| (w[1][0] - w[0][0]).abs() > 180.0 && !along_pole(w)));
+        geodetic && rings.iter().any(|r| r.windows(2).any(|w| (w[1][0] - w[0][0]).abs() > 180.0 && !along_pole(w)));
     if !crosses {
-        return vec![flat];
+        return vec![Rings::Own(rings)];
     }
-    let east: Vec<Vec<[f64; 2]>> =
-        flat.iter().map(|r| r.iter().map(|p| [if p[0] < 0.0 { p[0] + 360.0 } else { p[0] }, p[1]]).collect()).collect();
+    let east: Vec<Vec<[f64; 2]>> = rings
+        .iter()
+        .map(|r| r.iter().map(|p| [if p[0] < 0.0 { p[0] + 360.0 } else { p[0] }, p[1]]).collect())
+        .collect();
     let west = east.iter().map(|r| r.iter().map(|p| [p[0] - 360.0, p[1]]).collect()).collect();
-    vec![east, west]
+    vec![Rings::Unwrapped(east), Rings::Unwrapped(west)]
 }
 
 /// Adds the sub-samples `start..end` of one sub-row (`ss` to a texel) to
@@ -142,12 +176,38 @@ fn sum_runs(row: &mut [u32], runs: &mut [i32]) {
     runs[row.len()] = 0;
 }
 
+/// A thread's composite and coverage buffers, kept from tile to tile: a
+/// fresh 2 MB allocation per tile cost more in page faults than drawing.
+#[derive(Default)]
+struct Scratch {
+    premul: Vec<[f64; 4]>,
+    coverage: Vec<u32>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
 /// Draws `features` on `lattice` (texel centres, border included): RGBA8.
 pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &Style) -> Vec<u8> {
+    SCRATCH.with_borrow_mut(|scratch| render_with(features, lattice, geodetic, style, scratch))
+}
+
+fn render_with(
+    features: &[&Feature],
+    lattice: &Lattice,
+    geodetic: bool,
+    style: &Style,
+    scratch: &mut Scratch,
+) -> Vec<u8> {
     let (cols, rows) = (lattice.cols, lattice.rows);
     let ss = style.antialias.max(1) as usize;
     let off: Vec<f64> = (0..ss).map(|s| (s as f64 + 0.5) / ss as f64 - 0.5).collect();
-    let mut premul = vec![[0.0f64; 4]; cols * rows];
+    let Scratch { premul, coverage } = scratch;
+    premul.clear();
+    premul.resize(cols * rows, [0.0; 4]);
+    coverage.clear();
+    coverage.resize(cols * rows, 0);
     let fill_of = |f: &Feature| -> Option<[f64; 4]> {
         if let Some(attr) = &style.color_by {
             let c = by_value(f.properties.get(attr)?);
@@ -171,10 +231,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                         // A polygon wholly beside the tile (west included: all
                         // its crossings pair up west of every texel) covers nothing.
                         for version in unwrapped(rings, geodetic) {
-                            let exterior = version.first().map_or(&[][..], Vec::as_slice);
-                            let (lo, hi) = exterior.iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
-                                ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
-                            });
+                            let (lo, hi) = version.exterior_box();
                             if hi[0] >= bounds.min_x
                                 && lo[0] <= bounds.max_x
                                 && hi[1] >= bounds.min_y
@@ -206,9 +263,9 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
         }
         dst[3] = a + dst[3] * (1.0 - a);
     };
-    // One coverage buffer for every shape; only the rows a shape touched
-    // are composited and cleared (a tile at level 0 holds hundreds of shapes).
-    let mut coverage = vec![0u32; cols * rows];
+    // One coverage buffer for every shape; only the rows and columns a
+    // shape touched are composited and cleared (a tile at level 0 holds
+    // hundreds of shapes).
     // Whole texels covered by runs, as differences along the row (summed
     // once a row's sub-rows are done): a run costs the same whatever its
     // length.
@@ -240,8 +297,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
         let (top, bottom) = (lattice.y(0) + lattice.step_y / 2.0, lattice.y(rows - 1) - lattice.step_y / 2.0);
         let east = lattice.x(cols - 1) + lattice.step_x / 2.0;
         let mut edges: Vec<[f64; 4]> = rings
-            .iter()
-            .flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]]))
+            .edges()
             .filter(|e| e[1] != e[3] && e[1].max(e[3]) >= bottom && e[1].min(e[3]) <= top && e[0].min(e[2]) <= east)
             .collect();
         if edges.is_empty() {
@@ -304,7 +360,7 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                 sum_runs(&mut coverage[j * cols..(j + 1) * cols], &mut runs);
             }
         }
-        flush(&mut coverage, touched, columns, *color);
+        flush(coverage, touched, columns, *color);
     }
     // Strokes: sub-samples within half the width of a segment.
     if let Some(stroke) = style.stroke {
@@ -361,18 +417,20 @@ pub fn render(features: &[&Feature], lattice: &Lattice, geodetic: bool, style: &
                     }
                 }
             }
-            flush(&mut coverage, touched, 0..cols, color);
+            flush(coverage, touched, 0..cols, color);
         }
     }
     let mut rgba = Vec::with_capacity(cols * rows * 4);
-    for p in premul {
+    // Rounded to the nearest byte: + 0.5 and the saturating cast (cheaper
+    // than `round`, the same for these non-negative values).
+    let byte = |v: f64| (v * 255.0 + 0.5) as u8;
+    for p in premul.iter() {
         let a = p[3];
-        if a == 0.0 {
+        if a > 0.0 {
+            rgba.extend([byte(p[0] / a), byte(p[1] / a), byte(p[2] / a), byte(a)]);
+        } else {
             rgba.extend([0; 4]);
-            continue;
         }
-        let un = |v: f64| if a > 0.0 { (v / a * 255.0).round().clamp(0.0, 255.0) as u8 } else { 0 };
-        rgba.extend([un(p[0]), un(p[1]), un(p[2]), (a * 255.0).round() as u8]);
     }
     rgba
 }
