@@ -204,10 +204,14 @@ fn render_with(
     let ss = style.antialias.max(1) as usize;
     let off: Vec<f64> = (0..ss).map(|s| (s as f64 + 0.5) / ss as f64 - 0.5).collect();
     let Scratch { premul, coverage } = scratch;
-    premul.clear();
-    premul.resize(cols * rows, [0.0; 4]);
-    coverage.clear();
-    coverage.resize(cols * rows, 0);
+    // Both are all zero between tiles (only what a tile touched is
+    // cleared after it): a mostly empty tile costs little.
+    if premul.len() != cols * rows {
+        *premul = vec![[0.0; 4]; cols * rows];
+        *coverage = vec![0; cols * rows];
+    }
+    // The texels any shape touched.
+    let (mut drawn_rows, mut drawn_columns) = (rows..0, cols..0);
     let fill_of = |f: &Feature| -> Option<[f64; 4]> {
         if let Some(attr) = &style.color_by {
             let c = by_value(f.properties.get(attr)?);
@@ -278,6 +282,8 @@ fn render_with(
         if rows_touched.is_empty() || columns.is_empty() {
             return;
         }
+        drawn_rows = drawn_rows.start.min(rows_touched.start)..drawn_rows.end.max(rows_touched.end);
+        drawn_columns = drawn_columns.start.min(columns.start)..drawn_columns.end.max(columns.end);
         for j in rows_touched {
             let span = j * cols + columns.start..j * cols + columns.end;
             for (dst, c) in premul[span.clone()].iter_mut().zip(&mut coverage[span]) {
@@ -420,16 +426,25 @@ fn render_with(
             flush(coverage, touched, 0..cols, color);
         }
     }
-    let mut rgba = Vec::with_capacity(cols * rows * 4);
-    // Rounded to the nearest byte: + 0.5 and the saturating cast (cheaper
-    // than `round`, the same for these non-negative values).
-    let byte = |v: f64| (v * 255.0 + 0.5) as u8;
-    for p in premul.iter() {
-        let a = p[3];
-        if a > 0.0 {
-            rgba.extend([byte(p[0] / a), byte(p[1] / a), byte(p[2] / a), byte(a)]);
-        } else {
-            rgba.extend([0; 4]);
+    let mut rgba = vec![0u8; cols * rows * 4];
+    // Un-premultiplied by one reciprocal, rounded to the nearest byte by
+    // + 0.5 and the saturating cast (cheaper than `round`, the same for
+    // these non-negative values).
+    let byte = |v: f64| (v + 0.5) as u8;
+    for j in drawn_rows {
+        for i in drawn_columns.clone() {
+            let k = j * cols + i;
+            let p = std::mem::take(&mut premul[k]);
+            let a = p[3];
+            if a > 0.0 {
+                let scale = 255.0 / a;
+                rgba[4 * k..4 * k + 4].copy_from_slice(&[
+                    byte(p[0] * scale),
+                    byte(p[1] * scale),
+                    byte(p[2] * scale),
+                    byte(a * 255.0),
+                ]);
+            }
         }
     }
     rgba
