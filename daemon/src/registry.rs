@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use relief_source::{PayloadKind, Source, SourceError, SourceSpec, TileGrid};
+use relief_source::{PayloadKind, Source, SourceError, SourceSpec, TileGrid, VectorFormat, VectorSource};
 
 type OpenFn = fn(&SourceSpec, &TileGrid) -> Result<Arc<dyn Source>, SourceError>;
 
@@ -21,6 +21,22 @@ pub struct Kind {
     /// `points_input` says): the payload each declared input must have.
     /// None: `inputs`, by position.
     pub input_kinds: Option<fn(&SourceSpec) -> Vec<PayloadKind>>,
+}
+
+/// A file-backed vector kind: its format read through `VectorSource`,
+/// reprojected by OSR, features out.
+fn vector_kind<F: VectorFormat>() -> Kind {
+    Kind {
+        name: F::KIND,
+        open: |spec, grid| {
+            let crs = Arc::new(relief_source_gdal::OsrTransform);
+            Ok(Arc::new(VectorSource::<F>::open(spec, grid, crs)?))
+        },
+        inputs: &[],
+        required_inputs: 0,
+        output: Some(PayloadKind::Features),
+        input_kinds: None,
+    }
 }
 
 impl Kind {
@@ -51,39 +67,9 @@ impl Registry {
                     output: None,
                     input_kinds: None,
                 },
-                Kind {
-                    name: relief_source_shapefile::KIND,
-                    open: |spec, grid| {
-                        let crs = Arc::new(relief_source_gdal::OsrTransform);
-                        Ok(Arc::new(relief_source_shapefile::ShapefileSource::open(spec, grid, crs)?))
-                    },
-                    inputs: &[],
-                    required_inputs: 0,
-                    output: Some(PayloadKind::Features),
-                    input_kinds: None,
-                },
-                Kind {
-                    name: relief_source_kml::KIND,
-                    open: |spec, grid| {
-                        let crs = Arc::new(relief_source_gdal::OsrTransform);
-                        Ok(Arc::new(relief_source_kml::KmlSource::open(spec, grid, crs)?))
-                    },
-                    inputs: &[],
-                    required_inputs: 0,
-                    output: Some(PayloadKind::Features),
-                    input_kinds: None,
-                },
-                Kind {
-                    name: relief_source_ogr::KIND,
-                    open: |spec, grid| {
-                        let crs = Arc::new(relief_source_gdal::OsrTransform);
-                        Ok(Arc::new(relief_source_ogr::OgrSource::open(spec, grid, crs)?))
-                    },
-                    inputs: &[],
-                    required_inputs: 0,
-                    output: Some(PayloadKind::Features),
-                    input_kinds: None,
-                },
+                vector_kind::<relief_source_shapefile::Shapefile>(),
+                vector_kind::<relief_source_kml::Kml>(),
+                vector_kind::<relief_source_ogr::Ogr>(),
                 Kind {
                     name: relief_source_ops::RASTERIZE_KIND,
                     open: |spec, _grid| Ok(Arc::new(relief_source_ops::Rasterize::open(spec)?)),

@@ -23,7 +23,7 @@ pub(crate) fn spatial_ref(definition: &str, path: Option<&Path>) -> Result<Spati
 }
 
 /// A short human name for a CRS: "EPSG:26912 (NAD83 / UTM zone 12N)".
-pub(crate) fn describe(srs: &SpatialRef) -> String {
+pub fn describe(srs: &SpatialRef) -> String {
     let name = srs.name().unwrap_or_else(|| "unnamed CRS".into());
     match (srs.auth_name(), srs.auth_code()) {
         (Some(auth), Ok(code)) => format!("{auth}:{code} ({name})"),

@@ -26,8 +26,25 @@ mod raster;
 mod resample;
 mod source;
 
+pub use crs::describe as describe_srs;
 pub use raster::{RasterKind, VerticalUnits};
 pub use source::{GdalSource, KIND};
+
+/// GDAL's message for a failed call on `path`, without GDAL's own copy of
+/// the path (an error puts it last, once); `unrecognised` when GDAL gave
+/// no words (no driver took the file).
+pub fn gdal_message(e: gdal::errors::GdalError, path: &std::path::Path, unrecognised: &str) -> String {
+    let message = match e {
+        gdal::errors::GdalError::NullPointer { msg, .. } if !msg.trim().is_empty() => msg,
+        gdal::errors::GdalError::NullPointer { .. } => unrecognised.to_owned(),
+        other => other.to_string(),
+    };
+    message
+        .replace(&format!("`{}' ", path.display()), "")
+        .replace(&path.display().to_string(), "the file")
+        .trim()
+        .to_owned()
+}
 
 /// Checks that GDAL and PROJ know a CRS; returns its short description.
 pub fn describe_crs(definition: &str) -> Result<String, relief_source::SourceError> {

@@ -323,17 +323,8 @@ fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
         ..DatasetOptions::default()
     };
     Dataset::open_ex(path, options).map_err(|e| {
-        let message = match e {
-            gdal::errors::GdalError::NullPointer { msg, .. } if !msg.trim().is_empty() => msg,
-            gdal::errors::GdalError::NullPointer { .. } => {
-                "no GDAL driver recognises it (corrupt, truncated or not a raster)".into()
-            }
-            other => other.to_string(),
-        };
-        // GDAL repeats the path inside its message; we put it last once.
-        let message =
-            message.replace(&format!("`{}' ", path.display()), "").replace(&path.display().to_string(), "the file");
-        format_err(format!("cannot open raster: {}", message.trim()), path)
+        let message = crate::gdal_message(e, path, "no GDAL driver recognises it (corrupt, truncated or not a raster)");
+        format_err(format!("cannot open raster: {message}"), path)
     })
 }
 

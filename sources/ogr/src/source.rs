@@ -7,6 +7,7 @@ use gdal::spatial_ref::SpatialRef;
 use gdal::vector::LayerAccess;
 use gdal::{Dataset, DatasetCapability, DatasetOptions, GdalOpenFlags};
 use relief_source::{SourceError, SourceSpec, VectorFormat, VectorRead, VectorSource};
+use relief_source_gdal::describe_srs;
 
 use crate::read::read_layer;
 
@@ -22,16 +23,27 @@ pub struct Ogr;
 /// One layer of an OGR vector dataset as a source.
 pub type OgrSource = VectorSource<Ogr>;
 
-/// GDAL's message without GDAL's copy of the path (we put it last, once).
+/// GDAL's message for a failed call on `path`, without its final full stop.
 fn gdal_message(e: gdal::errors::GdalError, path: &Path) -> String {
-    let message = match e {
-        gdal::errors::GdalError::NullPointer { msg, .. } if !msg.trim().is_empty() => msg,
-        gdal::errors::GdalError::NullPointer { .. } => "no GDAL vector driver recognises it".into(),
-        other => other.to_string(),
-    };
-    let message =
-        message.replace(&format!("`{}' ", path.display()), "").replace(&path.display().to_string(), "the file");
-    message.trim().trim_end_matches('.').to_owned()
+    relief_source_gdal::gdal_message(e, path, "no GDAL vector driver recognises it").trim_end_matches('.').to_owned()
+}
+
+/// A failed GDAL call on the dataset: the lock another program holds, or
+/// GDAL's words after `what` and the layer.
+fn failure(e: gdal::errors::GdalError, path: &Path, layer: Option<&str>, what: &str) -> SourceError {
+    let message = gdal_message(e, path);
+    if message.contains("database is locked") || message.contains("database is busy") {
+        SourceError::Locked {
+            message: format!(
+                "the database is locked by another program (a write under way){}; the last good version stays \
+                 and it is read again when the lock is gone",
+                which(layer)
+            ),
+            path: path.to_path_buf(),
+        }
+    } else {
+        SourceError::format(format!("{what}{}: {message}", which(layer)), path)
+    }
 }
 
 /// " layer 'name'" when the manifest names one: errors say which layer.
@@ -46,39 +58,7 @@ fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
             | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
         ..DatasetOptions::default()
     };
-    Dataset::open_ex(path, options).map_err(|e| {
-        let message = gdal_message(e, path);
-        if is_locked(&message) {
-            locked(path, layer)
-        } else {
-            SourceError::format(format!("not a vector dataset GDAL can read{}: {message}", which(layer)), path)
-        }
-    })
-}
-
-/// SQLite's words for a database another connection holds locked.
-fn is_locked(message: &str) -> bool {
-    message.contains("database is locked") || message.contains("database is busy")
-}
-
-fn locked(path: &Path, layer: Option<&str>) -> SourceError {
-    SourceError::Locked {
-        message: format!(
-            "the database is locked by another program (a write under way){}; the last good version stays and \
-             it is read again when the lock is gone",
-            which(layer)
-        ),
-        path: path.to_path_buf(),
-    }
-}
-
-/// A short human name for a CRS: "EPSG:4326 (WGS 84)".
-fn describe(srs: &SpatialRef) -> String {
-    let name = srs.name().unwrap_or_else(|| "unnamed CRS".into());
-    match (srs.auth_name(), srs.auth_code()) {
-        (Some(auth), Ok(code)) => format!("{auth}:{code} ({name})"),
-        _ => name,
-    }
+    Dataset::open_ex(path, options).map_err(|e| failure(e, path, layer, "not a vector dataset GDAL can read"))
 }
 
 impl VectorFormat for Ogr {
@@ -93,14 +73,8 @@ impl VectorFormat for Ogr {
             // A database (GeoPackage, SQLite): everything below in one read
             // transaction, so it is one committed state whatever commits
             // meanwhile. Nothing is written; dropping it rolls nothing back.
-            let snapshot = ds.start_transaction().map_err(|e| {
-                let message = gdal_message(e, path);
-                if is_locked(&message) {
-                    locked(path, wanted)
-                } else {
-                    SourceError::format(format!("cannot start a read transaction{}: {message}", which(wanted)), path)
-                }
-            })?;
+            let snapshot =
+                ds.start_transaction().map_err(|e| failure(e, path, wanted, "cannot start a read transaction"))?;
             read_dataset(&snapshot, wanted, crs_option, path)
         } else {
             read_dataset(&ds, wanted, crs_option, path)
@@ -140,16 +114,17 @@ fn read_dataset(
     let layer_srs = layer.spatial_ref();
     let (crs, crs_name, crs_note) = match (crs_option, &layer_srs) {
         (Some(c), _) => {
-            let name = SpatialRef::from_definition(c).map_or_else(|_| c.chars().take(80).collect(), |s| describe(&s));
+            let name =
+                SpatialRef::from_definition(c).map_or_else(|_| c.chars().take(80).collect(), |s| describe_srs(&s));
             (c.to_owned(), name, "from the manifest".to_owned())
         }
         (None, Some(srs)) => {
             let wkt = srs.to_wkt().map_err(|e| SourceError::Crs {
-                crs: describe(srs),
+                crs: describe_srs(srs),
                 message: format!("cannot write the layer's CRS as WKT: {}", gdal_message(e, path)),
                 path: Some(path.to_path_buf()),
             })?;
-            (wkt, describe(srs), "from the layer".to_owned())
+            (wkt, describe_srs(srs), "from the layer".to_owned())
         }
         (None, None) => (
             "EPSG:4326".to_owned(),

@@ -93,37 +93,20 @@ enum Shape<'a> {
     Line(Vec<[f64; 2]>, &'a Feature),
 }
 
-/// A polygon's rings as drawn: the feature's own (x and y of each vertex,
-/// read in place), or copies unwrapped across the antimeridian.
-enum Rings<'a> {
-    Own(&'a [Vec<[f64; 3]>]),
-    Unwrapped(Vec<Vec<[f64; 2]>>),
+/// A polygon's rings as drawn: the feature's own, read in place, or copies
+/// unwrapped across the antimeridian.
+type Rings<'a> = std::borrow::Cow<'a, [Vec<[f64; 3]>]>;
+
+/// Every edge of every ring: x0, y0, x1, y1.
+fn edges<'a>(rings: &'a Rings<'_>) -> impl Iterator<Item = [f64; 4]> + 'a {
+    rings.iter().flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]]))
 }
 
-impl Rings<'_> {
-    /// Every edge of every ring: x0, y0, x1, y1.
-    fn edges(&self) -> Box<dyn Iterator<Item = [f64; 4]> + '_> {
-        match self {
-            Self::Own(rings) => {
-                Box::new(rings.iter().flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]])))
-            }
-            Self::Unwrapped(rings) => {
-                Box::new(rings.iter().flat_map(|r| r.windows(2).map(|w| [w[0][0], w[0][1], w[1][0], w[1][1]])))
-            }
-        }
-    }
-
-    /// The box round the exterior ring: (west, south), (east, north).
-    fn exterior_box(&self) -> ([f64; 2], [f64; 2]) {
-        let fold = |(lo, hi): ([f64; 2], [f64; 2]), x: f64, y: f64| {
-            ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)])
-        };
-        let empty = ([f64::MAX; 2], [f64::MIN; 2]);
-        match self {
-            Self::Own(rings) => rings.first().map_or(empty, |r| r.iter().fold(empty, |b, p| fold(b, p[0], p[1]))),
-            Self::Unwrapped(rings) => rings.first().map_or(empty, |r| r.iter().fold(empty, |b, p| fold(b, p[0], p[1]))),
-        }
-    }
+/// The box round the exterior ring: (west, south), (east, north).
+fn exterior_box(rings: &Rings<'_>) -> ([f64; 2], [f64; 2]) {
+    rings.first().map_or(&[][..], Vec::as_slice).iter().fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+        ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
+    })
 }
 
 /// On the geodetic grid a ring that jumps across the antimeridian is drawn
@@ -135,14 +118,17 @@ fn unwrapped(rings: &[Vec<[f64; 3]>], geodetic: bool) -> Vec<Rings<'_>> {
     let crosses =
         geodetic && rings.iter().any(|r| r.windows(2).any(|w| (w[1][0] - w[0][0]).abs() > 180.0 && !along_pole(w)));
     if !crosses {
-        return vec![Rings::Own(rings)];
+        return vec![Rings::Borrowed(rings)];
     }
-    let east: Vec<Vec<[f64; 2]>> = rings
-        .iter()
-        .map(|r| r.iter().map(|p| [if p[0] < 0.0 { p[0] + 360.0 } else { p[0] }, p[1]]).collect())
-        .collect();
-    let west = east.iter().map(|r| r.iter().map(|p| [p[0] - 360.0, p[1]]).collect()).collect();
-    vec![Rings::Unwrapped(east), Rings::Unwrapped(west)]
+    let shifted = |by: f64| -> Rings<'_> {
+        Rings::Owned(
+            rings
+                .iter()
+                .map(|r| r.iter().map(|p| [if p[0] < 0.0 { p[0] + 360.0 } else { p[0] } + by, p[1], p[2]]).collect())
+                .collect(),
+        )
+    };
+    vec![shifted(0.0), shifted(-360.0)]
 }
 
 /// Adds the sub-samples `start..end` of one sub-row (`ss` to a texel) to
@@ -235,7 +221,7 @@ fn render_with(
                         // A polygon wholly beside the tile (west included: all
                         // its crossings pair up west of every texel) covers nothing.
                         for version in unwrapped(rings, geodetic) {
-                            let (lo, hi) = version.exterior_box();
+                            let (lo, hi) = exterior_box(&version);
                             if hi[0] >= bounds.min_x
                                 && lo[0] <= bounds.max_x
                                 && hi[1] >= bounds.min_y
@@ -302,8 +288,7 @@ fn render_with(
         // its east edge can change a crossing count here.
         let (top, bottom) = (lattice.y(0) + lattice.step_y / 2.0, lattice.y(rows - 1) - lattice.step_y / 2.0);
         let east = lattice.x(cols - 1) + lattice.step_x / 2.0;
-        let mut edges: Vec<[f64; 4]> = rings
-            .edges()
+        let mut edges: Vec<[f64; 4]> = edges(rings)
             .filter(|e| e[1] != e[3] && e[1].max(e[3]) >= bottom && e[1].min(e[3]) <= top && e[0].min(e[2]) <= east)
             .collect();
         if edges.is_empty() {
