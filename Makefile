@@ -26,4 +26,5 @@ bench: setup
 	cargo bench -p relief-daemon --bench instances
 	cargo bench -p relief-daemon --bench frames
 	cargo bench -p relief-daemon --bench geopackage
+	cargo bench -p relief-daemon --bench bigdem
 	bash clients/qgis/scripts/bench.sh

@@ -143,6 +143,7 @@ struct RawQuality {
 #[serde(deny_unknown_fields)]
 struct RawCache {
     memory_mb: Option<u64>,
+    raster_mb: Option<u64>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -210,6 +211,9 @@ pub struct Manifest {
     pub bands: InstanceBands,
     pub camera: RawCamera,
     pub cache_budget_bytes: u64,
+    /// The budget of decoded raster blocks (`[cache] raster_mb`), for the
+    /// process: the first scene loaded sets it.
+    pub raster_budget_bytes: u64,
     pub watch: WatchSettings,
 }
 
@@ -376,6 +380,10 @@ impl Manifest {
         if memory_mb == 0 {
             return Err(field("cache.memory_mb", "must be at least 1".into()));
         }
+        let raster_mb = raw.cache.raster_mb.unwrap_or(relief_source_gdal::DEFAULT_BLOCK_BUDGET >> 20);
+        if raster_mb == 0 {
+            return Err(field("cache.raster_mb", "must be at least 1".into()));
+        }
         let defaults = WatchSettings::default();
         let watch = WatchSettings {
             settle_ms: raw.watch.settle_ms.unwrap_or(defaults.settle_ms),
@@ -410,6 +418,7 @@ impl Manifest {
             bands,
             camera: raw.camera.unwrap_or_default(),
             cache_budget_bytes: memory_mb * 1024 * 1024,
+            raster_budget_bytes: raster_mb * 1024 * 1024,
             watch,
         })
     }

@@ -102,6 +102,7 @@ impl Scene {
     ) -> Result<(Self, Vec<LoadError>), Vec<LoadError>> {
         let manifest = Manifest::load(manifest_path).map_err(|e| vec![LoadError::from(e)])?;
         let budget = manifest.cache_budget_bytes;
+        relief_source_gdal::set_block_budget(manifest.raster_budget_bytes);
         let registry = Registry::builtin();
         let (snapshot, open_errors) = graph::build(manifest, &registry, None)?;
         if !keep_going && !open_errors.is_empty() {

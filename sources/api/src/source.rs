@@ -69,6 +69,16 @@ impl SourceSpec {
         }
     }
 
+    pub fn flag(&self, field: &str) -> Result<Option<bool>, SourceError> {
+        match self.options.get(field) {
+            None => Ok(None),
+            Some(OptionValue::Bool(b)) => Ok(Some(*b)),
+            Some(other) => {
+                Err(SourceError::option(field, format!("expected true or false, found {}", other.kind_name())))
+            }
+        }
+    }
+
     /// A list option (a TOML array, or an array of tables such as
     /// `[[source.rule]]`).
     pub fn list(&self, field: &str) -> Result<Option<&[OptionValue]>, SourceError> {

@@ -27,7 +27,10 @@ mod resample;
 mod source;
 
 pub use crs::describe as describe_srs;
-pub use raster::{RasterKind, VerticalUnits};
+pub use raster::{
+    ChangeDetection, DEFAULT_BLOCK_BUDGET, RasterKind, Residency, VerticalUnits, block_budget, cached_bytes,
+    set_block_budget,
+};
 pub use source::{GdalSource, KIND};
 
 /// GDAL's message for a failed call on `path`, without GDAL's own copy of

@@ -1,10 +1,11 @@
-//! Kernels applied to a mip level at a point, with the nodata policy of the
-//! crate docs. Coordinates are pixel-edge coordinates of the base level
-//! (GDAL's convention: pixel (0, 0) spans [0, 1) x [0, 1)).
+//! Kernels applied to a window of a mip level at a point, with the nodata
+//! policy of the crate docs. Coordinates are pixel-edge coordinates of the
+//! level (GDAL's convention: pixel (0, 0) spans [0, 1) x [0, 1)); taps are
+//! found on the whole level and then moved into the window read for them.
 
 use relief_source::Resampling;
 
-use crate::raster::Level;
+use crate::raster::Window;
 
 const MAX_TAPS: usize = 6;
 
@@ -16,8 +17,25 @@ pub(crate) struct Taps {
     len: usize,
 }
 
+impl Taps {
+    /// The first and last pixel the taps read.
+    pub(crate) fn span(&self) -> (usize, usize) {
+        let used = &self.index[..self.len];
+        (used.iter().copied().min().unwrap_or(0), used.iter().copied().max().unwrap_or(0))
+    }
+
+    /// The same taps in a window starting at pixel `origin`.
+    pub(crate) fn shifted(mut self, origin: usize) -> Self {
+        for i in &mut self.index[..self.len] {
+            *i -= origin;
+        }
+        self
+    }
+}
+
 /// Taps for edge coordinate `u` on an axis of `size` pixels, or None when
 /// `u` lies beyond the raster's outer edge.
+#[cfg(test)]
 pub(crate) fn taps(u: f64, size: usize, kernel: Resampling) -> Option<Taps> {
     axis_taps(u, size, kernel, false)
 }
@@ -55,19 +73,27 @@ pub(crate) fn axis_taps(u: f64, size: usize, kernel: Resampling, wrap: bool) -> 
     Some(t)
 }
 
-/// A height at edge coordinates (u, v) of the base level, read from `level`.
-/// NaN when the point is off the raster or mostly over nodata.
-pub(crate) fn height_at(level: &Level, u: f64, v: f64, kernel: Resampling, wrap_x: bool) -> f32 {
-    let (u, v) = (u / level.scale, v / level.scale);
-    match (axis_taps(u, level.width, kernel, wrap_x), taps(v, level.height, kernel)) {
-        (Some(tx), Some(ty)) => height_from_taps(level, &tx, &ty),
+/// A height at edge coordinates (u, v) of a level of `size` pixels, read
+/// from `window` of it (which holds the taps). NaN when the point is off
+/// the raster or mostly over nodata.
+#[cfg(test)]
+pub(crate) fn height_at(
+    window: &Window,
+    size: (usize, usize),
+    u: f64,
+    v: f64,
+    kernel: Resampling,
+    wrap_x: bool,
+) -> f32 {
+    match (axis_taps(u, size.0, kernel, wrap_x), taps(v, size.1, kernel)) {
+        (Some(tx), Some(ty)) => height_from_taps(window, &tx, &ty),
         _ => f32::NAN,
     }
 }
 
 /// A height from taps already found (a tile whose columns and rows map to
 /// source columns and rows finds them once per column and row).
-pub(crate) fn height_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> f32 {
+pub(crate) fn height_from_taps(level: &Window, tx: &Taps, ty: &Taps) -> f32 {
     let plane = &level.planes[0];
     if tx.len == 2 && ty.len == 2 {
         // Bilinear, the common case, without the general loops.
@@ -97,7 +123,7 @@ pub(crate) fn height_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> f32 {
 }
 
 /// Premultiplied RGBA from taps already found.
-pub(crate) fn color_from_taps(level: &Level, tx: &Taps, ty: &Taps) -> [f32; 4] {
+pub(crate) fn color_from_taps(level: &Window, tx: &Taps, ty: &Taps) -> [f32; 4] {
     let mut acc = [0.0f64; 4];
     let mut total_w = 0.0;
     for y in 0..ty.len {
@@ -118,9 +144,13 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn level(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Level {
+    fn level(width: usize, height: usize, f: impl Fn(usize, usize) -> f32) -> Window {
         let plane = (0..height).flat_map(|j| (0..width).map(move |i| (i, j))).map(|(i, j)| f(i, j)).collect();
-        Level { width, height, scale: 1.0, planes: vec![plane] }
+        Window { width, height, planes: vec![plane] }
+    }
+
+    fn height_at(l: &Window, u: f64, v: f64, kernel: Resampling, wrap_x: bool) -> f32 {
+        super::height_at(l, (l.width, l.height), u, v, kernel, wrap_x)
     }
 
     #[test]

@@ -10,8 +10,8 @@ use relief_source::{
 };
 
 use crate::crs;
-use crate::raster::{Fingerprint, Raster, RasterKind, ReadOptions, Reloaded, VerticalUnits};
-use crate::resample::{Taps, axis_taps, color_from_taps, height_at, height_from_taps};
+use crate::raster::{ChangeDetection, PixelRect, Raster, RasterKind, ReadOptions, Reloaded, Residency, VerticalUnits};
+use crate::resample::{Taps, axis_taps, color_from_taps, height_from_taps};
 
 /// The manifest kind of this source.
 pub const KIND: &str = "gdal";
@@ -20,7 +20,17 @@ pub const KIND: &str = "gdal";
 /// kernel (lanczos, 3) plus one for the footprint of a mip pixel.
 const DIRTY_MARGIN_SAMPLES: u32 = 4;
 
-const OPTIONS: &[&str] = &["output", "crs", "vertical_datum", "vertical_units", "band", "resampling"];
+const OPTIONS: &[&str] = &[
+    "output",
+    "crs",
+    "vertical_datum",
+    "vertical_units",
+    "band",
+    "resampling",
+    "read",
+    "change_detection",
+    "overviews",
+];
 
 /// Routes GDAL's own messages to tracing instead of stderr: every failure
 /// that matters comes back as an error value anyway.
@@ -47,6 +57,24 @@ struct Sampler {
 }
 
 impl Sampler {
+    /// The pixels of the level the taps read (None when no sample falls on the raster).
+    fn window_rect(&self) -> Option<PixelRect> {
+        let span =
+            |taps: &[Option<Taps>]| taps.iter().flatten().map(Taps::span).reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)));
+        let ((x0, x1), (y0, y1)) = (span(&self.columns)?, span(&self.rows)?);
+        Some(PixelRect { x0, y0, x1: x1 + 1, y1: y1 + 1 })
+    }
+
+    /// The taps moved into a window starting at (x0, y0).
+    fn shift(&mut self, rect: &PixelRect) {
+        for t in self.columns.iter_mut().flatten() {
+            *t = t.shifted(rect.x0);
+        }
+        for t in self.rows.iter_mut().flatten() {
+            *t = t.shifted(rect.y0);
+        }
+    }
+
     /// Calls `f` with every sample's index (row-major, `cols` a row) and
     /// its taps, None off the raster.
     fn each(&self, cols: usize, rows: usize, mut f: impl FnMut(usize, Option<(&Taps, &Taps)>)) {
@@ -127,7 +155,23 @@ impl GdalSource {
             .map(|r| r.parse::<Resampling>().map_err(|e| SourceError::option("resampling", e)))
             .transpose()?;
         let categorical = resampling == Some(Resampling::Nearest);
-        let read = ReadOptions { kind, crs_override, units_override, band, categorical };
+        let residency = match spec.text("read")? {
+            None | Some("auto") => Residency::Auto,
+            Some("whole") => Residency::Whole,
+            Some("windowed") => Residency::Windowed,
+            Some(other) => {
+                return Err(SourceError::option("read", format!("'{other}' is not auto, whole or windowed")));
+            }
+        };
+        let changes = match spec.text("change_detection")? {
+            None | Some("exact") => ChangeDetection::Exact,
+            Some("layout") => ChangeDetection::Layout,
+            Some(other) => {
+                return Err(SourceError::option("change_detection", format!("'{other}' is not exact or layout")));
+            }
+        };
+        let overviews = spec.flag("overviews")?.unwrap_or(true);
+        let read = ReadOptions { kind, crs_override, units_override, band, categorical, residency, changes, overviews };
         let rasters = spec.paths.iter().map(|p| Raster::open(p, &read)).collect::<Result<Vec<_>, _>>()?;
         let kind = rasters[0].kind;
         if let Some(odd) = rasters.iter().find(|r| r.kind != kind) {
@@ -257,7 +301,11 @@ impl GdalSource {
         let kernel = self.resampling.unwrap_or(quality.resampling);
         let mip_for = |dx: f64, dy: f64| {
             let ratio = dx.abs().max(dy.abs());
-            if !ratio.is_finite() || ratio < 2.0 { 0 } else { (ratio.log2().floor() as usize).min(r.levels.len() - 1) }
+            if !ratio.is_finite() || ratio < 2.0 {
+                0
+            } else {
+                (ratio.log2().floor() as usize).min(r.levels().len() - 1)
+            }
         };
         let taps_of = |coords: &[f64], size: usize, scale: f64, wrap: bool| -> Vec<Option<Taps>> {
             coords.iter().map(|c| axis_taps(c / scale, size, kernel, wrap)).collect()
@@ -267,7 +315,7 @@ impl GdalSource {
             let us: Vec<f64> = (0..cols).map(|i| r.pixel_of(lattice.x(i), 0.0).0).collect();
             let vs: Vec<f64> = (0..rows).map(|j| r.pixel_of(0.0, lattice.y(j)).1).collect();
             let mip = mip_for(us[cols / 2 + 1] - us[cols / 2], vs[rows / 2 + 1] - vs[rows / 2]);
-            let level = &r.levels[mip];
+            let level = &r.levels()[mip];
             return Ok(Sampler {
                 mip,
                 columns: taps_of(&us, level.width, level.scale, r.wraps_x),
@@ -280,7 +328,7 @@ impl GdalSource {
         let (dx, dy) =
             ((us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]), (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]));
         let mip = mip_for(dx, dy);
-        let level = &r.levels[mip];
+        let level = &r.levels()[mip];
         Ok(Sampler {
             mip,
             columns: taps_of(&us, level.width, level.scale, r.wraps_x),
@@ -303,8 +351,12 @@ impl GdalSource {
             if !placed.extent_in_grid.is_some_and(|e| e.touches(&reach)) {
                 continue;
             }
-            let sampler = self.sampler(placed, &lattice, quality)?;
-            let level = &placed.raster.levels[sampler.mip];
+            let mut sampler = self.sampler(placed, &lattice, quality)?;
+            let Some(rect) = sampler.window_rect() else {
+                continue;
+            };
+            let level = &placed.raster.window(sampler.mip, rect)?;
+            sampler.shift(&rect);
             match self.kind {
                 RasterKind::Height => sampler.each(lattice.cols, lattice.rows, |n, taps| {
                     if heights[n].is_nan() {
@@ -328,9 +380,8 @@ impl GdalSource {
             // Rows on a pole are one point: every sample there takes the
             // pole's one height, the same in every tile and at every level.
             for (row, north) in [(0, true), (lattice.rows - 1, false)] {
-                let lat = lattice.y(row);
-                if lat.abs() == 90.0
-                    && let Some(h) = self.rasters.iter().find_map(|p| p.raster.pole_height(north))
+                if lattice.y(row).abs() == 90.0
+                    && let Some(h) = self.pole_height(north)?
                 {
                     heights[row * lattice.cols..(row + 1) * lattice.cols].fill(h);
                 }
@@ -350,6 +401,38 @@ impl GdalSource {
                 Payload::Color(ColorTile { size: lattice.cols, rgba })
             }
         })
+    }
+}
+
+impl GdalSource {
+    /// The height of a pole from the first raster that reaches it.
+    fn pole_height(&self, north: bool) -> Result<Option<f32>, SourceError> {
+        for placed in &self.rasters {
+            if let Some(h) = placed.raster.pole_height(north)? {
+                return Ok(Some(h));
+            }
+        }
+        Ok(None)
+    }
+
+    /// Bytes of pixels read through GDAL so far, every raster and version
+    /// together (what a windowed read saves shows here).
+    pub fn bytes_read(&self) -> u64 {
+        self.rasters.iter().map(|p| p.raster.bytes_read()).sum()
+    }
+
+    /// A height at a point of `raster` (its CRS), read from the base level.
+    fn height_at(raster: &Raster, x: f64, y: f64, kernel: Resampling) -> Result<f32, SourceError> {
+        let (u, v) = raster.pixel_of(x, y);
+        let (Some(tx), Some(ty)) =
+            (axis_taps(u, raster.width(), kernel, raster.wraps_x), axis_taps(v, raster.height(), kernel, false))
+        else {
+            return Ok(f32::NAN);
+        };
+        let ((x0, x1), (y0, y1)) = (tx.span(), ty.span());
+        let rect = PixelRect { x0, y0, x1: x1 + 1, y1: y1 + 1 };
+        let window = raster.window(0, rect)?;
+        Ok(height_from_taps(&window, &tx.shifted(x0), &ty.shifted(y0)))
     }
 }
 
@@ -391,13 +474,28 @@ impl Source for GdalSource {
         let mut details = first.details.clone();
         if self.rasters.len() > 1 {
             details.insert("mosaic".into(), format!("{} rasters", self.rasters.len()));
+            let missing: Vec<&String> =
+                self.rasters.iter().filter_map(|p| p.raster.details.get("missing_files")).collect();
+            if !missing.is_empty() {
+                details.insert("missing_files".into(), missing.into_iter().cloned().collect::<Vec<_>>().join("; "));
+            }
         }
+        let windowed = self.rasters.iter().filter(|p| p.raster.windowed()).count();
+        details.insert(
+            "read".into(),
+            match windowed {
+                0 => "whole (read when opened)".into(),
+                n if n == self.rasters.len() => "windowed (blocks read as tiles need them)".into(),
+                n => format!("{n} of {} rasters windowed", self.rasters.len()),
+            },
+        );
+        details.insert("change_detection".into(), self.read.changes.name().into());
         if let Some(r) = self.resampling {
             let how = if r == Resampling::Nearest { "; its mips keep the most common value, for classes" } else { "" };
             details.insert("resampling".into(), format!("{r} (the source's own{how})"));
         }
         SourceInfo {
-            files: self.rasters.iter().map(|p| p.raster.path.clone()).collect(),
+            files: self.rasters.iter().flat_map(|p| p.raster.files()).collect(),
             extent,
             crs: first.crs_name.clone(),
             vertical_datum: if self.kind == RasterKind::Height { self.vertical_datum.clone() } else { String::new() },
@@ -429,7 +527,7 @@ impl Source for GdalSource {
         let mut rasters = Vec::with_capacity(self.rasters.len());
         for placed in &self.rasters {
             let raster = &placed.raster;
-            if Fingerprint::of(&raster.path, "raster")? == raster.fingerprint {
+            if !raster.files_changed()? {
                 rasters.push(Placed { raster: Arc::clone(raster), ..*placed });
                 continue;
             }
@@ -485,7 +583,8 @@ impl Source for GdalSource {
             let mut xs: Vec<f64> = points.iter().map(|p| p.lon_deg).collect();
             let mut ys: Vec<f64> = points.iter().map(|p| p.lat_deg).collect();
             crs::transform("EPSG:4326", &r.crs_wkt, &mut xs, &mut ys)?;
-            let poles = [r.pole_height(true), r.pole_height(false)];
+            let poles = [r.pole_height(true)?, r.pole_height(false)?];
+            let kernel = self.resampling.unwrap_or(quality.resampling);
             for (((slot, x), y), p) in out.iter_mut().zip(&xs).zip(&ys).zip(points) {
                 if slot.is_none() {
                     // A pole is one point, whatever the longitude.
@@ -496,10 +595,10 @@ impl Source for GdalSource {
                     } else {
                         None
                     };
-                    let (u, v) = r.pixel_of(*x, *y);
-                    let h = pole.unwrap_or_else(|| {
-                        height_at(&r.levels[0], u, v, self.resampling.unwrap_or(quality.resampling), r.wraps_x)
-                    });
+                    let h = match pole {
+                        Some(h) => h,
+                        None => Self::height_at(r, *x, *y, kernel)?,
+                    };
                     *slot = (!h.is_nan()).then_some(f64::from(h));
                 }
             }

@@ -1,0 +1,266 @@
+//! Pixels on demand: the raster's levels as blocks of 256 x 256 pixels,
+//! read through GDAL when a tile first needs them and kept in one cache
+//! for the process under a byte budget. A level is read from the file's
+//! own overview where it has one of that size; otherwise it is halved from
+//! the level below, only over the blocks asked for.
+
+use std::cell::RefCell;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+
+use gdal::Dataset;
+use moka::sync::Cache;
+use relief_source::SourceError;
+
+use super::halve::{Halving, halved_pixel};
+use super::{PixelRect, Store};
+
+/// Side of a block, in pixels of its level.
+pub(crate) const BLOCK: usize = 256;
+
+/// The default budget of decoded blocks, when the scene states none.
+pub const DEFAULT_BLOCK_BUDGET: u64 = 512 << 20;
+
+/// GDAL's own block cache, under relief's (which holds decoded pixels).
+const GDAL_CACHE_MB: &str = "64";
+
+/// Open datasets each thread keeps (GDAL datasets are not shared between threads).
+const HANDLES_PER_THREAD: usize = 8;
+
+/// A block of decoded planes.
+#[derive(Debug)]
+pub(crate) struct Block {
+    pub width: usize,
+    pub height: usize,
+    pub planes: Vec<Vec<f32>>,
+}
+
+impl Block {
+    fn bytes(&self) -> u32 {
+        (self.planes.iter().map(Vec::len).sum::<usize>() * 4 + 64).min(u32::MAX as usize) as u32
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+struct BlockKey {
+    raster: u64,
+    level: u8,
+    bx: u32,
+    by: u32,
+    /// Bumped when the block's pixels change, so an old block is never served.
+    stamp: u32,
+}
+
+static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BLOCK_BUDGET);
+static CACHE: OnceLock<Cache<BlockKey, Arc<Block>>> = OnceLock::new();
+
+/// Sets the byte budget of decoded raster blocks for the process. Call it
+/// before the first raster is read; later calls change nothing.
+pub fn set_block_budget(bytes: u64) {
+    if CACHE.get().is_none() {
+        BUDGET.store(bytes.max(1 << 20), Ordering::Relaxed);
+    }
+}
+
+/// The budget in force.
+pub fn block_budget() -> u64 {
+    BUDGET.load(Ordering::Relaxed)
+}
+
+fn cache() -> &'static Cache<BlockKey, Arc<Block>> {
+    CACHE.get_or_init(|| {
+        let _ = gdal::config::set_config_option("GDAL_CACHEMAX", GDAL_CACHE_MB);
+        Cache::builder().max_capacity(block_budget()).weigher(|_, b: &Arc<Block>| b.bytes()).build()
+    })
+}
+
+/// Bytes held in the block cache now (for the scene state and tests).
+pub fn cached_bytes() -> u64 {
+    let cache = cache();
+    cache.run_pending_tasks();
+    cache.weighted_size()
+}
+
+/// A new identity for a raster's blocks in the cache.
+pub(crate) fn new_uid() -> u64 {
+    static NEXT: AtomicU64 = AtomicU64::new(1);
+    NEXT.fetch_add(1, Ordering::Relaxed)
+}
+
+thread_local! {
+    static HANDLES: RefCell<Vec<(u64, Dataset)>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on this thread's open dataset for `version` (one version of
+/// the file: a changed file is opened afresh, never read through a handle
+/// that may hold its old blocks).
+pub(crate) fn with_dataset<T>(
+    version: u64,
+    path: &Path,
+    f: impl FnOnce(&Dataset) -> Result<T, SourceError>,
+) -> Result<T, SourceError> {
+    HANDLES.with(|handles| {
+        let mut handles = handles.borrow_mut();
+        let at = match handles.iter().position(|(v, _)| *v == version) {
+            Some(at) => at,
+            None => {
+                if handles.len() >= HANDLES_PER_THREAD {
+                    handles.remove(0);
+                }
+                handles.push((version, super::open_dataset(path)?));
+                handles.len() - 1
+            }
+        };
+        // Most recently used last.
+        let entry = handles.remove(at);
+        handles.push(entry);
+        f(&handles.last().expect("just pushed").1)
+    })
+}
+
+/// A rectangle of one level's pixels, copied out of its blocks.
+#[derive(Debug)]
+pub(crate) struct Window {
+    pub width: usize,
+    pub height: usize,
+    pub planes: Vec<Vec<f32>>,
+}
+
+impl Store {
+    fn blocks_across(&self, level: usize) -> usize {
+        self.levels[level].width.div_ceil(BLOCK)
+    }
+
+    /// The stamp of a block: its key in the cache changes with it.
+    fn stamp(&self, level: usize, bx: usize, by: usize) -> u32 {
+        self.stamps[level][by * self.blocks_across(level) + bx]
+    }
+
+    /// Block (bx, by) of `level`.
+    pub(crate) fn block(&self, level: usize, bx: usize, by: usize) -> Result<Arc<Block>, SourceError> {
+        if level == 0
+            && let Some(pinned) = &self.pinned
+        {
+            return Ok(Arc::clone(&pinned[by * self.blocks_across(0) + bx]));
+        }
+        let key = BlockKey {
+            raster: self.uid,
+            level: level as u8,
+            bx: bx as u32,
+            by: by as u32,
+            stamp: self.stamp(level, bx, by),
+        };
+        cache()
+            .try_get_with(key, || self.load(level, bx, by).map(Arc::new))
+            .map_err(|e| Arc::try_unwrap(e).unwrap_or_else(|e| SourceError::format(e.to_string(), &self.path)))
+    }
+
+    /// Block (bx, by) of `level` if the cache holds it (never read).
+    pub(crate) fn peek(&self, level: usize, bx: usize, by: usize) -> Option<Arc<Block>> {
+        let key = BlockKey {
+            raster: self.uid,
+            level: level as u8,
+            bx: bx as u32,
+            by: by as u32,
+            stamp: self.stamp(level, bx, by),
+        };
+        cache().get(&key)
+    }
+
+    /// Puts a block just read into the cache (a reload that read it anyway).
+    pub(crate) fn keep(&self, level: usize, bx: usize, by: usize, block: Arc<Block>) {
+        let key = BlockKey {
+            raster: self.uid,
+            level: level as u8,
+            bx: bx as u32,
+            by: by as u32,
+            stamp: self.stamp(level, bx, by),
+        };
+        cache().insert(key, block);
+    }
+
+    /// The pixels of block (bx, by) of `level`, rectangle of that level.
+    pub(crate) fn block_rect(&self, level: usize, bx: usize, by: usize) -> PixelRect {
+        let l = &self.levels[level];
+        let (x0, y0) = (bx * BLOCK, by * BLOCK);
+        PixelRect { x0, y0, x1: (x0 + BLOCK).min(l.width), y1: (y0 + BLOCK).min(l.height) }
+    }
+
+    /// Reads or makes a block that is not in the cache.
+    pub(crate) fn load(&self, level: usize, bx: usize, by: usize) -> Result<Block, SourceError> {
+        let rect = self.block_rect(level, bx, by);
+        let info = &self.levels[level];
+        if level == 0 || info.overview.is_some() {
+            let planes = self.read_file(info.overview, rect)?;
+            return Ok(Block { width: rect.width(), height: rect.height(), planes });
+        }
+        // No overview of this size: halve the level below over this block.
+        let below = &self.levels[level - 1];
+        let under = PixelRect {
+            x0: 2 * rect.x0,
+            y0: 2 * rect.y0,
+            x1: (2 * rect.x1).min(below.width),
+            y1: (2 * rect.y1).min(below.height),
+        };
+        let w = self.window(level - 1, under)?;
+        let planes = w
+            .planes
+            .iter()
+            .map(|p| {
+                (0..rect.height())
+                    .flat_map(|j| (0..rect.width()).map(move |i| (i, j)))
+                    .map(|(i, j)| halved_pixel(p, w.width, w.height, i, j, self.halving))
+                    .collect()
+            })
+            .collect();
+        Ok(Block { width: rect.width(), height: rect.height(), planes })
+    }
+
+    /// Decodes a rectangle of the file (base level or an overview), checking
+    /// that the file is the version this store describes before and after:
+    /// a writer at work makes the read fail as `Changing`, never half-read.
+    pub(crate) fn read_file(&self, overview: Option<usize>, rect: PixelRect) -> Result<Vec<Vec<f32>>, SourceError> {
+        let changing = || SourceError::Changing { path: self.path.clone() };
+        if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
+            return Err(changing());
+        }
+        let planes =
+            with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?;
+        if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
+            return Err(changing());
+        }
+        self.bytes_read.fetch_add((rect.width() * rect.height() * self.bytes_per_pixel) as u64, Ordering::Relaxed);
+        Ok(planes)
+    }
+
+    /// The pixels of `rect` of `level`, from the blocks under it.
+    pub(crate) fn window(&self, level: usize, rect: PixelRect) -> Result<Window, SourceError> {
+        let (width, height) = (rect.width(), rect.height());
+        let n_planes = self.halving_planes();
+        let mut planes = vec![vec![0.0f32; width * height]; n_planes];
+        if width == 0 || height == 0 {
+            return Ok(Window { width, height, planes });
+        }
+        for by in rect.y0 / BLOCK..=(rect.y1 - 1) / BLOCK {
+            for bx in rect.x0 / BLOCK..=(rect.x1 - 1) / BLOCK {
+                let block = self.block(level, bx, by)?;
+                let (bx0, by0) = (bx * BLOCK, by * BLOCK);
+                let (x0, x1) = (rect.x0.max(bx0), rect.x1.min(bx0 + block.width));
+                let (y0, y1) = (rect.y0.max(by0), rect.y1.min(by0 + block.height));
+                for (plane, src) in planes.iter_mut().zip(&block.planes) {
+                    for y in y0..y1 {
+                        let from = (y - by0) * block.width + (x0 - bx0);
+                        let to = (y - rect.y0) * width + (x0 - rect.x0);
+                        plane[to..to + (x1 - x0)].copy_from_slice(&src[from..from + (x1 - x0)]);
+                    }
+                }
+            }
+        }
+        Ok(Window { width, height, planes })
+    }
+
+    fn halving_planes(&self) -> usize {
+        if self.halving == Halving::ColorMean { 4 } else { 1 }
+    }
+}

@@ -1,0 +1,233 @@
+//! What changed in a raster's files between two versions, found without
+//! decoding the blocks that did not. Each file of the raster (the file, or
+//! each member of a VRT mosaic) gets a signature per block of every level
+//! (base and overviews): for a GeoTIFF, the block's offset and size in the
+//! file and, unless `layout` is asked for, a hash of its compressed bytes;
+//! for any other format, a hash of the block's values read through GDAL
+//! (base level only). Two versions' signatures differ exactly where their
+//! blocks may.
+
+use std::os::unix::fs::FileExt;
+use std::path::{Path, PathBuf};
+
+use gdal::Metadata;
+use gdal::raster::RasterBand;
+use rayon::prelude::*;
+use relief_source::SourceError;
+use xxhash_rust::xxh3::{xxh3_64, xxh3_64_with_seed};
+
+use super::{PixelRect, Raster, format_err, open_dataset};
+
+/// How a reload tells changed blocks of a GeoTIFF from unchanged ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChangeDetection {
+    /// Offsets, sizes and a hash of each block's compressed bytes: every
+    /// change is found; a reload reads the file's compressed bytes (not
+    /// decoding them).
+    Exact,
+    /// Offsets and sizes alone: a reload reads only the file's block
+    /// tables. A block rewritten in place to exactly its old compressed
+    /// size is missed (an uncompressed GeoTIFF is always checked exactly).
+    Layout,
+}
+
+impl ChangeDetection {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Exact => "exact",
+            Self::Layout => "layout",
+        }
+    }
+}
+
+/// Block signatures of every file of a raster version.
+#[derive(Debug)]
+pub(crate) struct Signatures {
+    parts: Vec<Part>,
+}
+
+/// One file of the raster, placed in the raster's pixels.
+#[derive(Debug)]
+struct Part {
+    path: PathBuf,
+    /// Raster pixel = offset + part pixel * scale, per axis.
+    offset: (f64, f64),
+    scale: (f64, f64),
+    size: (usize, usize),
+    levels: Vec<Level>,
+}
+
+/// Signatures of one level of one file.
+#[derive(Debug, PartialEq)]
+struct Level {
+    size: (usize, usize),
+    block: (usize, usize),
+    sigs: Vec<u64>,
+}
+
+impl Signatures {
+    pub(crate) fn of(raster: &Raster, mode: ChangeDetection) -> Result<Self, SourceError> {
+        if raster.members.is_empty() {
+            let levels = levels(&raster.path, mode)?;
+            return Ok(Self {
+                parts: vec![Part {
+                    path: raster.path.clone(),
+                    offset: (0.0, 0.0),
+                    scale: (1.0, 1.0),
+                    size: raster.size,
+                    levels,
+                }],
+            });
+        }
+        let parts = raster
+            .members
+            .par_iter()
+            .map(|(path, _)| {
+                let ds = open_dataset(path)?;
+                let gt = ds.geo_transform().map_err(|_| format_err("mosaic member has no geotransform", path))?;
+                let rg = raster.geo;
+                Ok(Part {
+                    path: path.clone(),
+                    offset: ((gt[0] - rg[0]) / rg[1], (gt[3] - rg[3]) / rg[5]),
+                    scale: (gt[1] / rg[1], gt[5] / rg[5]),
+                    size: ds.raster_size(),
+                    levels: levels(path, mode)?,
+                })
+            })
+            .collect::<Result<_, SourceError>>()?;
+        Ok(Self { parts })
+    }
+
+    /// The base pixels of a raster of `size` where `new` may differ from
+    /// `self`: every block whose signature changed, at any level.
+    pub(crate) fn diff(&self, new: &Self, size: (usize, usize)) -> Vec<PixelRect> {
+        let everything = vec![PixelRect { x0: 0, y0: 0, x1: size.0, y1: size.1 }];
+        if self.parts.len() != new.parts.len() || self.parts.iter().zip(&new.parts).any(|(a, b)| a.path != b.path) {
+            return everything;
+        }
+        let mut rects = Vec::new();
+        for (old, new) in self.parts.iter().zip(&new.parts) {
+            let place = |x0: f64, y0: f64, x1: f64, y1: f64| {
+                let (ax, ay) = (new.offset.0 + x0 * new.scale.0, new.offset.1 + y0 * new.scale.1);
+                let (bx, by) = (new.offset.0 + x1 * new.scale.0, new.offset.1 + y1 * new.scale.1);
+                let clip = |v: f64, max: usize| (v.max(0.0) as usize).min(max);
+                PixelRect {
+                    x0: clip(ax.min(bx).floor(), size.0),
+                    y0: clip(ay.min(by).floor(), size.1),
+                    x1: clip(ax.max(bx).ceil(), size.0),
+                    y1: clip(ay.max(by).ceil(), size.1),
+                }
+            };
+            let layout = |l: &Level| (l.size, l.block, l.sigs.len());
+            if old.size != new.size
+                || old.offset != new.offset
+                || old.levels.len() != new.levels.len()
+                || old.levels.iter().zip(&new.levels).any(|(a, b)| layout(a) != layout(b))
+            {
+                rects.push(place(0.0, 0.0, new.size.0 as f64, new.size.1 as f64));
+                continue;
+            }
+            for (a, b) in old.levels.iter().zip(&new.levels) {
+                let across = b.size.0.div_ceil(b.block.0);
+                let factor = (new.size.0 as f64 / b.size.0 as f64, new.size.1 as f64 / b.size.1 as f64);
+                for (i, _) in a.sigs.iter().zip(&b.sigs).enumerate().filter(|(_, (x, y))| x != y) {
+                    let (bx, by) = (i % across, i / across);
+                    let x0 = (bx * b.block.0) as f64;
+                    let y0 = (by * b.block.1) as f64;
+                    let x1 = ((bx + 1) * b.block.0).min(b.size.0) as f64;
+                    let y1 = ((by + 1) * b.block.1).min(b.size.1) as f64;
+                    rects.push(place(x0 * factor.0, y0 * factor.1, x1 * factor.0, y1 * factor.1));
+                }
+            }
+        }
+        rects.retain(|r| r.width() > 0 && r.height() > 0);
+        rects
+    }
+}
+
+/// The signatures of every level of one file.
+fn levels(path: &Path, mode: ChangeDetection) -> Result<Vec<Level>, SourceError> {
+    let ds = open_dataset(path)?;
+    let band = |b: usize| ds.rasterband(b).map_err(|e| format_err(e, path));
+    let bands: Vec<RasterBand<'_>> = (1..=ds.raster_count()).map(band).collect::<Result<_, _>>()?;
+    let compressed = ds.metadata_item("COMPRESSION", "IMAGE_STRUCTURE").is_some();
+    let tiff = ds.driver().short_name() == "GTiff" && bands[0].metadata_item("BLOCK_OFFSET_0_0", "TIFF").is_some();
+    if !tiff {
+        return Ok(vec![values(&bands, path)?]);
+    }
+    let hash_bytes = mode == ChangeDetection::Exact || !compressed;
+    let overviews = bands[0].overview_count().unwrap_or(0).max(0) as usize;
+    let external = PathBuf::from(format!("{}.ovr", path.display()));
+    let mut out = Vec::with_capacity(overviews + 1);
+    for level in 0..=overviews {
+        let level_bands: Vec<RasterBand<'_>> = if level == 0 {
+            (1..=ds.raster_count()).map(band).collect::<Result<_, _>>()?
+        } else {
+            bands
+                .iter()
+                .map(|b| b.overview(level - 1).map_err(|e| format_err(format!("cannot open overview: {e}"), path)))
+                .collect::<Result<_, _>>()?
+        };
+        let file_path = if level > 0 && external.exists() { external.as_path() } else { path };
+        let file = if hash_bytes {
+            Some(std::fs::File::open(file_path).map_err(|source| SourceError::Io {
+                what: "raster",
+                path: file_path.into(),
+                source,
+            })?)
+        } else {
+            None
+        };
+        let size = level_bands[0].size();
+        let block = level_bands[0].block_size();
+        let (nx, ny) = (size.0.div_ceil(block.0), size.1.div_ceil(block.1));
+        let mut sigs = vec![0u64; nx * ny];
+        let mut buffer = Vec::new();
+        for band in &level_bands {
+            for (i, sig) in sigs.iter_mut().enumerate() {
+                let (x, y) = (i % nx, i / nx);
+                let item = |what: &str| {
+                    band.metadata_item(&format!("BLOCK_{what}_{x}_{y}"), "TIFF").and_then(|v| v.parse::<u64>().ok())
+                };
+                let (offset, bytes) = (item("OFFSET").unwrap_or(0), item("SIZE").unwrap_or(0));
+                let mut h = xxh3_64_with_seed(&[offset.to_le_bytes(), bytes.to_le_bytes()].concat(), *sig);
+                if let Some(file) = &file
+                    && bytes > 0
+                {
+                    buffer.resize(bytes as usize, 0);
+                    file.read_exact_at(&mut buffer, offset).map_err(|source| SourceError::Io {
+                        what: "raster",
+                        path: file_path.into(),
+                        source,
+                    })?;
+                    h = xxh3_64_with_seed(&buffer, h);
+                }
+                *sig = h;
+            }
+        }
+        out.push(Level { size, block, sigs });
+    }
+    Ok(out)
+}
+
+/// Signatures of the base level's values, 256 x 256 pixels at a time, for
+/// formats whose blocks cannot be located in the file.
+fn values(bands: &[RasterBand<'_>], path: &Path) -> Result<Level, SourceError> {
+    const SIDE: usize = super::BLOCK;
+    let size = bands[0].size();
+    let (nx, ny) = (size.0.div_ceil(SIDE), size.1.div_ceil(SIDE));
+    let mut sigs = vec![0u64; nx * ny];
+    let mut values = Vec::new();
+    for band in bands {
+        for (i, sig) in sigs.iter_mut().enumerate() {
+            let (x0, y0) = ((i % nx) * SIDE, (i / nx) * SIDE);
+            let window = ((SIDE).min(size.0 - x0), SIDE.min(size.1 - y0));
+            values.resize(window.0 * window.1, 0.0f64);
+            band.read_into_slice::<f64>((x0 as isize, y0 as isize), window, window, &mut values, None)
+                .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))?;
+            let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+            *sig = xxh3_64_with_seed(&bytes, *sig ^ xxh3_64(b"values"));
+        }
+    }
+    Ok(Level { size, block: (SIDE, SIDE), sigs })
+}

@@ -1,0 +1,77 @@
+//! Coarser pixels from finer ones: how a mip pixel is made from the (up
+//! to) four pixels under it, for heights, colour and codes.
+
+/// How a mip pixel is made from the (up to) four under it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Halving {
+    /// Heights: the mean of the valid ones (NaN when none is).
+    HeightMean,
+    /// Premultiplied colour: the plain mean (transparent weighs nothing).
+    ColorMean,
+    /// Codes: the most common valid value (the first of equals, row by row).
+    Mode,
+}
+
+/// One pixel of the next level, from the (up to) four pixels under it in
+/// `plane` (`width` x `height`, its origin on an even pixel of the level
+/// below).
+pub(crate) fn halved_pixel(plane: &[f32], width: usize, height: usize, i: usize, j: usize, halving: Halving) -> f32 {
+    let under = [(0, 0), (1, 0), (0, 1), (1, 1)]
+        .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
+        .map(|(x, y)| (x < width && y < height).then(|| plane[y * width + x]));
+    if halving == Halving::Mode {
+        let valid = || under.iter().flatten().copied().filter(|v| !v.is_nan());
+        let count = |v: f32| valid().filter(|u| *u == v).count();
+        return valid()
+            .fold(None, |best: Option<f32>, v| match best {
+                Some(b) if count(b) >= count(v) => Some(b),
+                _ => Some(v),
+            })
+            .unwrap_or(f32::NAN);
+    }
+    let skip_nan = halving == Halving::HeightMean;
+    let mut sum = 0.0f64;
+    let (mut count, mut cells) = (0u32, 0u32);
+    for v in under.into_iter().flatten() {
+        cells += 1;
+        if !(skip_nan && v.is_nan()) {
+            sum += f64::from(v);
+            count += 1;
+        }
+    }
+    let divisor = if skip_nan { count } else { cells };
+    if count == 0 { f32::NAN } else { (sum / f64::from(divisor)) as f32 }
+}
+
+#[cfg(test)]
+/// A whole plane halved: `width.div_ceil(2)` x `height.div_ceil(2)` pixels.
+pub(crate) fn halve(plane: &[f32], width: usize, height: usize, halving: Halving) -> Vec<f32> {
+    let (w, h) = (width.div_ceil(2), height.div_ceil(2));
+    (0..h)
+        .flat_map(|j| (0..w).map(move |i| (i, j)))
+        .map(|(i, j)| halved_pixel(plane, width, height, i, j, halving))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halving_ignores_nodata_and_keeps_all_void_blocks_void() {
+        let n = f32::NAN;
+        let plane = [1.0, 3.0, n, n, 5.0, n, n, n, 2.0];
+        let out = halve(&plane, 3, 3, Halving::HeightMean);
+        // Codes: the most common valid value, never a mean of classes.
+        let codes = [3.0, 7.0, 7.0, f32::NAN];
+        assert_eq!(halve(&codes, 2, 2, Halving::Mode), vec![7.0]);
+        assert_eq!(halve(&[5.0, 9.0, f32::NAN, f32::NAN], 2, 2, Halving::Mode), vec![5.0]);
+        assert!(halve(&[f32::NAN; 4], 2, 2, Halving::Mode)[0].is_nan());
+        assert_eq!(out.len(), 4);
+        assert_eq!(out[0], 3.0); // (1 + 3 + 5) / 3: the void does not pull it down
+        assert!(out[1].is_nan()); // n, n over n: nothing valid
+        assert!(out[2].is_nan() && out[3] == 2.0);
+        // Colour: transparent pixels weigh in as zero.
+        assert_eq!(halve(&[1.0, 0.0, 0.0, 1.0], 2, 2, Halving::ColorMean), vec![0.5]);
+    }
+}
