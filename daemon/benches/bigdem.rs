@@ -166,7 +166,7 @@ fn height_m(lon: f64, lat: f64) -> f64 {
     (amp, norm) = (1.0, 0.0);
     for octave in 0..9 {
         let mut s = 1.0 - noise(p.0, p.1, 100 + octave).abs();
-        s *= s * weight;
+        s = s * (s * weight);
         weight = (s * 2.0).clamp(0.0, 1.0);
         ridge += s * amp;
         norm += amp;
@@ -389,7 +389,7 @@ struct Window {
 /// `n` windows, each wholly inside one mosaic file.
 fn windows(side: usize, n: usize) -> Vec<Window> {
     let piece = side / MOSAIC_GRID;
-    let mut rng = Lcg(0xB16D_E3);
+    let mut rng = Lcg(0x00B1_6DE3);
     (0..n)
         .map(|_| {
             let row = rng.range(0.0, MOSAIC_GRID as f64) as usize;
@@ -576,7 +576,7 @@ fn main() -> anyhow::Result<()> {
     let side = env_usize("RELIEF_BIGDEM_SIDE", 40_000);
     let edits = env_usize("RELIEF_BIGDEM_EDITS", 25).max(1);
     anyhow::ensure!(
-        side % MOSAIC_GRID == 0 && side / MOSAIC_GRID >= 2 * EDIT_SIDE,
+        side.is_multiple_of(MOSAIC_GRID) && side / MOSAIC_GRID >= 2 * EDIT_SIDE,
         "RELIEF_BIGDEM_SIDE must be a multiple of {MOSAIC_GRID} and at least {} (got {side})",
         MOSAIC_GRID * 2 * EDIT_SIDE
     );

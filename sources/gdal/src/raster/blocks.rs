@@ -225,8 +225,24 @@ impl Store {
         if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
             return Err(changing());
         }
-        let planes =
+        let mut planes =
             with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?;
+        let scale = overview.map_or(1, |o| {
+            self.levels.iter().find(|l| l.overview == Some(o)).map_or(1, |l| l.scale as usize)
+        });
+        for hole in &self.holes {
+            let hole = hole.shrink(scale);
+            let (x0, x1) = (hole.x0.max(rect.x0), hole.x1.min(rect.x1));
+            let (y0, y1) = (hole.y0.max(rect.y0), hole.y1.min(rect.y1));
+            let fill = if self.halving == Halving::ColorMean { 0.0 } else { f32::NAN };
+            for plane in &mut planes {
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        plane[(y - rect.y0) * rect.width() + (x - rect.x0)] = fill;
+                    }
+                }
+            }
+        }
         if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
             return Err(changing());
         }

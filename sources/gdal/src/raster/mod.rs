@@ -154,6 +154,8 @@ pub(crate) struct Store {
     path: PathBuf,
     /// What GDAL opens: the file, or a VRT rewritten without its missing members.
     open_path: PathBuf,
+    /// Base pixels of missing members: nodata.
+    holes: Vec<PixelRect>,
     file_stamp: FileStamp,
     decoder: Decoder,
     bytes_per_pixel: usize,
@@ -221,7 +223,7 @@ impl PixelRect {
 
     /// This rectangle of the base level, over a level `scale` times coarser
     /// (every pixel it touches).
-    fn shrink(&self, scale: usize) -> Self {
+    pub(crate) fn shrink(&self, scale: usize) -> Self {
         Self { x0: self.x0 / scale, y0: self.y0 / scale, x1: self.x1.div_ceil(scale), y1: self.y1.div_ceil(scale) }
     }
 }
@@ -247,6 +249,7 @@ struct Header {
     decoder: Decoder,
     levels: Vec<LevelInfo>,
     open_path: PathBuf,
+    holes: Vec<PixelRect>,
     bytes_per_pixel: usize,
     categorical: bool,
 }
@@ -351,7 +354,7 @@ impl Raster {
             details,
             store: Arc::new(Store::placeholder()),
         };
-        Ok(Header { raster, decoder, levels, open_path: members.open_path, bytes_per_pixel, categorical })
+        Ok(Header { raster, decoder, levels, open_path: members.open_path, holes: members.holes, bytes_per_pixel, categorical })
     }
 
     pub(crate) fn width(&self) -> usize {
@@ -438,23 +441,25 @@ impl Raster {
             let x0 = ((level.width.saturating_sub(SIDE)) as f64 * fx) as usize;
             let y0 = ((level.height.saturating_sub(SIDE)) as f64 * fy) as usize;
             let rect = PixelRect { x0, y0, x1: (x0 + SIDE).min(level.width), y1: (y0 + SIDE).min(level.height) };
-            let over = self.store.window(1, rect)?;
+            // Read straight from the file: a few pixels, not whole blocks.
+            let over = self.store.read_file(level.overview, rect)?;
             let under = PixelRect {
                 x0: 2 * rect.x0,
                 y0: 2 * rect.y0,
                 x1: (2 * rect.x1).min(self.width()),
                 y1: (2 * rect.y1).min(self.height()),
             };
-            let base = self.store.window(0, under)?;
-            for (o, b) in over.planes.iter().zip(&base.planes) {
+            let base = self.store.read_file(None, under)?;
+            let (base_width, base_height) = (under.width(), under.height());
+            for (o, b) in over.iter().zip(&base) {
                 for j in 0..rect.height() {
                     for i in 0..rect.width() {
                         let v = o[j * rect.width() + i];
                         let below: Vec<f32> = [(0, 0), (1, 0), (0, 1), (1, 1)]
                             .iter()
                             .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
-                            .filter(|&(x, y)| x < base.width && y < base.height)
-                            .map(|(x, y)| b[y * base.width + x])
+                            .filter(|&(x, y)| x < base_width && y < base_height)
+                            .map(|(x, y)| b[y * base_width + x])
                             .filter(|h| !h.is_nan())
                             .collect();
                         if v.is_nan() || below.is_empty() {
@@ -655,7 +660,7 @@ impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
-        let Self { mut raster, decoder, levels, open_path, bytes_per_pixel, categorical } = self;
+        let Self { mut raster, decoder, levels, open_path, holes, bytes_per_pixel, categorical } = self;
         let file_stamp =
             FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
         let halving = match (raster.kind, categorical) {
@@ -672,6 +677,7 @@ impl Header {
             version: VERSION.fetch_add(1, Ordering::Relaxed),
             path: raster.path.clone(),
             open_path,
+            holes,
             file_stamp,
             decoder,
             bytes_per_pixel,
@@ -694,6 +700,7 @@ impl Store {
             version: 0,
             path: PathBuf::new(),
             open_path: PathBuf::new(),
+            holes: Vec::new(),
             file_stamp: FileStamp { len: 0, modified: None, ino: 0 },
             decoder: Decoder::Height { band: 1, nodata: None, scale: 1.0, offset: 0.0 },
             bytes_per_pixel: 0,
@@ -714,6 +721,7 @@ impl Store {
             version: self.version,
             path: self.path.clone(),
             open_path: self.open_path.clone(),
+            holes: self.holes.clone(),
             file_stamp: self.file_stamp,
             decoder: self.decoder.clone(),
             bytes_per_pixel: self.bytes_per_pixel,

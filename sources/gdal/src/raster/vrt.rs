@@ -9,7 +9,7 @@ use quick_xml::events::{BytesStart, BytesText, Event};
 use quick_xml::{Reader, Writer};
 use relief_source::SourceError;
 
-use super::format_err;
+use super::{PixelRect, format_err};
 
 /// A raster's member files, and what GDAL should open.
 #[derive(Debug, Clone, Default)]
@@ -18,6 +18,9 @@ pub(crate) struct Members {
     pub files: Vec<PathBuf>,
     /// Members the VRT names that are not there.
     pub missing: Vec<PathBuf>,
+    /// Where the missing members would have been, in the VRT's pixels
+    /// (their `DstRect`s, rounded outwards): nodata.
+    pub holes: Vec<PixelRect>,
     pub open_path: PathBuf,
 }
 
@@ -39,8 +42,11 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
     let mut reader = Reader::from_str(&text);
     let mut writer = Writer::new(Vec::new());
     let (mut files, mut missing) = (Vec::<PathBuf>::new(), Vec::<PathBuf>::new());
-    // The events of the source element being read, its depth, its file.
+    let mut holes = Vec::new();
+    // The events of the source element being read, its depth, its file,
+    // where it goes.
     let mut held: Option<(Vec<Event<'static>>, usize, Option<PathBuf>)> = None;
+    let mut destination: Option<PixelRect> = None;
     let mut relative = false;
     let mut in_name = false;
     loop {
@@ -76,6 +82,23 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
                 }
             }
             Event::End(e) if e.name().as_ref() == b"SourceFilename" => in_name = false,
+            Event::Empty(e) | Event::Start(e) if held.is_some() && e.name().as_ref() == b"DstRect" => {
+                let number = |key: &str| -> Option<f64> {
+                    let a = e.try_get_attribute(key).ok().flatten()?;
+                    std::str::from_utf8(&a.value).ok()?.trim().parse().ok()
+                };
+                if let (Some(x), Some(y), Some(w), Some(h)) =
+                    (number("xOff"), number("yOff"), number("xSize"), number("ySize"))
+                {
+                    let at = |v: f64| v.max(0.0) as usize;
+                    destination = Some(PixelRect {
+                        x0: at(x.floor()),
+                        y0: at(y.floor()),
+                        x1: at((x + w).ceil()),
+                        y1: at((y + h).ceil()),
+                    });
+                }
+            }
             _ => {}
         }
         match &mut held {
@@ -95,11 +118,13 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
                     };
                     match file {
                         Some(f) if !present => {
+                            holes.extend(destination.take());
                             if !missing.contains(&f) {
                                 missing.push(f);
                             }
                         }
                         _ => {
+                            destination = None;
                             if let Some(f) = file.filter(|f| f.exists() && !files.contains(f)) {
                                 files.push(f);
                             }
@@ -114,7 +139,7 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
         }
     }
     if missing.is_empty() {
-        return Ok(Members { files, missing, open_path: path.to_path_buf() });
+        return Ok(Members { files, missing, holes, open_path: path.to_path_buf() });
     }
     if files.is_empty() {
         let names: Vec<String> = missing.iter().map(|p| p.display().to_string()).collect();
@@ -123,5 +148,5 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
     let copy = PathBuf::from(format!("/vsimem/relief/{}-{}.vrt", std::process::id(), super::blocks::new_uid()));
     gdal::vsi::create_mem_file(&copy, writer.into_inner())
         .map_err(|e| format_err(format!("cannot write the VRT without its missing files: {e}"), path))?;
-    Ok(Members { files, missing, open_path: copy })
+    Ok(Members { files, missing, holes, open_path: copy })
 }
