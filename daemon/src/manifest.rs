@@ -268,13 +268,16 @@ impl Manifest {
             }
             let kind = s.kind.ok_or_else(|| source_err("kind", "missing".into()))?;
             let mut paths: Vec<PathBuf> = Vec::new();
-            match (s.path, s.paths) {
+            let (field_name, given) = match (s.path, s.paths) {
                 (Some(_), Some(_)) => {
                     return Err(source_err("paths", "give 'path' or 'paths', not both".into()));
                 }
-                (Some(p), None) => paths.push(base.join(p)),
-                (None, Some(ps)) => paths.extend(ps.into_iter().map(|p| base.join(p))),
-                (None, None) => {}
+                (Some(p), None) => ("path", vec![p]),
+                (None, Some(ps)) => ("paths", ps),
+                (None, None) => ("paths", Vec::new()),
+            };
+            for p in given {
+                paths.extend(expand(&base, &p).map_err(|message| source_err(field_name, message))?);
             }
             /// A TOML value as an option value, arrays and tables nested;
             /// the error is the path below the option (`[1].planted`) and why.
@@ -422,6 +425,24 @@ impl Manifest {
             watch,
         })
     }
+}
+
+/// A path of the manifest, relative to its folder; a pattern (`*`, `?`,
+/// `[...]`, as in `tiles/*.tif`) is every file it matches, sorted, and
+/// must match at least one.
+fn expand(base: &Path, given: &str) -> Result<Vec<PathBuf>, String> {
+    if !given.contains(['*', '?', '[']) {
+        return Ok(vec![base.join(given)]);
+    }
+    let pattern = base.join(given);
+    let text = pattern.to_str().ok_or_else(|| format!("'{given}' is not valid UTF-8"))?;
+    let entries = glob::glob(text).map_err(|e| format!("'{given}' is not a valid pattern: {}", e.msg))?;
+    let mut files: Vec<PathBuf> = entries.filter_map(Result::ok).filter(|p| p.is_file()).collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(format!("'{given}' matches no file (in {})", base.display()));
+    }
+    Ok(files)
 }
 
 #[cfg(test)]

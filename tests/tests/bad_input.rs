@@ -121,6 +121,50 @@ fn a_truncated_raster_is_rejected_naming_the_file() {
 }
 
 #[test]
+fn a_glob_that_matches_nothing_is_rejected_and_one_that_matches_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    hill(dir.path());
+    let m = one_dem(dir.path(), "tiles/*.tif", "");
+    assert_rejected(
+        &m,
+        &["source 'dem'", "field 'path'", "'tiles/*.tif' matches no file", dir.path().to_str().unwrap()],
+    );
+    let m = fixtures::write_manifest(
+        dir.path(),
+        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npaths = [\"*.tif\", \"[\"]\n"),
+    )
+    .unwrap();
+    assert_rejected(&m, &["source 'dem'", "field 'paths'", "'[' is not a valid pattern"]);
+    let m = fixtures::write_manifest(
+        dir.path(),
+        &format!("{HEAD}[[source]]\nid = \"dem\"\nkind = \"gdal\"\npaths = [\"h?ll*.tif\"]\n"),
+    )
+    .unwrap();
+    let (code, out) = check(&m).unwrap();
+    assert_eq!(code, 0, "a pattern matching hill.tif loads: {out}");
+}
+
+#[test]
+fn a_raster_whose_overviews_disagree_with_its_base_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = hill(dir.path());
+    // Overviews of the hill, then the base rewritten as a flat plain.
+    {
+        let mut ds = gdal::Dataset::open_ex(
+            &file,
+            gdal::DatasetOptions { open_flags: gdal::GdalOpenFlags::GDAL_OF_UPDATE, ..Default::default() },
+        )
+        .unwrap();
+        ds.build_overviews("AVERAGE", &[2, 4], &[]).unwrap();
+        let mut band = ds.rasterband(1).unwrap();
+        let flat = vec![-100.0f32; 400 * 400];
+        band.write((0, 0), (400, 400), &mut gdal::raster::Buffer::new((400, 400), flat)).unwrap();
+    }
+    let m = one_dem(dir.path(), "hill.tif", "");
+    assert_rejected(&m, &["source 'dem'", "overviews disagree with its base", file.to_str().unwrap()]);
+}
+
+#[test]
 fn an_unknown_crs_is_rejected() {
     let dir = tempfile::tempdir().unwrap();
     hill(dir.path());

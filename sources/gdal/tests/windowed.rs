@@ -37,7 +37,9 @@ fn open(path: &Path, options: &[(&str, OptionValue)]) -> GdalSource {
 /// A payload as bytes: heights bit for bit (every NaN alike), colour as is.
 fn bytes(payload: &Payload) -> Vec<u8> {
     match payload {
-        Payload::Height(h) => h.heights.iter().flat_map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() }.to_le_bytes()).collect(),
+        Payload::Height(h) => {
+            h.heights.iter().flat_map(|v| if v.is_nan() { u32::MAX } else { v.to_bits() }.to_le_bytes()).collect()
+        }
         Payload::Color(c) => c.rgba.clone(),
         other => panic!("a gdal source made {other:?}"),
     }
@@ -52,9 +54,7 @@ fn keys(source: &GdalSource, max_level: u8) -> Vec<TileKey> {
 fn tiles(source: &GdalSource, keys: &[TileKey]) -> Vec<Vec<u8>> {
     let (grid, quality) = (grid(), Quality::default());
     let ctx = GenerateContext { grid: &grid, quality: &quality, inputs: &NoInputs };
-    keys.iter()
-        .map(|k| bytes(&source.generate(*k, &ctx).unwrap_or_else(|e| panic!("tile {k:?}: {e}"))))
-        .collect()
+    keys.iter().map(|k| bytes(&source.generate(*k, &ctx).unwrap_or_else(|e| panic!("tile {k:?}: {e}")))).collect()
 }
 
 fn assert_same_tiles(a: &GdalSource, b: &GdalSource, max_level: u8, what: &str) {
@@ -70,8 +70,7 @@ fn assert_same_tiles(a: &GdalSource, b: &GdalSource, max_level: u8, what: &str) 
 fn tiled_copy(from: &Path, to: &Path, overviews: Option<&str>) -> PathBuf {
     let source = Dataset::open(from).unwrap();
     let driver = DriverManager::get_driver_by_name("GTiff").unwrap();
-    let options =
-        RasterCreationOptions::from_iter(["TILED=YES", "BLOCKXSIZE=64", "BLOCKYSIZE=64", "COMPRESS=DEFLATE"]);
+    let options = RasterCreationOptions::from_iter(["TILED=YES", "BLOCKXSIZE=64", "BLOCKYSIZE=64", "COMPRESS=DEFLATE"]);
     let mut copy = source.create_copy(&driver, to, &options).unwrap();
     if let Some(resampling) = overviews {
         copy.build_overviews(resampling, &[2, 4, 8], &[]).unwrap();
@@ -136,7 +135,9 @@ fn fixtures(dir: &Path) -> Vec<Fixture> {
     let holes = examples::write_dem(
         &dir.join("holes.tif"),
         &RasterSpec { nodata: Some(-9999.0), ..examples::hill_spec() },
-        |lon, lat| if ((lon * 40.0).floor() + (lat * 40.0).floor()) % 3.0 == 0.0 { -9999.0 } else { examples::hill(lon, lat) },
+        |lon, lat| {
+            if ((lon * 40.0).floor() + (lat * 40.0).floor()) % 3.0 == 0.0 { -9999.0 } else { examples::hill(lon, lat) }
+        },
     )
     .unwrap();
     let tiled = tiled_copy(&hill, &dir.join("hill-tiled.tif"), None);
@@ -221,7 +222,15 @@ fn a_large_raster_is_never_read_whole() {
     // 4096 x 4096 Int16 (32 MiB of samples), tiled, with overviews: a
     // test-sized version of the 3.2 GB benchmark raster.
     let side = 4096usize;
-    let spec = RasterSpec { width: side, height: side, origin_x: 7.0, origin_y: 47.0, pixel: 1e-4, crs: "EPSG:4326", nodata: None };
+    let spec = RasterSpec {
+        width: side,
+        height: side,
+        origin_x: 7.0,
+        origin_y: 47.0,
+        pixel: 1e-4,
+        crs: "EPSG:4326",
+        nodata: None,
+    };
     let path = dir.path().join("large.tif");
     {
         let driver = DriverManager::get_driver_by_name("GTiff").unwrap();
@@ -232,7 +241,10 @@ fn a_large_raster_is_never_read_whole() {
         let mut band = ds.rasterband(1).unwrap();
         for y0 in (0..side).step_by(512) {
             let data: Vec<i16> = (y0..y0 + 512)
-                .flat_map(|j| (0..side).map(move |i| (((i as f64 / 300.0).sin() + (j as f64 / 170.0).cos()) * 400.0 + 1000.0) as i16))
+                .flat_map(|j| {
+                    (0..side)
+                        .map(move |i| (((i as f64 / 300.0).sin() + (j as f64 / 170.0).cos()) * 400.0 + 1000.0) as i16)
+                })
                 .collect();
             band.write((0, y0 as isize), (side, 512), &mut Buffer::new((side, 512), data)).unwrap();
         }
@@ -272,8 +284,8 @@ fn reloads_read_only_changed_blocks_and_equal_a_fresh_open() {
         ("HFA", hfa, false),
     ];
     for (name, path, overviews) in cases {
-        for mode in ["exact", "layout"] {
-            let options = [("read", text("windowed")), ("change_detection", text(mode))];
+        for (read, mode) in [("windowed", "exact"), ("windowed", "layout"), ("whole", "exact")] {
+            let options = [("read", text(read)), ("change_detection", text(mode))];
             let source = open(&path, &options);
             let keys = keys(&source, 10);
             tiles(&source, &keys);
@@ -407,14 +419,18 @@ fn a_vrt_with_missing_files_names_each_and_serves_the_rest() {
     }
     let (back, _) = refreshed(&source);
     assert!(!back.info().details.contains_key("missing_files"));
-    let (a, b) = (back.sample_heights(&points(10.1, 45.4), &q).unwrap(), full.sample_heights(&points(10.1, 45.4), &q).unwrap());
+    let (a, b) =
+        (back.sample_heights(&points(10.1, 45.4), &q).unwrap(), full.sample_heights(&points(10.1, 45.4), &q).unwrap());
     assert_eq!(a, b);
     // None of them there: refused, naming them.
     for f in &files {
         std::fs::remove_file(f).unwrap();
     }
     let e = GdalSource::open(&spec(&[&vrt], &[]), &grid()).unwrap_err().to_string();
-    assert!(e.contains("none of the VRT's files is there") && e.contains("q2.tif") && e.contains(vrt.to_str().unwrap()), "{e}");
+    assert!(
+        e.contains("none of the VRT's files is there") && e.contains("q2.tif") && e.contains(vrt.to_str().unwrap()),
+        "{e}"
+    );
 }
 
 #[test]

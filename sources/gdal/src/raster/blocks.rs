@@ -227,9 +227,8 @@ impl Store {
         }
         let mut planes =
             with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?;
-        let scale = overview.map_or(1, |o| {
-            self.levels.iter().find(|l| l.overview == Some(o)).map_or(1, |l| l.scale as usize)
-        });
+        let scale =
+            overview.map_or(1, |o| self.levels.iter().find(|l| l.overview == Some(o)).map_or(1, |l| l.scale as usize));
         for hole in &self.holes {
             let hole = hole.shrink(scale);
             let (x0, x1) = (hole.x0.max(rect.x0), hole.x1.min(rect.x1));

@@ -240,6 +240,9 @@ pub(crate) enum Reloaded {
     Everything(Raster),
 }
 
+/// A base block a reload read: where, its new pixels, what of it changed.
+type ReadBlock = ((usize, usize), Arc<Block>, Vec<PixelRect>);
+
 /// Side of the square blocks compared on reload.
 const DIFF_BLOCK: usize = 64;
 
@@ -269,9 +272,7 @@ impl Raster {
         let raster = header.into_raster(blocks::new_uid(), None)?;
         let raster = if residency == Residency::Whole { raster.read_whole()? } else { raster.probe()? };
         raster.check_overviews()?;
-        if residency == Residency::Windowed {
-            raster.sign_in_background(options.changes);
-        }
+        raster.sign_in_background(options.changes);
         Ok(raster)
     }
 
@@ -354,7 +355,15 @@ impl Raster {
             details,
             store: Arc::new(Store::placeholder()),
         };
-        Ok(Header { raster, decoder, levels, open_path: members.open_path, holes: members.holes, bytes_per_pixel, categorical })
+        Ok(Header {
+            raster,
+            decoder,
+            levels,
+            open_path: members.open_path,
+            holes: members.holes,
+            bytes_per_pixel,
+            categorical,
+        })
     }
 
     pub(crate) fn width(&self) -> usize {
@@ -506,12 +515,12 @@ impl Raster {
         }
     }
 
-    /// Reads the file again and finds what changed. A raster read whole is
-    /// read whole again and compared block by block; a windowed one compares
-    /// the blocks' signatures and reads only the blocks that differ. Either
-    /// way the changed blocks are compared in 64 x 64 pieces with the old
-    /// pixels where those are at hand, and only the pieces that differ are
-    /// dirt. The mip levels above change only there.
+    /// Reads the file's header again and finds what changed: the blocks
+    /// whose signatures differ from the last version's are read (no other),
+    /// and compared in 64 x 64 pieces with the old pixels where those are
+    /// at hand (a raster read whole always has them; a windowed one when
+    /// the cache does); the pieces that differ are the dirt. The mip levels
+    /// above change only there.
     pub(crate) fn reload(&self, options: &ReadOptions) -> Result<Reloaded, SourceError> {
         let t = std::time::Instant::now();
         let header = Self::header(&self.path, options)?;
@@ -530,30 +539,25 @@ impl Raster {
         let whole = !self.windowed();
         let mut raster = header.into_raster(self.store.uid, Some(&self.store))?;
         let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
-        let (candidates, signatures): (Vec<(usize, usize)>, Option<Signatures>) = if whole {
-            ((0..bw * bh).map(|b| (b % bw, b / bw)).collect(), None)
-        } else {
-            let old = self.store.signatures.wait();
-            let new = Signatures::of(&raster, options.changes)?;
-            let rects = match old {
-                Some(old) => old.diff(&new, self.size),
-                None => vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
-            };
-            let mut blocks: Vec<(usize, usize)> = rects
-                .iter()
-                .flat_map(|r| {
-                    let b = r.shrink(BLOCK);
-                    (b.y0..b.y1.min(bh)).flat_map(move |y| (b.x0..b.x1.min(bw)).map(move |x| (x, y)))
-                })
-                .collect();
-            blocks.sort_unstable_by_key(|&(x, y)| (y, x));
-            blocks.dedup();
-            (blocks, Some(new))
+        let old = self.store.signatures.wait();
+        let signatures = Signatures::of(&raster, options.changes)?;
+        let rects = match old {
+            Some(old) => old.diff(&signatures, self.size),
+            None => vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
         };
+        let mut candidates: Vec<(usize, usize)> = rects
+            .iter()
+            .flat_map(|r| {
+                let b = r.shrink(BLOCK);
+                (b.y0..b.y1.min(bh)).flat_map(move |y| (b.x0..b.x1.min(bw)).map(move |x| (x, y)))
+            })
+            .collect();
+        candidates.sort_unstable_by_key(|&(x, y)| (y, x));
+        candidates.dedup();
         tracing::debug!(ms = t.elapsed().as_secs_f64() * 1e3, blocks = candidates.len(), "raster changes found");
         // Read the candidate blocks of the new version, compare with the old.
         let new_store = &raster.store;
-        let read: Vec<((usize, usize), Arc<Block>, Vec<PixelRect>)> = candidates
+        let read: Vec<ReadBlock> = candidates
             .par_iter()
             .map(|&(bx, by)| {
                 let new = Arc::new(new_store.load(0, bx, by)?);
@@ -588,9 +592,7 @@ impl Raster {
                 }
             }
         }
-        if let Some(signatures) = signatures {
-            let _ = store.signatures.set(Some(signatures));
-        }
+        let _ = store.signatures.set(Some(signatures));
         raster.store = Arc::new(store);
         if !whole {
             for ((bx, by), block, changed) in read {
