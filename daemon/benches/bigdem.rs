@@ -569,6 +569,12 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
             println!("{line}");
         }
     }
+    if std::env::var_os("RELIEF_BIGDEM_LOG").is_some() {
+        // RELIEF_TEST_LOG sets reliefd's RUST_LOG; this prints what it said.
+        for line in daemon.log() {
+            println!("reliefd: {line}");
+        }
+    }
     let stop_note = daemon.stop(&[]).err().map(|e| format!("{e:#}"));
     Ok(Run {
         label,

@@ -490,6 +490,7 @@ impl Source for GdalSource {
             },
         );
         details.insert("change_detection".into(), self.read.changes.name().into());
+        details.insert("bytes_read".into(), self.bytes_read().to_string());
         if let Some(r) = self.resampling {
             let how = if r == Resampling::Nearest { "; its mips keep the most common value, for classes" } else { "" };
             details.insert("resampling".into(), format!("{r} (the source's own{how})"));

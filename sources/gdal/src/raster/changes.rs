@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use relief_source::SourceError;
 use xxhash_rust::xxh3::{xxh3_64, xxh3_64_with_seed};
 
-use super::{PixelRect, Raster, format_err, open_dataset};
+use super::{FileStamp, PixelRect, Raster, format_err, open_dataset};
 
 /// How a reload tells changed blocks of a GeoTIFF from unchanged ones.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -41,15 +41,28 @@ impl ChangeDetection {
 }
 
 /// Block signatures of every file of a raster version.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct Signatures {
     parts: Vec<Part>,
 }
 
+/// Where two versions' blocks differ, in base pixels of the raster.
+#[derive(Debug, Default)]
+pub(crate) struct Changes {
+    /// Blocks of the base level (or of a whole file whose layout changed).
+    pub base: Vec<PixelRect>,
+    /// Blocks of the files' overviews. An overview block changes with the
+    /// base under it; one that changed where the base did not is a change
+    /// of its own.
+    pub overviews: Vec<PixelRect>,
+}
+
 /// One file of the raster, placed in the raster's pixels.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct Part {
     path: PathBuf,
+    /// The file as it was signed (a member whose stamp is the same is not signed again).
+    stamp: Option<FileStamp>,
     /// Raster pixel = offset + part pixel * scale, per axis.
     offset: (f64, f64),
     scale: (f64, f64),
@@ -58,7 +71,7 @@ struct Part {
 }
 
 /// Signatures of one level of one file.
-#[derive(Debug, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 struct Level {
     size: (usize, usize),
     block: (usize, usize),
@@ -66,12 +79,16 @@ struct Level {
 }
 
 impl Signatures {
-    pub(crate) fn of(raster: &Raster, mode: ChangeDetection) -> Result<Self, SourceError> {
+    /// The signatures of `raster`'s files; a mosaic member unchanged since
+    /// `previous` keeps its signatures from there.
+    pub(crate) fn of(raster: &Raster, mode: ChangeDetection, previous: Option<&Self>) -> Result<Self, SourceError> {
         if raster.members.is_empty() {
+            let stamp = FileStamp::of(&raster.path);
             let levels = levels(&raster.path, mode)?;
             return Ok(Self {
                 parts: vec![Part {
                     path: raster.path.clone(),
+                    stamp,
                     offset: (0.0, 0.0),
                     scale: (1.0, 1.0),
                     size: raster.size,
@@ -83,11 +100,18 @@ impl Signatures {
             .members
             .par_iter()
             .map(|(path, _)| {
+                let stamp = FileStamp::of(path);
+                if let Some(same) = previous
+                    .and_then(|p| p.parts.iter().find(|p| p.path == *path && p.stamp == stamp && stamp.is_some()))
+                {
+                    return Ok(same.clone());
+                }
                 let ds = open_dataset(path)?;
                 let gt = ds.geo_transform().map_err(|_| format_err("mosaic member has no geotransform", path))?;
                 let rg = raster.geo;
                 Ok(Part {
                     path: path.clone(),
+                    stamp,
                     offset: ((gt[0] - rg[0]) / rg[1], (gt[3] - rg[3]) / rg[5]),
                     scale: (gt[1] / rg[1], gt[5] / rg[5]),
                     size: ds.raster_size(),
@@ -100,12 +124,12 @@ impl Signatures {
 
     /// The base pixels of a raster of `size` where `new` may differ from
     /// `self`: every block whose signature changed, at any level.
-    pub(crate) fn diff(&self, new: &Self, size: (usize, usize)) -> Vec<PixelRect> {
-        let everything = vec![PixelRect { x0: 0, y0: 0, x1: size.0, y1: size.1 }];
+    pub(crate) fn diff(&self, new: &Self, size: (usize, usize)) -> Changes {
+        let everything = PixelRect { x0: 0, y0: 0, x1: size.0, y1: size.1 };
         if self.parts.len() != new.parts.len() || self.parts.iter().zip(&new.parts).any(|(a, b)| a.path != b.path) {
-            return everything;
+            return Changes { base: vec![everything], overviews: Vec::new() };
         }
-        let mut rects = Vec::new();
+        let mut changes = Changes::default();
         for (old, new) in self.parts.iter().zip(&new.parts) {
             let place = |x0: f64, y0: f64, x1: f64, y1: f64| {
                 let (ax, ay) = (new.offset.0 + x0 * new.scale.0, new.offset.1 + y0 * new.scale.1);
@@ -124,10 +148,11 @@ impl Signatures {
                 || old.levels.len() != new.levels.len()
                 || old.levels.iter().zip(&new.levels).any(|(a, b)| layout(a) != layout(b))
             {
-                rects.push(place(0.0, 0.0, new.size.0 as f64, new.size.1 as f64));
+                changes.base.push(place(0.0, 0.0, new.size.0 as f64, new.size.1 as f64));
                 continue;
             }
-            for (a, b) in old.levels.iter().zip(&new.levels) {
+            for (level, (a, b)) in old.levels.iter().zip(&new.levels).enumerate() {
+                let rects = if level == 0 { &mut changes.base } else { &mut changes.overviews };
                 let across = b.size.0.div_ceil(b.block.0);
                 let factor = (new.size.0 as f64 / b.size.0 as f64, new.size.1 as f64 / b.size.1 as f64);
                 for (i, _) in a.sigs.iter().zip(&b.sigs).enumerate().filter(|(_, (x, y))| x != y) {
@@ -140,8 +165,9 @@ impl Signatures {
                 }
             }
         }
-        rects.retain(|r| r.width() > 0 && r.height() > 0);
-        rects
+        changes.base.retain(|r| r.width() > 0 && r.height() > 0);
+        changes.overviews.retain(|r| r.width() > 0 && r.height() > 0);
+        changes
     }
 }
 

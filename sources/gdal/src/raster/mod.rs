@@ -25,7 +25,7 @@ pub(crate) use blocks::Window;
 use blocks::{BLOCK, Block};
 pub use blocks::{DEFAULT_BLOCK_BUDGET, block_budget, cached_bytes, set_block_budget};
 pub use changes::ChangeDetection;
-use changes::Signatures;
+use changes::{Changes, Signatures};
 use decode::Decoder;
 use halve::Halving;
 
@@ -505,7 +505,7 @@ impl Raster {
         let (raster, cell) = (self.clone(), Arc::clone(&self.store.signatures));
         let spawned = std::thread::Builder::new().name("relief-sign".into()).spawn(move || {
             let t = std::time::Instant::now();
-            let signed = Signatures::of(&raster, mode);
+            let signed = Signatures::of(&raster, mode, None);
             let still = matches!(raster.files_changed(), Ok(false));
             tracing::debug!(ms = t.elapsed().as_secs_f64() * 1e3, ok = signed.is_ok(), "raster blocks signed");
             let _ = cell.set(signed.ok().filter(|_| still));
@@ -539,12 +539,16 @@ impl Raster {
         let whole = !self.windowed();
         let mut raster = header.into_raster(self.store.uid, Some(&self.store))?;
         let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
-        let old = self.store.signatures.wait();
-        let signatures = Signatures::of(&raster, options.changes)?;
-        let rects = match old {
+        let old = self.store.signatures.wait().as_ref();
+        let signatures = Signatures::of(&raster, options.changes, old)?;
+        let changes = match old {
             Some(old) => old.diff(&signatures, self.size),
-            None => vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
+            None => Changes {
+                base: vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
+                overviews: Vec::new(),
+            },
         };
+        let rects = &changes.base;
         let mut candidates: Vec<(usize, usize)> = rects
             .iter()
             .flat_map(|r| {
@@ -582,7 +586,14 @@ impl Raster {
         if raster.files_changed()? {
             return Err(SourceError::Changing { path: self.path.clone() });
         }
-        let rects: Vec<PixelRect> = read.iter().flat_map(|(_, _, r)| r.iter().copied()).collect();
+        let mut rects: Vec<PixelRect> = read.iter().flat_map(|(_, _, r)| r.iter().copied()).collect();
+        // An overview block that changed where no base pixel did is a change
+        // of its own (overviews rebuilt); one over changed base pixels came
+        // with them, and the stamps above those pixels are bumped anyway.
+        let overlaps = |a: &PixelRect, b: &PixelRect| a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+        let own: Vec<PixelRect> =
+            changes.overviews.iter().filter(|o| !rects.iter().any(|r| overlaps(o, r))).copied().collect();
+        rects.extend(own);
         let mut store = new_store.fork(self.store.uid);
         store.bump(&rects);
         if let Some(pinned) = &mut store.pinned {
