@@ -1,9 +1,13 @@
 //! relief-source-gdal: rasters through GDAL (DEMs and imagery).
 //!
-//! A `gdal` source reads one raster, or a mosaic of several, into memory
-//! once, builds a nodata-aware mip pyramid, and resamples it into the scene's
-//! tile grid with the named kernel. GDAL and PROJ (through GDAL's OSR, so one
-//! PROJ serves GDAL and relief) stay inside this crate.
+//! A `gdal` source reads one raster, or a mosaic of several (listed, or a
+//! VRT), as blocks of a nodata-aware mip pyramid: whole when it opens if it
+//! is small, else only the blocks tiles need, through one cache under a
+//! byte budget; coarse levels come from the file's overviews where it has
+//! them. It resamples them into the scene's tile grid with the named kernel.
+//! A reload reads only the blocks whose signatures changed. GDAL and PROJ
+//! (through GDAL's OSR, so one PROJ serves GDAL and relief) stay inside this
+//! crate.
 //!
 //! # Nodata fill policy
 //!
@@ -17,7 +21,8 @@
 //! 2. taps past the raster's edge take the edge pixel (the raster reaches its
 //!    outer pixel edge, no farther); a point beyond that edge is nodata;
 //! 3. coarser mip levels average the valid pixels of each 2 x 2 block, and
-//!    are nodata only where all four are;
+//!    are nodata only where all four are (a file's own overviews are used
+//!    as they are, once checked against the base);
 //! 4. holes are never filled from neighbours or other rasters, except that in
 //!    a mosaic the first listed raster with data at a point wins.
 

@@ -37,9 +37,12 @@ const OPTIONS: &[&str] = &[
 pub(crate) fn install_gdal_error_handler() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        // Whole-band reads of uncompressed GeoTIFFs skip the block cache:
-        // every refresh reads the whole raster once, cache or no cache.
+        // Reads of uncompressed GeoTIFFs skip GDAL's block cache: relief
+        // keeps the decoded blocks itself.
         let _unknown_option_is_harmless = gdal::config::set_config_option("GTIFF_DIRECT_IO", "YES");
+        if std::env::var_os("GDAL_CACHEMAX").is_none() {
+            let _ = gdal::config::set_config_option("GDAL_CACHEMAX", crate::raster::GDAL_CACHE_MB);
+        }
         gdal::config::set_error_handler(|class, code, msg| match class {
             CplErrType::Fatal | CplErrType::Failure => tracing::debug!(code, "gdal: {msg}"),
             _ => tracing::trace!(code, "gdal: {msg}"),

@@ -22,8 +22,9 @@ pub(crate) const BLOCK: usize = 256;
 /// The default budget of decoded blocks, when the scene states none.
 pub const DEFAULT_BLOCK_BUDGET: u64 = 512 << 20;
 
-/// GDAL's own block cache, under relief's (which holds decoded pixels).
-const GDAL_CACHE_MB: &str = "64";
+/// GDAL's own block cache, under relief's (which holds decoded pixels),
+/// unless the environment sets GDAL_CACHEMAX.
+pub(crate) const GDAL_CACHE_MB: &str = "64";
 
 /// Open datasets each thread keeps (GDAL datasets are not shared between threads).
 const HANDLES_PER_THREAD: usize = 8;
@@ -69,10 +70,7 @@ pub fn block_budget() -> u64 {
 }
 
 fn cache() -> &'static Cache<BlockKey, Arc<Block>> {
-    CACHE.get_or_init(|| {
-        let _ = gdal::config::set_config_option("GDAL_CACHEMAX", GDAL_CACHE_MB);
-        Cache::builder().max_capacity(block_budget()).weigher(|_, b: &Arc<Block>| b.bytes()).build()
-    })
+    CACHE.get_or_init(|| Cache::builder().max_capacity(block_budget()).weigher(|_, b: &Arc<Block>| b.bytes()).build())
 }
 
 /// Bytes held in the block cache now (for the scene state and tests).

@@ -10,13 +10,12 @@
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
-use gdal::Metadata;
 use gdal::raster::RasterBand;
 use rayon::prelude::*;
 use relief_source::SourceError;
 use xxhash_rust::xxh3::{xxh3_64, xxh3_64_with_seed};
 
-use super::{FileStamp, PixelRect, Raster, format_err, open_dataset};
+use super::{FileStamp, PixelRect, Raster, format_err, open_dataset, tiff};
 
 /// How a reload tells changed blocks of a GeoTIFF from unchanged ones.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -171,69 +170,82 @@ impl Signatures {
     }
 }
 
-/// The signatures of every level of one file.
+/// The signatures of every level of one file: from its TIFF block tables
+/// when it is a TIFF (the base image, then its overviews, internal and in a
+/// `.ovr`), else of its base level's values.
 fn levels(path: &Path, mode: ChangeDetection) -> Result<Vec<Level>, SourceError> {
-    let ds = open_dataset(path)?;
-    let band = |b: usize| ds.rasterband(b).map_err(|e| format_err(e, path));
-    let bands: Vec<RasterBand<'_>> = (1..=ds.raster_count()).map(band).collect::<Result<_, _>>()?;
-    let compressed = ds.metadata_item("COMPRESSION", "IMAGE_STRUCTURE").is_some();
-    let tiff = ds.driver().short_name() == "GTiff" && bands[0].metadata_item("BLOCK_OFFSET_0_0", "TIFF").is_some();
-    if !tiff {
+    let Some(images) = tiff::images(path) else {
+        let ds = open_dataset(path)?;
+        let band = |b: usize| ds.rasterband(b).map_err(|e| format_err(e, path));
+        let bands: Vec<RasterBand<'_>> = (1..=ds.raster_count()).map(band).collect::<Result<_, _>>()?;
         return Ok(vec![values(&bands, path)?]);
-    }
-    let hash_bytes = mode == ChangeDetection::Exact || !compressed;
-    let overviews = bands[0].overview_count().unwrap_or(0).max(0) as usize;
+    };
     let external = PathBuf::from(format!("{}.ovr", path.display()));
-    let mut out = Vec::with_capacity(overviews + 1);
-    for level in 0..=overviews {
-        let level_bands: Vec<RasterBand<'_>> = if level == 0 {
-            (1..=ds.raster_count()).map(band).collect::<Result<_, _>>()?
-        } else {
-            bands
-                .iter()
-                .map(|b| b.overview(level - 1).map_err(|e| format_err(format!("cannot open overview: {e}"), path)))
-                .collect::<Result<_, _>>()?
-        };
-        let file_path = if level > 0 && external.exists() { external.as_path() } else { path };
-        let file = if hash_bytes {
-            Some(std::fs::File::open(file_path).map_err(|source| SourceError::Io {
-                what: "raster",
-                path: file_path.into(),
-                source,
-            })?)
-        } else {
-            None
-        };
-        let size = level_bands[0].size();
-        let block = level_bands[0].block_size();
-        let (nx, ny) = (size.0.div_ceil(block.0), size.1.div_ceil(block.1));
-        let mut sigs = vec![0u64; nx * ny];
-        let mut buffer = Vec::new();
-        for band in &level_bands {
-            for (i, sig) in sigs.iter_mut().enumerate() {
-                let (x, y) = (i % nx, i / nx);
-                let item = |what: &str| {
-                    band.metadata_item(&format!("BLOCK_{what}_{x}_{y}"), "TIFF").and_then(|v| v.parse::<u64>().ok())
-                };
-                let (offset, bytes) = (item("OFFSET").unwrap_or(0), item("SIZE").unwrap_or(0));
-                let mut h = xxh3_64_with_seed(&[offset.to_le_bytes(), bytes.to_le_bytes()].concat(), *sig);
-                if let Some(file) = &file
+    let overviews = tiff::images(&external).unwrap_or_default();
+    let mut out = Vec::new();
+    let reduced = |i: &tiff::Image| i.subfile & 4 == 0;
+    for (file, image) in images
+        .iter()
+        .filter(|i| reduced(i))
+        .map(|i| (path, i))
+        .chain(overviews.iter().filter(|i| reduced(i)).map(|i| (external.as_path(), i)))
+    {
+        out.push(image_level(file, image, mode == ChangeDetection::Exact || !image.compressed)?);
+    }
+    if out.is_empty() {
+        return Err(format_err("TIFF holds no image", path));
+    }
+    Ok(out)
+}
+
+/// One TIFF image's signatures: per block, its offsets and sizes (every
+/// plane's), and a hash of its bytes in `file` when `hash_bytes`.
+fn image_level(file: &Path, image: &tiff::Image, hash_bytes: bool) -> Result<Level, SourceError> {
+    let blocks = image.blocks();
+    let planes = image.offsets.len() / blocks;
+    let length =
+        std::fs::metadata(file).map_err(|source| SourceError::Io { what: "raster", path: file.into(), source })?.len();
+    if let Some(i) = (0..image.offsets.len()).find(|&i| image.offsets[i].saturating_add(image.sizes[i]) > length) {
+        return Err(format_err(
+            format!(
+                "the file is cut short: block {i} of its {} x {} image lies past its end ({} bytes)",
+                image.size.0, image.size.1, length
+            ),
+            file,
+        ));
+    }
+    let handle = if hash_bytes {
+        Some(std::fs::File::open(file).map_err(|source| SourceError::Io {
+            what: "raster",
+            path: file.into(),
+            source,
+        })?)
+    } else {
+        None
+    };
+    let sigs = (0..blocks)
+        .into_par_iter()
+        .map_init(Vec::new, |buffer, i| {
+            let mut h = 0u64;
+            for p in 0..planes {
+                let (offset, bytes) = (image.offsets[p * blocks + i], image.sizes[p * blocks + i]);
+                h = xxh3_64_with_seed(&[offset.to_le_bytes(), bytes.to_le_bytes()].concat(), h);
+                if let Some(f) = &handle
                     && bytes > 0
                 {
                     buffer.resize(bytes as usize, 0);
-                    file.read_exact_at(&mut buffer, offset).map_err(|source| SourceError::Io {
+                    f.read_exact_at(buffer, offset).map_err(|source| SourceError::Io {
                         what: "raster",
-                        path: file_path.into(),
+                        path: file.into(),
                         source,
                     })?;
-                    h = xxh3_64_with_seed(&buffer, h);
+                    h = xxh3_64_with_seed(buffer, h);
                 }
-                *sig = h;
             }
-        }
-        out.push(Level { size, block, sigs });
-    }
-    Ok(out)
+            Ok(h)
+        })
+        .collect::<Result<Vec<u64>, SourceError>>()?;
+    Ok(Level { size: image.size, block: image.block, sigs })
 }
 
 /// Signatures of the base level's values, 256 x 256 pixels at a time, for

@@ -8,6 +8,7 @@ mod blocks;
 mod changes;
 mod decode;
 mod halve;
+mod tiff;
 mod vrt;
 
 use std::collections::BTreeMap;
@@ -21,9 +22,9 @@ use rayon::prelude::*;
 use relief_source::SourceError;
 pub(crate) use relief_source::files::Fingerprint;
 
-pub(crate) use blocks::Window;
 use blocks::{BLOCK, Block};
 pub use blocks::{DEFAULT_BLOCK_BUDGET, block_budget, cached_bytes, set_block_budget};
+pub(crate) use blocks::{GDAL_CACHE_MB, Window};
 pub use changes::ChangeDetection;
 use changes::{Changes, Signatures};
 use decode::Decoder;
