@@ -34,7 +34,7 @@
 //!
 //! `cargo bench -p relief-daemon --bench bigdem`; RELIEF_BIGDEM_SIDE
 //! (default 40000, a multiple of 20, at least 2560), RELIEF_BIGDEM_EDITS
-//! (default 25), RELIEF_BIGDEM_RASTER_MB (`[cache] raster_mb`, default 512,
+//! (default 25), RELIEF_BIGDEM_MAKE_ONLY (make the data and stop), RELIEF_BIGDEM_RASTER_MB (`[cache] raster_mb`, default 512,
 //! written only while RASTER_BUDGET_OPTION is on). reliefd is the one built
 //! beside the bench (target/<profile>/reliefd).
 
@@ -414,6 +414,8 @@ fn windows(side: usize, n: usize) -> Vec<Window> {
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
     Big,
+    /// big.tif with `change_detection = "layout"` (block tables only).
+    BigLayout,
     Mosaic,
 }
 
@@ -426,6 +428,8 @@ struct Run {
     rss_mb: f64,
     hwm_mb: f64,
     edits_ms: Vec<f64>,
+    /// From the edited file's close (GDAL done writing) to the generation.
+    saved_ms: Vec<f64>,
     rebuilt: Vec<u64>,
     /// Why the edits stopped early, if they did.
     edits_stopped: Option<String>,
@@ -472,10 +476,12 @@ fn raster_mb() -> Option<usize> {
 async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: usize) -> anyhow::Result<Run> {
     let (label, path) = match kind {
         Kind::Big => ("big.tif", &data.big),
+        Kind::BigLayout => ("big.tif, change_detection = layout", &data.big),
         Kind::Mosaic => ("mosaic.vrt (20 x 20 files)", &data.vrt),
     };
+    let changes = if kind == Kind::BigLayout { "change_detection = \"layout\"\n" } else { "" };
     let size_bytes = match kind {
-        Kind::Big => std::fs::metadata(&data.big)?.len(),
+        Kind::Big | Kind::BigLayout => std::fs::metadata(&data.big)?.len(),
         Kind::Mosaic => std::fs::metadata(&data.vrt)?.len() + dir_size(&data.mosaic_dir)?,
     };
     let scene = tempfile::tempdir()?;
@@ -483,7 +489,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
     let manifest = relief_examples::write_manifest(
         scene.path(),
         &format!(
-            "[scene]\nname = \"bigdem\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"{}\"\n\n[layers]\nheight = \"dem\"\n\n[cache]\nmemory_mb = {MEMORY_MB}\n{raster}",
+            "[scene]\nname = \"bigdem\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"{}\"\n{changes}\n[layers]\nheight = \"dem\"\n\n[cache]\nmemory_mb = {MEMORY_MB}\n{raster}",
             path.display()
         ),
     )?;
@@ -536,15 +542,22 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
     let mut generation =
         SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner().generation;
     let (mut edits_ms, mut rebuilt, mut edits_stopped) = (Vec::new(), Vec::new(), None);
+    let mut saved_ms = Vec::new();
     for k in 0..edits.next_multiple_of(2) {
         let w = windows[k / 2];
         let bump = if k % 2 == 0 { BUMP_M } else { -BUMP_M };
         let (file, x, y) = match kind {
-            Kind::Big => (data.big.clone(), w.col * (side / MOSAIC_GRID) + w.x, w.row * (side / MOSAIC_GRID) + w.y),
+            Kind::Big | Kind::BigLayout => {
+                (data.big.clone(), w.col * (side / MOSAIC_GRID) + w.x, w.row * (side / MOSAIC_GRID) + w.y)
+            }
             Kind::Mosaic => (data.mosaic_dir.join(mosaic_name(w.row, w.col)), w.x, w.y),
         };
         let t0 = Instant::now();
         edit_window(&file, x, y, bump)?;
+        let saved = Instant::now();
+        if std::env::var_os("RELIEF_BIGDEM_LOG").is_some() {
+            println!("bench: saved at {:?}", std::time::SystemTime::now());
+        }
         if k >= edits {
             // The untimed removal of the last bump.
             break;
@@ -552,6 +565,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
         match edit::wait_for(channel.clone(), generation + 1).await {
             Ok(state) => {
                 edits_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+                saved_ms.push(saved.elapsed().as_secs_f64() * 1e3);
                 generation = state.generation;
                 rebuilt.push(events.generation(generation).await.map_or(0, |g| g.tiles_rebuilt));
             }
@@ -585,6 +599,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
         rss_mb,
         hwm_mb,
         edits_ms,
+        saved_ms,
         rebuilt,
         edits_stopped,
         stop_note,
@@ -603,9 +618,12 @@ fn main() -> anyhow::Result<()> {
     gdal::config::set_config_option("GDAL_CACHEMAX", "256")?;
     println!("\n## Rasters larger than memory: a {side} x {side} Int16 DEM, one file and a 20 x 20 mosaic");
     let data = make_data(side)?;
+    if std::env::var_os("RELIEF_BIGDEM_MAKE_ONLY").is_some() {
+        return Ok(());
+    }
     let windows = windows(side, edits.div_ceil(2));
     let runtime = tokio::runtime::Runtime::new()?;
-    let runs = [Kind::Big, Kind::Mosaic]
+    let runs = [Kind::Big, Kind::BigLayout, Kind::Mosaic]
         .into_iter()
         .map(|kind| runtime.block_on(serve(kind, &data, side, &windows, edits)))
         .collect::<anyhow::Result<Vec<Run>>>()?;
@@ -627,12 +645,19 @@ fn main() -> anyhow::Result<()> {
         budget_mb + 300
     );
     println!(
-        "| dataset | size on disk MB | start to first frame ms | flight frame ms (median) | VmRSS after flight MB | VmHWM MB | edit to generation p50 ms | p95 ms | edits | tiles rebuilt per edit (mean) |"
+        "| dataset | size on disk MB | start to first frame ms | flight frame ms (median) | VmRSS after flight MB | VmHWM MB | edit to generation p50 ms | p95 ms | save to generation p50 ms | p95 ms | edits | tiles rebuilt per edit (mean) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &runs {
         let mut sorted = r.edits_ms.clone();
         sorted.sort_by(f64::total_cmp);
+        let mut saved = r.saved_ms.clone();
+        saved.sort_by(f64::total_cmp);
+        let (s50, s95) = if saved.is_empty() {
+            ("-".to_owned(), "-".to_owned())
+        } else {
+            (format!("{:.1}", percentile(&saved, 0.5)), format!("{:.1}", percentile(&saved, 0.95)))
+        };
         let (p50, p95, rebuilt) = if sorted.is_empty() {
             ("-".to_owned(), "-".to_owned(), "-".to_owned())
         } else {
@@ -644,7 +669,7 @@ fn main() -> anyhow::Result<()> {
             )
         };
         println!(
-            "| {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {p50} | {p95} | {} | {rebuilt} |",
+            "| {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {p50} | {p95} | {s50} | {s95} | {} | {rebuilt} |",
             r.label,
             r.size_bytes as f64 / 1e6,
             r.first_frame_ms,

@@ -28,8 +28,8 @@
 //! changed meanwhile, so a slow writer is never half read. Events that do
 //! not fit the bounded queue are dropped for a full rescan.
 
-use std::collections::{BTreeSet, HashMap};
-use std::path::PathBuf;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -162,11 +162,15 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         let mut manifest = false;
         for (target, p) in &pending {
             let busy = match target {
-                Target::Source(_) => groups
-                    .iter()
-                    .filter(|(_, t)| t.contains(target))
-                    .map(|((dir, stem), _)| busy(dir, stem))
-                    .fold(Busy::default(), Busy::or),
+                Target::Source(_) => {
+                    // One look at each folder, for all of the target's datasets
+                    // there (a mosaic has hundreds in one folder).
+                    let mut folders: BTreeMap<&Path, BTreeSet<&str>> = BTreeMap::new();
+                    for ((dir, stem), _) in groups.iter().filter(|(_, t)| t.contains(target)) {
+                        folders.entry(dir.as_path()).or_default().insert(stem.as_str());
+                    }
+                    folders.iter().map(|(dir, stems)| busy(dir, stems)).fold(Busy::default(), Busy::or)
+                }
                 Target::Manifest => Busy::default(),
             };
             match (target, readiness(p, now, &settings, busy)) {

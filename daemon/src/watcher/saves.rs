@@ -157,13 +157,13 @@ pub(super) fn change(kind: EventKind, path: &Path) -> Change {
     }
 }
 
-pub(super) fn busy(dir: &Path, stem: &str) -> Busy {
+pub(super) fn busy(dir: &Path, stems: &std::collections::BTreeSet<&str>) -> Busy {
     let mut busy = Busy::default();
     let Ok(entries) = std::fs::read_dir(dir) else {
         return busy;
     };
     for p in entries.flatten().map(|e| e.path()) {
-        if dataset_key(&p).is_some_and(|(_, s)| s == stem) {
+        if dataset_key(&p).is_some_and(|(_, s)| stems.contains(s.as_str())) {
             busy.repacking |= is_repack_marker(&p);
             busy.journal |= member(&p) == Member::SqliteJournal;
         }
