@@ -1,6 +1,8 @@
 //! Windowed reads against whole reads, overviews against halving, and
 //! reloads against fresh opens, on files the examples write through GDAL.
 
+#![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
+
 use std::path::{Path, PathBuf};
 
 use gdal::raster::{Buffer, RasterCreationOptions};
