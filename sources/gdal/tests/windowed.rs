@@ -148,6 +148,21 @@ fn fixtures(dir: &Path) -> Vec<Fixture> {
     )
     .unwrap();
     let tiled = tiled_copy(&hill, &dir.join("hill-tiled.tif"), None);
+    // The whole planet: columns wrap at the antimeridian, rows reach both poles.
+    let globe = examples::write_dem(
+        &dir.join("globe.tif"),
+        &RasterSpec {
+            width: 720,
+            height: 360,
+            origin_x: -180.0,
+            origin_y: 90.0,
+            pixel: 0.5,
+            crs: "EPSG:4326",
+            nodata: None,
+        },
+        |lon, lat| 1000.0 * (lon.to_radians() * 3.0).sin() * lat.to_radians().cos() + 10.0 * lat,
+    )
+    .unwrap();
     let f = |name, path: PathBuf, options: Vec<(&'static str, OptionValue)>, max_level| Fixture {
         name,
         path,
@@ -156,6 +171,7 @@ fn fixtures(dir: &Path) -> Vec<Fixture> {
     };
     vec![
         f("hill", hill, vec![], 10),
+        f("globe (antimeridian, poles)", globe, vec![], 4),
         f("hill, tiled", tiled, vec![], 10),
         f("holes", holes, vec![], 10),
         f("utm (reprojected)", utm, vec![], 11),
@@ -180,18 +196,19 @@ fn windowed_reads_give_the_same_tiles_as_whole_reads_on_every_fixture() {
         assert!(windowed.info().details["read"].starts_with("windowed"), "{}", fx.name);
         assert_same_tiles(&whole, &windowed, fx.max_level, fx.name);
         if whole.output() == relief_source::PayloadKind::Height {
-            let points: Vec<GeodeticPoint> = (0..50)
+            // A diagonal across the data, its ends and the poles included.
+            let e = whole.info().extent.unwrap();
+            let points: Vec<GeodeticPoint> = (0..=50)
                 .map(|i| {
-                    let e = whole.info().extent.unwrap();
                     let t = f64::from(i) / 50.0;
-                    let _ = e;
-                    GeodeticPoint { lon_deg: 10.0 + 0.5 * t, lat_deg: 45.0 + 0.5 * (1.0 - t) }
+                    GeodeticPoint { lon_deg: e.min_x + e.width() * t, lat_deg: e.max_y - e.height() * t }
                 })
                 .collect();
             let q = Quality::default();
             let a = whole.sample_heights(&points, &q).unwrap();
             let b = windowed.sample_heights(&points, &q).unwrap();
             assert_eq!(a, b, "{}: elevations", fx.name);
+            assert!(a.iter().filter(|h| h.is_some()).count() > 10, "{}: the points fall on the data", fx.name);
         }
     }
 }
