@@ -86,6 +86,12 @@ pub fn hill_spec() -> RasterSpec<'static> {
     }
 }
 
+/// The whole planet on a 0.5-degree grid (EPSG:4326): columns wrap at the
+/// antimeridian, the first and last rows reach the poles.
+pub fn globe_spec() -> RasterSpec<'static> {
+    RasterSpec { width: 720, height: 360, origin_x: -180.0, origin_y: 90.0, pixel: 0.5, crs: "EPSG:4326", nodata: None }
+}
+
 /// A smooth analytic surface in UTM 12N metres, around Storm Lake, Montana.
 pub fn utm_surface(x: f64, y: f64) -> f64 {
     2500.0 + 0.05 * (x - 300_000.0) - 0.02 * (y - 5_100_000.0) + 80.0 * ((x / 700.0).sin() * (y / 900.0).cos())

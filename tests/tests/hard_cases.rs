@@ -6,7 +6,7 @@
 use relief_proto::v1 as pb;
 use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_tests::daemon::Reliefd;
-use relief_tests::fixtures::{self, RasterSpec};
+use relief_tests::fixtures;
 use relief_tests::tiles;
 
 /// Smooth on the sphere: 1000 m at both poles, +-500 m round the equator.
@@ -17,16 +17,7 @@ fn globe(lon: f64, lat: f64) -> f64 {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn poles_and_the_antimeridian_have_one_height_and_no_seam() {
     let dir = tempfile::tempdir().unwrap();
-    let spec = RasterSpec {
-        width: 720,
-        height: 360,
-        origin_x: -180.0,
-        origin_y: 90.0,
-        pixel: 0.5,
-        crs: "EPSG:4326",
-        nodata: None,
-    };
-    fixtures::write_dem(&dir.path().join("globe.tif"), &spec, globe).unwrap();
+    fixtures::write_dem(&dir.path().join("globe.tif"), &fixtures::globe_spec(), globe).unwrap();
     let manifest = fixtures::write_manifest(
         dir.path(),
         "[scene]\nname = \"globe\"\ntile_size = 64\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"globe.tif\"\n\n[[source]]\nid = \"shade\"\nkind = \"hillshade\"\ninputs = [\"dem\"]\n\n[layers]\nheight = \"dem\"\n",

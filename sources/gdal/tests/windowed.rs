@@ -149,19 +149,9 @@ fn fixtures(dir: &Path) -> Vec<Fixture> {
     .unwrap();
     let tiled = tiled_copy(&hill, &dir.join("hill-tiled.tif"), None);
     // The whole planet: columns wrap at the antimeridian, rows reach both poles.
-    let globe = examples::write_dem(
-        &dir.join("globe.tif"),
-        &RasterSpec {
-            width: 720,
-            height: 360,
-            origin_x: -180.0,
-            origin_y: 90.0,
-            pixel: 0.5,
-            crs: "EPSG:4326",
-            nodata: None,
-        },
-        |lon, lat| 1000.0 * (lon.to_radians() * 3.0).sin() * lat.to_radians().cos() + 10.0 * lat,
-    )
+    let globe = examples::write_dem(&dir.join("globe.tif"), &examples::globe_spec(), |lon, lat| {
+        1000.0 * (lon.to_radians() * 3.0).sin() * lat.to_radians().cos() + 10.0 * lat
+    })
     .unwrap();
     let f = |name, path: PathBuf, options: Vec<(&'static str, OptionValue)>, max_level| Fixture {
         name,

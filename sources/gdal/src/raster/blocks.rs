@@ -135,6 +135,16 @@ impl Store {
         self.stamps[level][by * self.blocks_across(level) + bx]
     }
 
+    fn key(&self, level: usize, bx: usize, by: usize) -> BlockKey {
+        BlockKey {
+            raster: self.uid,
+            level: level as u8,
+            bx: bx as u32,
+            by: by as u32,
+            stamp: self.stamp(level, bx, by),
+        }
+    }
+
     /// Block (bx, by) of `level`.
     pub(crate) fn block(&self, level: usize, bx: usize, by: usize) -> Result<Arc<Block>, SourceError> {
         if level == 0
@@ -142,13 +152,7 @@ impl Store {
         {
             return Ok(Arc::clone(&pinned[by * self.blocks_across(0) + bx]));
         }
-        let key = BlockKey {
-            raster: self.uid,
-            level: level as u8,
-            bx: bx as u32,
-            by: by as u32,
-            stamp: self.stamp(level, bx, by),
-        };
+        let key = self.key(level, bx, by);
         cache()
             .try_get_with(key, || self.load(level, bx, by).map(Arc::new))
             .map_err(|e| Arc::try_unwrap(e).unwrap_or_else(|e| SourceError::format(e.to_string(), &self.path)))
@@ -156,25 +160,13 @@ impl Store {
 
     /// Block (bx, by) of `level` if the cache holds it (never read).
     pub(crate) fn peek(&self, level: usize, bx: usize, by: usize) -> Option<Arc<Block>> {
-        let key = BlockKey {
-            raster: self.uid,
-            level: level as u8,
-            bx: bx as u32,
-            by: by as u32,
-            stamp: self.stamp(level, bx, by),
-        };
+        let key = self.key(level, bx, by);
         cache().get(&key)
     }
 
     /// Puts a block just read into the cache (a reload that read it anyway).
     pub(crate) fn keep(&self, level: usize, bx: usize, by: usize, block: Arc<Block>) {
-        let key = BlockKey {
-            raster: self.uid,
-            level: level as u8,
-            bx: bx as u32,
-            by: by as u32,
-            stamp: self.stamp(level, bx, by),
-        };
+        let key = self.key(level, bx, by);
         cache().insert(key, block);
     }
 
