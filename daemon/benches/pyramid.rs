@@ -40,24 +40,35 @@ fn pyramid_keys(scene: &Scene, source: usize, max_level: u8) -> Vec<(usize, Tile
     (0..=max_level).flat_map(|l| snap.grid.keys_overlapping(l, &extent)).map(|k| (source, k)).collect()
 }
 
-fn throughput(data: &Path, max_level: u8) {
+/// The inputs of a throughput table: the DEM files, what they are, and
+/// the height range scaled to bytes for gdal2tiles (None: GDAL finds it,
+/// reading every pixel).
+struct Inputs {
+    files: Vec<PathBuf>,
+    label: String,
+    byte_range: Option<(f64, f64)>,
+    runs: usize,
+}
+
+fn throughput(inputs: &Inputs, max_level: u8) {
     let dir = tempfile::tempdir().expect("temp dir");
-    let hgts = [data.join("dem/N43E006.hgt"), data.join("dem/N43E007.hgt")];
+    let hgts = &inputs.files;
+    let paths: Vec<String> = hgts.iter().map(|p| format!("\"{}\"", p.display())).collect();
     let manifest = fixtures::write_manifest(
         dir.path(),
         &format!(
-            "[scene]\nname = \"bench\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npaths = [\"{}\", \"{}\"]\n\n[quality]\nresampling = \"bilinear\"\n",
-            hgts[0].display(),
-            hgts[1].display()
+            "[scene]\nname = \"bench\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npaths = [{}]\n\n[quality]\nresampling = \"bilinear\"\n",
+            paths.join(", ")
         ),
     )
     .expect("manifest");
+    let runs = inputs.runs;
 
     // relief: open the sources and build every tile, cold, through the tile store.
     let mut relief_s = Vec::new();
     let mut relief_write_s = Vec::new();
     let mut tiles = 0;
-    for run in 0..RUNS {
+    for run in 0..runs {
         let started = Instant::now();
         let scene = load(&manifest);
         let keys = pyramid_keys(&scene, 0, max_level);
@@ -87,10 +98,15 @@ fn throughput(data: &Path, max_level: u8) {
     let vrt = dir.path().join("in.vrt");
     let byte_vrt = dir.path().join("byte.vrt");
     let status =
-        Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(&hgts).status().expect("gdalbuildvrt (gdal-bin)");
+        Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(hgts).status().expect("gdalbuildvrt (gdal-bin)");
     assert!(status.success());
+    let mut scale = vec!["-scale".to_owned()];
+    if let Some((lo, hi)) = inputs.byte_range {
+        scale.extend([lo.to_string(), hi.to_string(), "0".into(), "255".into()]);
+    }
     let status = Command::new("gdal_translate")
-        .args(["-q", "-of", "VRT", "-ot", "Byte", "-scale"])
+        .args(["-q", "-of", "VRT", "-ot", "Byte"])
+        .args(&scale)
         .arg(&vrt)
         .arg(&byte_vrt)
         .output()
@@ -98,7 +114,7 @@ fn throughput(data: &Path, max_level: u8) {
     assert!(status.status.success());
     let mut peer_s = Vec::new();
     let mut peer_tiles = 0;
-    for run in 0..RUNS {
+    for run in 0..runs {
         let out = dir.path().join(format!("g2t-{run}"));
         let started = Instant::now();
         let result = Command::new("gdal2tiles.py")
@@ -114,9 +130,7 @@ fn throughput(data: &Path, max_level: u8) {
     }
 
     let (r, rw, p) = (median(relief_s), median(relief_write_s), median(peer_s));
-    println!(
-        "\n## Pyramid build: levels 0..={max_level} of N43E006 + N43E007 (2 x 1201 x 1201 Int16), median of {RUNS} cold runs"
-    );
+    println!("\n## Pyramid build: levels 0..={max_level} of {}, median of {runs} cold runs", inputs.label);
     println!("machine: {}", machine());
     println!("| builder | tiles | seconds | tiles/s | relief / gdal2tiles |");
     println!("|---|---|---|---|---|");
@@ -258,9 +272,33 @@ fn main() {
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
     if data.join("dem/N43E006.hgt").exists() {
-        throughput(&data, max_level);
+        let inputs = Inputs {
+            files: vec![data.join("dem/N43E006.hgt"), data.join("dem/N43E007.hgt")],
+            label: "N43E006 + N43E007 (2 x 1201 x 1201 Int16)".into(),
+            byte_range: None,
+            runs: RUNS,
+        };
+        throughput(&inputs, max_level);
     } else {
         println!("skipping the pyramid throughput table: no SRTM tiles at {}", data.display());
+    }
+    // The bigdem bench's 40,000 x 40,000 raster, when it has been made:
+    // levels down to where its overviews stop (RELIEF_BENCH_BIG_MAX_LEVEL).
+    let big = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/bench-data/bigdem/side-40000/big.tif");
+    if big.exists() {
+        let level: u8 = std::env::var("RELIEF_BENCH_BIG_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(9);
+        let inputs = Inputs {
+            files: vec![big],
+            label: "the bigdem bench's 40,000 x 40,000 Int16 tiled GeoTIFF (3.2 GB of samples, with overviews)".into(),
+            byte_range: Some((0.0, 3000.0)),
+            runs: 1,
+        };
+        throughput(&inputs, level);
+    } else {
+        println!(
+            "skipping the pyramid table on the 3.2 GB raster: run the bigdem bench first to make {}",
+            big.display()
+        );
     }
     kernels();
     reprojection();
