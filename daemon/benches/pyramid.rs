@@ -97,8 +97,7 @@ fn throughput(inputs: &Inputs, max_level: u8) {
     // (what gdal2tiles itself tells you to do), then the same levels.
     let vrt = dir.path().join("in.vrt");
     let byte_vrt = dir.path().join("byte.vrt");
-    let status =
-        Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(hgts).status().expect("gdalbuildvrt (gdal-bin)");
+    let status = Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(hgts).status().expect("gdalbuildvrt (gdal-bin)");
     assert!(status.success());
     let mut scale = vec!["-scale".to_owned()];
     if let Some((lo, hi)) = inputs.byte_range {

@@ -166,3 +166,77 @@ impl Reader<'_> {
         Some((image, next))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use gdal::raster::{Buffer, RasterBand, RasterCreationOptions};
+    use gdal::{DriverManager, Metadata};
+
+    use super::*;
+
+    /// GDAL's own offset and size of block (x, y) of a band.
+    fn gdal_block(band: &RasterBand<'_>, x: usize, y: usize) -> (u64, u64) {
+        let item = |what: &str| {
+            band.metadata_item(&format!("BLOCK_{what}_{x}_{y}"), "TIFF").and_then(|v| v.parse().ok()).unwrap_or(0)
+        };
+        (item("OFFSET"), item("SIZE"))
+    }
+
+    #[test]
+    fn block_tables_match_gdals_for_every_layout() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let layouts: [&[&str]; 5] = [
+            &[],
+            &["TILED=YES", "BLOCKXSIZE=32", "BLOCKYSIZE=32", "COMPRESS=DEFLATE"],
+            &["TILED=YES", "BIGTIFF=YES", "COMPRESS=LZW"],
+            &["BLOCKYSIZE=7", "BIGTIFF=YES"],
+            &["TILED=YES", "BLOCKXSIZE=16", "BLOCKYSIZE=16", "INTERLEAVE=BAND", "ENDIANNESS=BIG"],
+        ];
+        for (n, options) in layouts.iter().enumerate() {
+            let path = dir.path().join(format!("t{n}.tif"));
+            let (w, h, bands) = (100usize, 70usize, 2usize);
+            {
+                let driver = DriverManager::get_driver_by_name("GTiff").expect("GTiff");
+                let options = RasterCreationOptions::from_iter(options.iter().copied());
+                let mut ds =
+                    driver.create_with_band_type_with_options::<u16, _>(&path, w, h, bands, &options).expect("create");
+                for b in 1..=bands {
+                    let data: Vec<u16> = (0..w * h).map(|i| ((i * 7 + b * 13) % 1000) as u16).collect();
+                    ds.rasterband(b)
+                        .expect("band")
+                        .write((0, 0), (w, h), &mut Buffer::new((w, h), data))
+                        .expect("write");
+                }
+                ds.build_overviews("AVERAGE", &[2, 4], &[]).expect("overviews");
+            }
+            let images = images(&path).expect("a TIFF");
+            let reduced: Vec<&Image> = images.iter().filter(|i| i.subfile & 4 == 0).collect();
+            assert_eq!(reduced.len(), 3, "layout {n}: base and two overviews: {images:?}");
+            let ds = gdal::Dataset::open(&path).expect("open");
+            for (level, image) in reduced.iter().enumerate() {
+                let blocks = image.blocks();
+                for b in 1..=bands {
+                    let band = ds.rasterband(b).expect("band");
+                    let band = if level == 0 { band } else { band.overview(level - 1).expect("overview") };
+                    assert_eq!(image.size, band.size(), "layout {n}, level {level}");
+                    assert_eq!(image.block, band.block_size(), "layout {n}, level {level}");
+                    // A pixel-interleaved file has one block for all bands.
+                    let plane = if image.offsets.len() == blocks { 0 } else { b - 1 };
+                    let across = image.size.0.div_ceil(image.block.0);
+                    for i in 0..blocks {
+                        let ours = (image.offsets[plane * blocks + i], image.sizes[plane * blocks + i]);
+                        assert_eq!(
+                            ours,
+                            gdal_block(&band, i % across, i / across),
+                            "layout {n}, level {level}, band {b}, block {i}"
+                        );
+                    }
+                }
+            }
+            assert_eq!(reduced[0].compressed, options.iter().any(|o| o.starts_with("COMPRESS")), "layout {n}");
+        }
+        assert!(images(&dir.path().join("missing.tif")).is_none());
+        std::fs::write(dir.path().join("text.tif"), b"not a tiff at all").expect("write");
+        assert!(images(&dir.path().join("text.tif")).is_none());
+    }
+}
