@@ -197,7 +197,7 @@ mod tests {
             let (w, h, bands) = (100usize, 70usize, 2usize);
             {
                 let driver = DriverManager::get_driver_by_name("GTiff").expect("GTiff");
-                let options = RasterCreationOptions::from_iter(options.iter().copied());
+                let options: RasterCreationOptions = options.iter().copied().collect();
                 let mut ds =
                     driver.create_with_band_type_with_options::<u16, _>(&path, w, h, bands, &options).expect("create");
                 for b in 1..=bands {
