@@ -474,3 +474,15 @@ fn a_raster_whose_overviews_disagree_with_its_base_is_refused() {
         open(&fine, &[]);
     }
 }
+
+#[test]
+fn a_windowed_raster_cut_short_is_refused_when_it_opens() {
+    let dir = tempfile::tempdir().unwrap();
+    let hill = examples::write_dem(&dir.path().join("hill.tif"), &examples::hill_spec(), examples::hill).unwrap();
+    for (name, path) in [("striped", hill.clone()), ("tiled", tiled_copy(&hill, &dir.path().join("tiled.tif"), None))] {
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() * 2 / 3]).unwrap();
+        let e = GdalSource::open(&spec(&[&path], &[("read", text("windowed"))]), &grid()).unwrap_err().to_string();
+        assert!(e.contains("cut short") && e.contains(path.to_str().unwrap()), "{name}: {e}");
+    }
+}

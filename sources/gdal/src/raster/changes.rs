@@ -203,17 +203,7 @@ fn levels(path: &Path, mode: ChangeDetection) -> Result<Vec<Level>, SourceError>
 fn image_level(file: &Path, image: &tiff::Image, hash_bytes: bool) -> Result<Level, SourceError> {
     let blocks = image.blocks();
     let planes = image.offsets.len() / blocks;
-    let length =
-        std::fs::metadata(file).map_err(|source| SourceError::Io { what: "raster", path: file.into(), source })?.len();
-    if let Some(i) = (0..image.offsets.len()).find(|&i| image.offsets[i].saturating_add(image.sizes[i]) > length) {
-        return Err(format_err(
-            format!(
-                "the file is cut short: block {i} of its {} x {} image lies past its end ({} bytes)",
-                image.size.0, image.size.1, length
-            ),
-            file,
-        ));
-    }
+    image.check_within(file)?;
     let handle = if hash_bytes {
         Some(std::fs::File::open(file).map_err(|source| SourceError::Io {
             what: "raster",

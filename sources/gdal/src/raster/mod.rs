@@ -425,9 +425,17 @@ impl Raster {
         Ok(Self { store: Arc::new(store), ..self })
     }
 
-    /// Reads the first and last base blocks of a windowed raster: a file
-    /// cut short fails here, when it opens, not at its first tile.
+    /// Checks that a windowed raster's blocks are all in the file (a TIFF's
+    /// block tables), or reads its first and last base blocks (any other
+    /// format): a file cut short fails here, when it opens, not at its
+    /// first tile.
     fn probe(self) -> Result<Self, SourceError> {
+        if let Some(images) = tiff::images(&self.path) {
+            for image in &images {
+                image.check_within(&self.path)?;
+            }
+            return Ok(self);
+        }
         let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
         self.store.block(0, 0, 0)?;
         self.store.block(0, bw - 1, bh - 1)?;

@@ -25,6 +25,24 @@ pub(crate) struct Image {
 }
 
 impl Image {
+    /// Fails when a block lies past the end of `file` (a file cut short).
+    pub(crate) fn check_within(&self, file: &Path) -> Result<(), relief_source::SourceError> {
+        let length = std::fs::metadata(file)
+            .map_err(|source| relief_source::SourceError::Io { what: "raster", path: file.into(), source })?
+            .len();
+        match (0..self.offsets.len()).find(|&i| self.offsets[i].saturating_add(self.sizes[i]) > length) {
+            None => Ok(()),
+            Some(i) => Err(super::format_err(
+                format!(
+                    "cannot read raster data: the file is cut short (block {i} of its {} x {} image lies past its \
+                     end, {length} bytes)",
+                    self.size.0, self.size.1
+                ),
+                file,
+            )),
+        }
+    }
+
     /// Blocks per plane.
     pub(crate) fn blocks(&self) -> usize {
         self.size.0.div_ceil(self.block.0) * self.size.1.div_ceil(self.block.1)
