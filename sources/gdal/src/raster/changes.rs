@@ -80,10 +80,21 @@ struct Level {
 impl Signatures {
     /// The signatures of `raster`'s files; a mosaic member unchanged since
     /// `previous` keeps its signatures from there.
-    pub(crate) fn of(raster: &Raster, mode: ChangeDetection, previous: Option<&Self>) -> Result<Self, SourceError> {
+    /// A file that is not a TIFF is signed from its decoded base blocks:
+    /// the ones the raster holds when `held` (a raster just read whole),
+    /// else read afresh.
+    pub(crate) fn of(
+        raster: &Raster,
+        mode: ChangeDetection,
+        previous: Option<&Self>,
+        held: bool,
+    ) -> Result<Self, SourceError> {
         if raster.members.is_empty() {
             let stamp = FileStamp::of(&raster.path);
-            let levels = levels(&raster.path, mode)?;
+            let levels = match tiff::images(&raster.path) {
+                Some(images) => tiff_levels(&raster.path, &images, mode)?,
+                None => vec![decoded(raster, held)?],
+            };
             return Ok(Self {
                 parts: vec![Part {
                     path: raster.path.clone(),
@@ -180,6 +191,12 @@ fn levels(path: &Path, mode: ChangeDetection) -> Result<Vec<Level>, SourceError>
         let bands: Vec<RasterBand<'_>> = (1..=ds.raster_count()).map(band).collect::<Result<_, _>>()?;
         return Ok(vec![values(&bands, path)?]);
     };
+    tiff_levels(path, &images, mode)
+}
+
+/// The signatures of a TIFF's images: the base, then its overviews,
+/// internal and in a `.ovr`.
+fn tiff_levels(path: &Path, images: &[tiff::Image], mode: ChangeDetection) -> Result<Vec<Level>, SourceError> {
     let external = PathBuf::from(format!("{}.ovr", path.display()));
     let overviews = tiff::images(&external).unwrap_or_default();
     let mut out = Vec::new();
@@ -236,6 +253,30 @@ fn image_level(file: &Path, image: &tiff::Image, hash_bytes: bool) -> Result<Lev
         })
         .collect::<Result<Vec<u64>, SourceError>>()?;
     Ok(Level { size: image.size, block: image.block, sigs })
+}
+
+/// Signatures of a raster's decoded base blocks (a format whose blocks
+/// cannot be located in the file): those it holds when `held`, else read.
+fn decoded(raster: &Raster, held: bool) -> Result<Level, SourceError> {
+    let store = &raster.store;
+    let (bw, bh) = (raster.width().div_ceil(super::BLOCK), raster.height().div_ceil(super::BLOCK));
+    let sigs = (0..bw * bh)
+        .into_par_iter()
+        .map(|b| {
+            let (bx, by) = (b % bw, b / bw);
+            let block = match store.cached(0, bx, by).filter(|_| held) {
+                Some(block) => block,
+                None => std::sync::Arc::new(store.load(0, bx, by)?),
+            };
+            let mut h = xxh3_64(b"decoded");
+            for plane in &block.planes {
+                let bytes: Vec<u8> = plane.iter().flat_map(|v| v.to_bits().to_le_bytes()).collect();
+                h = xxh3_64_with_seed(&bytes, h);
+            }
+            Ok(h)
+        })
+        .collect::<Result<Vec<u64>, SourceError>>()?;
+    Ok(Level { size: raster.size, block: (super::BLOCK, super::BLOCK), sigs })
 }
 
 /// Signatures of the base level's values, 256 x 256 pixels at a time, for

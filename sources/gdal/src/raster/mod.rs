@@ -514,7 +514,7 @@ impl Raster {
         let (raster, cell) = (self.clone(), Arc::clone(&self.store.signatures));
         let spawned = std::thread::Builder::new().name("relief-sign".into()).spawn(move || {
             let t = std::time::Instant::now();
-            let signed = Signatures::of(&raster, mode, None);
+            let signed = Signatures::of(&raster, mode, None, true);
             let still = matches!(raster.files_changed(), Ok(false));
             tracing::debug!(ms = t.elapsed().as_secs_f64() * 1e3, ok = signed.is_ok(), "raster blocks signed");
             let _ = cell.set(signed.ok().filter(|_| still));
@@ -549,7 +549,7 @@ impl Raster {
         let mut raster = header.into_raster(self.store.uid, Some(&self.store))?;
         let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
         let old = self.store.signatures.wait().as_ref();
-        let signatures = Signatures::of(&raster, options.changes, old)?;
+        let signatures = Signatures::of(&raster, options.changes, old, false)?;
         let changes = match old {
             Some(old) => old.diff(&signatures, self.size),
             None => Changes {
