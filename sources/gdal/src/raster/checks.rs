@@ -1,0 +1,93 @@
+//! What a raster must pass when it opens: every block inside the file,
+//! and overviews that agree with the base.
+
+use relief_source::SourceError;
+
+use super::blocks::BLOCK;
+use super::{PixelRect, Raster, format_err, tiff};
+
+impl Raster {
+    /// Checks that a windowed raster's blocks are all in the file (a TIFF's
+    /// block tables), or reads its first and last base blocks (any other
+    /// format): a file cut short fails here, when it opens, not at its
+    /// first tile.
+    pub(super) fn probe(self) -> Result<Self, SourceError> {
+        if let Some(images) = tiff::images(&self.path) {
+            for image in &images {
+                image.check_within(&self.path)?;
+            }
+            return Ok(self);
+        }
+        let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
+        self.store.block(0, 0, 0)?;
+        self.store.block(0, bw - 1, bh - 1)?;
+        Ok(self)
+    }
+
+    /// Refuses a raster whose first overview is not a reduction of its base:
+    /// at up to 16 places, each overview pixel must lie within the range of
+    /// the four base pixels under it (with a little slack for smoothing
+    /// kernels), as nearest, average, bilinear or mode overviews all do.
+    pub(super) fn check_overviews(&self) -> Result<(), SourceError> {
+        let levels = &self.store.levels;
+        let Some(level) = levels.get(1).filter(|l| l.overview.is_some()) else {
+            return Ok(());
+        };
+        const SIDE: usize = 8;
+        let (mut checked, mut off) = (0usize, 0usize);
+        let mut worst = (0.0f32, 0.0f32, 0.0f32);
+        for k in 0..16 {
+            let (fx, fy) = ((k % 4) as f64 / 3.0, (k / 4) as f64 / 3.0);
+            let x0 = ((level.width.saturating_sub(SIDE)) as f64 * fx) as usize;
+            let y0 = ((level.height.saturating_sub(SIDE)) as f64 * fy) as usize;
+            let rect = PixelRect { x0, y0, x1: (x0 + SIDE).min(level.width), y1: (y0 + SIDE).min(level.height) };
+            // Read straight from the file: a few pixels, not whole blocks.
+            let over = self.store.read_file(level.overview, rect)?;
+            let under = PixelRect {
+                x0: 2 * rect.x0,
+                y0: 2 * rect.y0,
+                x1: (2 * rect.x1).min(self.width()),
+                y1: (2 * rect.y1).min(self.height()),
+            };
+            let base = self.store.read_file(None, under)?;
+            let (base_width, base_height) = (under.width(), under.height());
+            for (o, b) in over.iter().zip(&base) {
+                for j in 0..rect.height() {
+                    for i in 0..rect.width() {
+                        let v = o[j * rect.width() + i];
+                        let below: Vec<f32> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                            .iter()
+                            .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
+                            .filter(|&(x, y)| x < base_width && y < base_height)
+                            .map(|(x, y)| b[y * base_width + x])
+                            .filter(|h| !h.is_nan())
+                            .collect();
+                        if v.is_nan() || below.is_empty() {
+                            continue;
+                        }
+                        let lo = below.iter().copied().fold(f32::INFINITY, f32::min);
+                        let hi = below.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                        let slack = 0.25 * (hi - lo) + 0.01 * hi.abs().max(lo.abs()) + 0.5 / 255.0;
+                        checked += 1;
+                        if v < lo - slack || v > hi + slack {
+                            off += 1;
+                            worst = (v, lo, hi);
+                        }
+                    }
+                }
+            }
+        }
+        if checked > 0 && off * 10 > checked {
+            return Err(format_err(
+                format!(
+                    "its overviews disagree with its base: {off} of {checked} sampled pixels of the first overview \
+                     lie outside the range of the base pixels under them (e.g. {} over {}..{}); rebuild them \
+                     (gdaladdo) or set overviews = false on the source",
+                    worst.0, worst.1, worst.2
+                ),
+                &self.path,
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,235 @@
+//! A raster's header: frame, CRS, units, decoder and levels, read with
+//! no pixels; and how GDAL opens the file.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+
+use gdal::raster::GdalDataType;
+use gdal::{Dataset, GeoTransformEx};
+use relief_source::SourceError;
+
+use super::blocks::BLOCK;
+use super::decode::Decoder;
+use super::halve::Halving;
+use super::{FileStamp, Fingerprint, LevelInfo, PixelRect, Raster, RasterKind, ReadOptions, Store, format_err, vrt};
+use crate::crs;
+
+/// The header of a raster: everything but its pixels.
+pub(super) struct Header {
+    pub(super) raster: Raster,
+    pub(super) decoder: Decoder,
+    pub(super) levels: Vec<LevelInfo>,
+    open_path: PathBuf,
+    holes: Vec<PixelRect>,
+    bytes_per_pixel: usize,
+    categorical: bool,
+}
+
+pub(super) static VERSION: AtomicU64 = AtomicU64::new(1);
+
+impl Raster {
+    /// Reads the file's header (no pixels): frame, CRS, units, decoder,
+    /// levels. A VRT that names missing files is opened without them.
+    pub(super) fn header(path: &Path, options: &ReadOptions) -> Result<Header, SourceError> {
+        crate::source::install_gdal_error_handler();
+        let fingerprint = Fingerprint::of(path, "raster")?;
+        let members = vrt::members(path)?;
+        let ds = open_dataset_named(&members.open_path, path)?;
+        let (width, height) = ds.raster_size();
+        if width == 0 || height == 0 || ds.raster_count() == 0 {
+            return Err(format_err("raster has no pixels or no bands", path));
+        }
+        let geo = ds.geo_transform().map_err(|_| format_err("raster has no georeferencing (no geotransform)", path))?;
+        let inverse = geo.invert().map_err(|_| format_err("raster geotransform cannot be inverted", path))?;
+        let srs = if let Some(def) = &options.crs_override {
+            crs::spatial_ref(def, Some(path))?
+        } else {
+            let wkt = ds.projection();
+            if wkt.trim().is_empty() {
+                return Err(format_err("raster has no CRS (set 'crs' on the source in the manifest)", path));
+            }
+            crs::spatial_ref(&wkt, Some(path))?
+        };
+        let crs_wkt = srs.to_wkt().map_err(|e| SourceError::Crs {
+            crs: "raster CRS".into(),
+            message: e.to_string(),
+            path: Some(path.to_path_buf()),
+        })?;
+        let crs_name = crs::describe(&srs);
+        // A north-up geographic raster 360 degrees wide has no east or west
+        // edge: its columns wrap round at the antimeridian.
+        let wraps_x = srs.is_geographic()
+            && geo[2] == 0.0
+            && geo[4] == 0.0
+            && ((width as f64 * geo[1]).abs() - 360.0).abs() < 1e-6;
+
+        let kind = options.kind.unwrap_or_else(|| guess_kind(&ds));
+        let mut details = BTreeMap::new();
+        details.insert("driver".into(), ds.driver().short_name());
+        details.insert("size".into(), format!("{width}x{height}"));
+        details.insert("bands".into(), ds.raster_count().to_string());
+        details.insert("pixel_size".into(), format!("{} x {}", geo[1], geo[5].abs()));
+        if !members.missing.is_empty() {
+            let names: Vec<String> = members.missing.iter().map(|p| p.display().to_string()).collect();
+            tracing::warn!(vrt = %path.display(), "missing mosaic files left out: {}", names.join(", "));
+            details.insert(
+                "missing_files".into(),
+                format!("{} (left out: their area is nodata; the rest is served)", names.join(", ")),
+            );
+        }
+        let (decoder, units) = Decoder::new(&ds, kind, options, path, &mut details)?;
+        let categorical = options.categorical;
+        let levels = level_infos(&ds, &decoder, (width, height), options.overviews && !categorical);
+        let overviews = levels.iter().filter(|l| l.overview.is_some()).count();
+        details.insert(
+            "overviews".into(),
+            if overviews == 0 {
+                "none: coarse levels are halved from the base where asked".into()
+            } else {
+                format!("{overviews} of the file's used for coarse levels")
+            },
+        );
+        let bytes_per_pixel = decoder.bytes_per_pixel(&ds);
+        let raster = Self {
+            path: path.to_path_buf(),
+            fingerprint,
+            members: members.files.iter().map(|p| (p.clone(), FileStamp::of(p))).collect(),
+            missing: members.missing,
+            kind,
+            size: (width, height),
+            geo,
+            inverse,
+            crs_wkt,
+            crs_name,
+            units,
+            wraps_x,
+            geographic: srs.is_geographic(),
+            details,
+            store: Arc::new(Store::placeholder()),
+        };
+        Ok(Header {
+            raster,
+            decoder,
+            levels,
+            open_path: members.open_path,
+            holes: members.holes,
+            bytes_per_pixel,
+            categorical,
+        })
+    }
+}
+
+impl Header {
+    pub(super) fn decoder_planes(&self) -> usize {
+        if self.raster.kind == RasterKind::Color { 4 } else { 1 }
+    }
+
+    /// The raster of this header with a store of its own: blocks under
+    /// `uid`, stamps and counters carried from `previous` when given.
+    pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
+        let Self { mut raster, decoder, levels, open_path, holes, bytes_per_pixel, categorical } = self;
+        let file_stamp =
+            FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
+        let halving = match (raster.kind, categorical) {
+            (RasterKind::Color, _) => Halving::ColorMean,
+            (RasterKind::Height, true) => Halving::Mode,
+            (RasterKind::Height, false) => Halving::HeightMean,
+        };
+        let stamps = match previous {
+            Some(p) => p.stamps.clone(),
+            None => levels.iter().map(|l| vec![0u32; l.width.div_ceil(BLOCK) * l.height.div_ceil(BLOCK)]).collect(),
+        };
+        raster.store = Arc::new(Store {
+            uid,
+            version: VERSION.fetch_add(1, Ordering::Relaxed),
+            path: raster.path.clone(),
+            open_path,
+            holes,
+            file_stamp,
+            decoder,
+            bytes_per_pixel,
+            levels,
+            halving,
+            stamps,
+            pinned: previous.and_then(|p| p.pinned.clone()),
+            bytes_read: previous.map_or_else(|| Arc::new(AtomicU64::new(0)), |p| Arc::clone(&p.bytes_read)),
+            poles: [OnceLock::new(), OnceLock::new()],
+            signatures: Arc::new(OnceLock::new()),
+        });
+        Ok(raster)
+    }
+}
+
+/// The levels of the pyramid: halving the base until one pixel; each uses
+/// the file's overview of exactly its size when `use_overviews`.
+fn level_infos(
+    ds: &Dataset,
+    decoder: &Decoder,
+    (width, height): (usize, usize),
+    use_overviews: bool,
+) -> Vec<LevelInfo> {
+    let band_index = match decoder {
+        Decoder::Height { band, .. } => *band,
+        _ => 1,
+    };
+    let overviews: Vec<(usize, usize)> = ds
+        .rasterband(band_index)
+        .ok()
+        .filter(|_| use_overviews)
+        .map(|band| {
+            let n = band.overview_count().unwrap_or(0).max(0) as usize;
+            (0..n).map(|i| band.overview(i).map_or((0, 0), |o| o.size())).collect()
+        })
+        .unwrap_or_default();
+    let mut levels = vec![LevelInfo { width, height, scale: 1.0, overview: None }];
+    loop {
+        let prev = levels.last().expect("the base level is there");
+        if prev.width <= 1 && prev.height <= 1 {
+            break;
+        }
+        let (w, h) = (prev.width.div_ceil(2), prev.height.div_ceil(2));
+        let overview = overviews.iter().position(|&s| s == (w, h));
+        levels.push(LevelInfo { width: w, height: h, scale: prev.scale * 2.0, overview });
+    }
+    levels
+}
+
+/// Opens a raster read-only, with GDAL's own words when it cannot.
+pub(crate) fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
+    use gdal::{DatasetOptions, GdalOpenFlags};
+    let options = DatasetOptions {
+        open_flags: GdalOpenFlags::GDAL_OF_RASTER
+            | GdalOpenFlags::GDAL_OF_READONLY
+            | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
+        ..DatasetOptions::default()
+    };
+    Dataset::open_ex(path, options).map_err(|e| {
+        let message = crate::gdal_message(e, path, "no GDAL driver recognises it (corrupt, truncated or not a raster)");
+        format_err(format!("cannot open raster: {message}"), path)
+    })
+}
+
+pub(super) fn apply(gt: &[f64; 6], a: f64, b: f64) -> (f64, f64) {
+    (gt[0] + a * gt[1] + b * gt[2], gt[3] + a * gt[4] + b * gt[5])
+}
+
+fn guess_kind(ds: &Dataset) -> RasterKind {
+    let byte_bands = ds.rasterbands().filter_map(Result::ok).filter(|b| b.band_type() == GdalDataType::UInt8).count();
+    let paletted = ds.rasterband(1).ok().is_some_and(|b| b.color_table().is_some());
+    if (byte_bands >= 3 && byte_bands == ds.raster_count()) || paletted {
+        RasterKind::Color
+    } else {
+        RasterKind::Height
+    }
+}
+
+/// Opens a raster read-only, naming `shown` in errors (a mosaic is opened
+/// through a rewritten VRT).
+fn open_dataset_named(open: &Path, shown: &Path) -> Result<Dataset, SourceError> {
+    if open == shown {
+        return open_dataset(open);
+    }
+    open_dataset(open).map_err(|e| format_err(e.to_string().replace(&open.display().to_string(), ""), shown))
+}

@@ -1,0 +1,133 @@
+//! How the manifest asks a raster to be read, what it is read as, and
+//! the little records of a file the rest compares.
+
+use std::path::Path;
+
+use super::changes::ChangeDetection;
+
+/// What a raster is read as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RasterKind {
+    /// Band 1 as heights in metres; NaN marks nodata.
+    Height,
+    /// Red, green, blue (and alpha) bytes, stored as premultiplied planes in 0..1.
+    Color,
+}
+
+/// How heights in the file are scaled to metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VerticalUnits {
+    Metres,
+    Feet,
+    UsSurveyFeet,
+}
+
+impl VerticalUnits {
+    pub(super) fn from_unit_type(unit: &str) -> Option<Self> {
+        match unit.trim().to_ascii_lowercase().as_str() {
+            "" | "m" | "metre" | "meter" | "metres" | "meters" => Some(Self::Metres),
+            "ft" | "foot" | "feet" | "international foot" => Some(Self::Feet),
+            "us-ft" | "us survey foot" | "ftus" => Some(Self::UsSurveyFeet),
+            _ => None,
+        }
+    }
+
+    pub fn to_metres(self) -> f64 {
+        match self {
+            Self::Metres => 1.0,
+            Self::Feet => 0.3048,
+            Self::UsSurveyFeet => 1200.0 / 3937.0,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Metres => "m",
+            Self::Feet => "ft",
+            Self::UsSurveyFeet => "us-ft",
+        }
+    }
+}
+
+/// How the pixels are held.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Residency {
+    /// Whole when the decoded base level is at most a quarter of the block
+    /// budget, else windowed.
+    Auto,
+    /// Read whole when the raster opens and kept: the last good pixels are
+    /// served whatever then happens to the file.
+    Whole,
+    /// Read by blocks as tiles need them, through the block cache.
+    Windowed,
+}
+
+impl Residency {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Whole => "whole",
+            Self::Windowed => "windowed",
+        }
+    }
+}
+
+/// One level of the mip pyramid: `width` x `height` pixels, each `scale`
+/// base pixels wide; read from the file's overview number `overview` when
+/// it has one of this size, else halved from the level below.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct LevelInfo {
+    pub width: usize,
+    pub height: usize,
+    pub scale: f64,
+    pub overview: Option<usize>,
+}
+
+/// How the manifest asked the raster to be read.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ReadOptions {
+    pub kind: Option<RasterKind>,
+    pub crs_override: Option<String>,
+    pub units_override: Option<VerticalUnits>,
+    pub band: usize,
+    /// The values are codes (land-cover classes), not quantities: coarser
+    /// mip pixels take the most common valid value under them, never a mean.
+    pub categorical: bool,
+    pub residency: Residency,
+    pub changes: ChangeDetection,
+    /// Use the file's overviews for coarse levels.
+    pub overviews: bool,
+}
+
+/// The primary file's size, modification time and inode: checked around
+/// every read of a windowed raster.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct FileStamp {
+    len: u64,
+    modified: Option<std::time::SystemTime>,
+    ino: u64,
+}
+
+impl FileStamp {
+    /// No file seen (a store not yet reading one).
+    pub(crate) const NONE: Self = Self { len: 0, modified: None, ino: 0 };
+
+    pub(crate) fn of(path: &Path) -> Option<Self> {
+        use std::os::unix::fs::MetadataExt;
+        let meta = std::fs::metadata(path).ok()?;
+        Some(Self { len: meta.len(), modified: meta.modified().ok(), ino: meta.ino() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_types_map_to_metres() {
+        assert_eq!(VerticalUnits::from_unit_type("metre"), Some(VerticalUnits::Metres));
+        assert_eq!(VerticalUnits::from_unit_type(""), Some(VerticalUnits::Metres));
+        assert_eq!(VerticalUnits::from_unit_type("ft"), Some(VerticalUnits::Feet));
+        assert_eq!(VerticalUnits::from_unit_type("fathoms"), None);
+    }
+}

@@ -1,0 +1,255 @@
+//! A reload: the changed blocks found from the files' signatures, read,
+//! compared with the old pixels, and the stamps above them bumped.
+
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use relief_source::SourceError;
+
+use super::blocks::{BLOCK, Block};
+use super::changes::{ChangeDetection, Changes, Signatures};
+use super::{PixelRect, Raster, ReadOptions, Store};
+
+/// What a reload found.
+#[derive(Debug)]
+pub(crate) enum Reloaded {
+    /// Same size, georeferencing and pixels: the same data under the
+    /// files' new fingerprint.
+    Same(Raster),
+    /// Same size and georeferencing; these pixels changed.
+    Pixels(Raster, Vec<PixelRect>),
+    /// Size, georeferencing, CRS or kind changed: everything did.
+    Everything(Raster),
+}
+
+/// A base block a reload read: where, its new pixels, what of it changed.
+type ReadBlock = ((usize, usize), Arc<Block>, Vec<PixelRect>);
+
+/// Side of the square blocks compared on reload.
+const DIFF_BLOCK: usize = 64;
+
+impl Raster {
+    /// Finds the blocks' signatures in the background, for the next reload.
+    pub(super) fn sign_in_background(&self, mode: ChangeDetection) {
+        let (raster, cell) = (self.clone(), Arc::clone(&self.store.signatures));
+        let spawned = std::thread::Builder::new().name("relief-sign".into()).spawn(move || {
+            let t = std::time::Instant::now();
+            let signed = Signatures::of(&raster, mode, None, true);
+            let still = matches!(raster.files_changed(), Ok(false));
+            tracing::debug!(ms = t.elapsed().as_secs_f64() * 1e3, ok = signed.is_ok(), "raster blocks signed");
+            let _ = cell.set(signed.ok().filter(|_| still));
+        });
+        if spawned.is_err() {
+            let _ = self.store.signatures.set(None);
+        }
+    }
+
+    /// Reads the file's header again and finds what changed: the blocks
+    /// whose signatures differ from the last version's are read (no other),
+    /// and compared in 64 x 64 pieces with the old pixels where those are
+    /// at hand (a raster read whole always has them; a windowed one when
+    /// the cache does); the pieces that differ are the dirt. The mip levels
+    /// above change only there.
+    pub(crate) fn reload(&self, options: &ReadOptions) -> Result<Reloaded, SourceError> {
+        let t = std::time::Instant::now();
+        let header = Self::header(&self.path, options)?;
+        let fresh = &header.raster;
+        let same_frame = fresh.size == self.size
+            && fresh.geo == self.geo
+            && fresh.crs_wkt == self.crs_wkt
+            && fresh.kind == self.kind
+            && fresh.units == self.units
+            && header.decoder == self.store.decoder
+            && header.levels == self.store.levels
+            && fresh.missing == self.missing;
+        if !same_frame {
+            return Self::open(&self.path, options).map(Reloaded::Everything);
+        }
+        let whole = !self.windowed();
+        let mut raster = header.into_raster(self.store.uid, Some(&self.store))?;
+        let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
+        let old = self.store.signatures.wait().as_ref();
+        let signatures = Signatures::of(&raster, options.changes, old, false)?;
+        let changes = match old {
+            Some(old) => old.diff(&signatures, self.size),
+            None => Changes {
+                base: vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
+                overviews: Vec::new(),
+            },
+        };
+        let rects = &changes.base;
+        let mut candidates: Vec<(usize, usize)> = rects
+            .iter()
+            .flat_map(|r| {
+                let b = r.shrink(BLOCK);
+                (b.y0..b.y1.min(bh)).flat_map(move |y| (b.x0..b.x1.min(bw)).map(move |x| (x, y)))
+            })
+            .collect();
+        candidates.sort_unstable_by_key(|&(x, y)| (y, x));
+        candidates.dedup();
+        tracing::debug!(ms = t.elapsed().as_secs_f64() * 1e3, blocks = candidates.len(), "raster changes found");
+        // Read the candidate blocks of the new version, compare with the old.
+        let new_store = &raster.store;
+        let read: Vec<ReadBlock> = candidates
+            .par_iter()
+            .map(|&(bx, by)| {
+                let new = Arc::new(new_store.load(0, bx, by)?);
+                let old = self.store.cached(0, bx, by);
+                let origin = (bx * BLOCK, by * BLOCK);
+                let rects = match old {
+                    Some(old) => diff_blocks(&old.planes, &new.planes, new.width, new.height),
+                    None => vec![PixelRect { x0: 0, y0: 0, x1: new.width, y1: new.height }],
+                };
+                let rects = rects
+                    .into_iter()
+                    .map(|r| PixelRect {
+                        x0: r.x0 + origin.0,
+                        y0: r.y0 + origin.1,
+                        x1: r.x1 + origin.0,
+                        y1: r.y1 + origin.1,
+                    })
+                    .collect();
+                Ok(((bx, by), new, rects))
+            })
+            .collect::<Result<_, SourceError>>()?;
+        if raster.files_changed()? {
+            return Err(SourceError::Changing { path: self.path.clone() });
+        }
+        let mut rects: Vec<PixelRect> = read.iter().flat_map(|(_, _, r)| r.iter().copied()).collect();
+        // An overview block that changed where no base pixel did is a change
+        // of its own (overviews rebuilt); one over changed base pixels came
+        // with them, and the stamps above those pixels are bumped anyway.
+        let overlaps = |a: &PixelRect, b: &PixelRect| a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+        let own: Vec<PixelRect> =
+            changes.overviews.iter().filter(|o| !rects.iter().any(|r| overlaps(o, r))).copied().collect();
+        rects.extend(own);
+        let mut store = new_store.fork(self.store.uid);
+        store.bump(&rects);
+        if let Some(pinned) = &mut store.pinned {
+            for ((bx, by), block, changed) in &read {
+                if !changed.is_empty() {
+                    pinned[by * bw + bx] = Arc::clone(block);
+                }
+            }
+        }
+        let _ = store.signatures.set(Some(signatures));
+        raster.store = Arc::new(store);
+        if !whole {
+            for ((bx, by), block, changed) in read {
+                if !changed.is_empty() {
+                    raster.store.keep(0, bx, by, block);
+                }
+            }
+        }
+        tracing::debug!(ms = t.elapsed().as_secs_f64() * 1e3, rects = rects.len(), "raster reloaded");
+        Ok(if rects.is_empty() { Reloaded::Same(raster) } else { Reloaded::Pixels(raster, rects) })
+    }
+}
+
+impl Store {
+    /// Bumps the stamp of every block, at every level, over `rects` of the base.
+    pub(super) fn bump(&mut self, rects: &[PixelRect]) {
+        for (level, info) in self.levels.iter().enumerate() {
+            let across = info.width.div_ceil(BLOCK);
+            let scale = info.scale as usize;
+            for rect in rects {
+                let r = rect.shrink(scale).shrink(BLOCK);
+                for by in r.y0..r.y1.min(info.height.div_ceil(BLOCK)) {
+                    for bx in r.x0..r.x1.min(across) {
+                        let s = &mut self.stamps[level][by * across + bx];
+                        *s = s.wrapping_add(1);
+                    }
+                }
+            }
+        }
+    }
+
+    /// A block of this version if it is at hand (kept, or in the cache).
+    pub(super) fn cached(&self, level: usize, bx: usize, by: usize) -> Option<Arc<Block>> {
+        match &self.pinned {
+            Some(pinned) if level == 0 => pinned.get(by * self.levels[0].width.div_ceil(BLOCK) + bx).cloned(),
+            _ => self.peek(level, bx, by),
+        }
+    }
+}
+
+/// The blocks whose pixels differ (bit for bit; all NaNs alike), merged
+/// into rectangles: runs along each row of blocks, then runs of equal runs
+/// down the rows.
+fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) -> Vec<PixelRect> {
+    let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+    let (bw, bh) = (width.div_ceil(DIFF_BLOCK), height.div_ceil(DIFF_BLOCK));
+    let changed: Vec<bool> = (0..bw * bh)
+        .into_par_iter()
+        .map(|b| {
+            let (x0, y0) = ((b % bw) * DIFF_BLOCK, (b / bw) * DIFF_BLOCK);
+            let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
+            old.iter().zip(new).any(|(o, n)| {
+                (y0..y1).any(|y| {
+                    let (o, n) = (&o[y * width + x0..y * width + x1], &n[y * width + x0..y * width + x1]);
+                    // Plain float equality is the fast check; NaNs (nodata)
+                    // fail it and get the exact one.
+                    o != n && o.iter().zip(n).any(|(a, b)| !same(*a, *b))
+                })
+            })
+        })
+        .collect();
+    let block_changed = |bx: usize, by: usize| changed[by * bw + bx];
+    let mut rects: Vec<PixelRect> = Vec::new();
+    let mut open: Vec<PixelRect> = Vec::new();
+    for by in 0..bh {
+        let mut runs = Vec::new();
+        let mut bx = 0;
+        while bx < bw {
+            if block_changed(bx, by) {
+                let start = bx;
+                while bx < bw && block_changed(bx, by) {
+                    bx += 1;
+                }
+                runs.push((start * DIFF_BLOCK, (bx * DIFF_BLOCK).min(width)));
+            } else {
+                bx += 1;
+            }
+        }
+        let (y0, y1) = (by * DIFF_BLOCK, ((by + 1) * DIFF_BLOCK).min(height));
+        let mut still_open = Vec::new();
+        for rect in open.drain(..) {
+            if let Some(pos) = runs.iter().position(|&(x0, x1)| x0 == rect.x0 && x1 == rect.x1) {
+                runs.remove(pos);
+                still_open.push(PixelRect { y1, ..rect });
+            } else {
+                rects.push(rect);
+            }
+        }
+        still_open.extend(runs.into_iter().map(|(x0, x1)| PixelRect { x0, y0, x1, y1 }));
+        open = still_open;
+    }
+    rects.extend(open);
+    rects
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn block_diffs_find_exactly_the_changed_blocks() {
+        let (w, h) = (300, 200);
+        let old = vec![vec![1.0f32; w * h]];
+        let mut new = old.clone();
+        assert!(diff_blocks(&old, &new, w, h).is_empty());
+        // Two pixels in one block, and a 2 x 2 run of blocks elsewhere.
+        new[0][150 * w + 10] = 2.0;
+        new[0][151 * w + 40] = f32::NAN;
+        for (x, y) in [(130, 5), (200, 5), (130, 70), (200, 70)] {
+            new[0][y * w + x] = 3.0;
+        }
+        let rects = diff_blocks(&old, &new, w, h);
+        assert!(rects.contains(&PixelRect { x0: 0, y0: 128, x1: 64, y1: 192 }), "{rects:?}");
+        assert!(rects.contains(&PixelRect { x0: 128, y0: 0, x1: 256, y1: 128 }), "{rects:?}");
+        assert_eq!(rects.len(), 2, "{rects:?}");
+        // NaN over NaN is no change.
+        let holes = vec![vec![f32::NAN; 16]];
+        assert!(diff_blocks(&holes, &holes.clone(), 4, 4).is_empty());
+    }
+}
