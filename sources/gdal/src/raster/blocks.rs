@@ -13,7 +13,7 @@ use gdal::Dataset;
 use moka::sync::Cache;
 use relief_source::SourceError;
 
-use super::halve::{Halving, halved_pixel};
+use super::halve::{Halving, halve_window};
 use super::{PixelRect, Store};
 
 /// Side of a block, in pixels of its level.
@@ -197,12 +197,7 @@ impl Store {
         let planes = w
             .planes
             .iter()
-            .map(|p| {
-                (0..rect.height())
-                    .flat_map(|j| (0..rect.width()).map(move |i| (i, j)))
-                    .map(|(i, j)| halved_pixel(p, w.width, w.height, i, j, self.halving))
-                    .collect()
-            })
+            .map(|p| halve_window(p, w.width, w.height, (rect.width(), rect.height()), self.halving))
             .collect();
         Ok(Block { width: rect.width(), height: rect.height(), planes })
     }
