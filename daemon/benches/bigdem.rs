@@ -578,11 +578,6 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
             }
         }
     }
-    if std::env::var_os("RELIEF_TEST_LOG").is_some() {
-        for line in daemon.log().iter().rev().take(12).rev() {
-            println!("{line}");
-        }
-    }
     if std::env::var_os("RELIEF_BIGDEM_LOG").is_some() {
         // RELIEF_TEST_LOG sets reliefd's RUST_LOG; this prints what it said.
         for line in daemon.log() {

@@ -237,7 +237,7 @@ impl Store {
     /// The pixels of `rect` of `level`, from the blocks under it.
     pub(crate) fn window(&self, level: usize, rect: PixelRect) -> Result<Window, SourceError> {
         let (width, height) = (rect.width(), rect.height());
-        let n_planes = self.halving_planes();
+        let n_planes = self.decoder.planes();
         let mut planes = vec![vec![0.0f32; width * height]; n_planes];
         if width == 0 || height == 0 {
             return Ok(Window { width, height, planes });
@@ -258,9 +258,5 @@ impl Store {
             }
         }
         Ok(Window { width, height, planes })
-    }
-
-    fn halving_planes(&self) -> usize {
-        if self.halving == Halving::ColorMean { 4 } else { 1 }
     }
 }

@@ -4,6 +4,7 @@
 use relief_source::SourceError;
 
 use super::blocks::BLOCK;
+use super::halve;
 use super::{PixelRect, Raster, format_err, tiff};
 
 impl Raster {
@@ -55,11 +56,9 @@ impl Raster {
                 for j in 0..rect.height() {
                     for i in 0..rect.width() {
                         let v = o[j * rect.width() + i];
-                        let below: Vec<f32> = [(0, 0), (1, 0), (0, 1), (1, 1)]
-                            .iter()
-                            .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
-                            .filter(|&(x, y)| x < base_width && y < base_height)
-                            .map(|(x, y)| b[y * base_width + x])
+                        let below: Vec<f32> = halve::under(b, base_width, base_height, i, j)
+                            .into_iter()
+                            .flatten()
                             .filter(|h| !h.is_nan())
                             .collect();
                         if v.is_nan() || below.is_empty() {

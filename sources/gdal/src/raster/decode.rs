@@ -106,6 +106,11 @@ impl Decoder {
         Ok(Self::Bands { colour, alpha })
     }
 
+    /// Planes a decoded window has: heights, or premultiplied RGBA.
+    pub(crate) fn planes(&self) -> usize {
+        if matches!(self, Self::Height { .. }) { 1 } else { 4 }
+    }
+
     /// Bytes per pixel the file holds for what this decoder reads (the
     /// figure a read is counted in).
     pub(crate) fn bytes_per_pixel(&self, ds: &Dataset) -> usize {

@@ -12,13 +12,19 @@ pub(crate) enum Halving {
     Mode,
 }
 
+/// The (up to) four pixels of `plane` (`width` x `height`) under pixel
+/// (i, j) of the next level; None past the plane's edge.
+pub(crate) fn under(plane: &[f32], width: usize, height: usize, i: usize, j: usize) -> [Option<f32>; 4] {
+    [(0, 0), (1, 0), (0, 1), (1, 1)]
+        .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
+        .map(|(x, y)| (x < width && y < height).then(|| plane[y * width + x]))
+}
+
 /// One pixel of the next level, from the (up to) four pixels under it in
 /// `plane` (`width` x `height`, its origin on an even pixel of the level
 /// below).
 pub(crate) fn halved_pixel(plane: &[f32], width: usize, height: usize, i: usize, j: usize, halving: Halving) -> f32 {
-    let under = [(0, 0), (1, 0), (0, 1), (1, 1)]
-        .map(|(dx, dy)| (2 * i + dx, 2 * j + dy))
-        .map(|(x, y)| (x < width && y < height).then(|| plane[y * width + x]));
+    let under = under(plane, width, height, i, j);
     if halving == Halving::Mode {
         let valid = || under.iter().flatten().copied().filter(|v| !v.is_nan());
         let count = |v: f32| valid().filter(|u| *u == v).count();

@@ -122,10 +122,6 @@ impl Raster {
 }
 
 impl Header {
-    pub(super) fn decoder_planes(&self) -> usize {
-        if self.raster.kind == RasterKind::Color { 4 } else { 1 }
-    }
-
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {

@@ -128,7 +128,7 @@ impl Raster {
         let header = Self::header(path, options)?;
         let residency = match options.residency {
             Residency::Auto => {
-                let bytes = header.raster.size.0 * header.raster.size.1 * header.decoder_planes() * 4;
+                let bytes = header.raster.size.0 * header.raster.size.1 * header.decoder.planes() * 4;
                 if bytes as u64 <= block_budget() / 4 { Residency::Whole } else { Residency::Windowed }
             }
             other => other,
