@@ -414,8 +414,8 @@ fn windows(side: usize, n: usize) -> Vec<Window> {
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
     Big,
-    /// big.tif with `change_detection = "layout"` (block tables only).
-    BigLayout,
+    /// big.tif with `change_detection = "exact"` (every block's compressed bytes hashed).
+    BigExact,
     Mosaic,
 }
 
@@ -476,12 +476,12 @@ fn raster_mb() -> Option<usize> {
 async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: usize) -> anyhow::Result<Run> {
     let (label, path) = match kind {
         Kind::Big => ("big.tif", &data.big),
-        Kind::BigLayout => ("big.tif, change_detection = layout", &data.big),
+        Kind::BigExact => ("big.tif, change_detection = exact", &data.big),
         Kind::Mosaic => ("mosaic.vrt (20 x 20 files)", &data.vrt),
     };
-    let changes = if kind == Kind::BigLayout { "change_detection = \"layout\"\n" } else { "" };
+    let changes = if kind == Kind::BigExact { "change_detection = \"exact\"\n" } else { "" };
     let size_bytes = match kind {
-        Kind::Big | Kind::BigLayout => std::fs::metadata(&data.big)?.len(),
+        Kind::Big | Kind::BigExact => std::fs::metadata(&data.big)?.len(),
         Kind::Mosaic => std::fs::metadata(&data.vrt)?.len() + dir_size(&data.mosaic_dir)?,
     };
     let scene = tempfile::tempdir()?;
@@ -547,7 +547,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
         let w = windows[k / 2];
         let bump = if k % 2 == 0 { BUMP_M } else { -BUMP_M };
         let (file, x, y) = match kind {
-            Kind::Big | Kind::BigLayout => {
+            Kind::Big | Kind::BigExact => {
                 (data.big.clone(), w.col * (side / MOSAIC_GRID) + w.x, w.row * (side / MOSAIC_GRID) + w.y)
             }
             Kind::Mosaic => (data.mosaic_dir.join(mosaic_name(w.row, w.col)), w.x, w.y),
@@ -618,7 +618,7 @@ fn main() -> anyhow::Result<()> {
     }
     let windows = windows(side, edits.div_ceil(2));
     let runtime = tokio::runtime::Runtime::new()?;
-    let runs = [Kind::Big, Kind::BigLayout, Kind::Mosaic]
+    let runs = [Kind::Big, Kind::BigExact, Kind::Mosaic]
         .into_iter()
         .map(|kind| runtime.block_on(serve(kind, &data, side, &windows, edits)))
         .collect::<anyhow::Result<Vec<Run>>>()?;

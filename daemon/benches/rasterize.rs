@@ -3,9 +3,15 @@
 //! Natural Earth's countries (`../shared/data/shp`) drawn into every tile
 //! of levels 0..=N (RELIEF_BENCH_MAX_LEVEL, default 6) through reliefd's
 //! tile store, and the same tiles burnt by GDAL's rasterizer (the library
-//! call behind `gdal_rasterize`, in-process, one MEM raster per tile of the
-//! same texel lattice) in the same run. Then the `antialias` knob: time
-//! against coverage error, taking 8 x 8 sub-samples as the reference.
+//! call behind `gdal_rasterize`, in-process, one MEM raster per tile) in the
+//! same run, each on 1 thread and on 2:
+//! - GDAL at equal quality: 4 x 4 sub-samples per texel, as relief's default
+//!   `antialias = 4` takes, is a raster 4 times finer burnt at its pixel
+//!   centres (the same sub-sample places) and summed 4 x 4 into coverage;
+//! - GDAL aliased (one sample at each texel's centre), for scale.
+//!
+//! Then the `antialias` knob: time against coverage error, taking 8 x 8
+//! sub-samples as the reference.
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
 
@@ -22,7 +28,19 @@ fn keys(grid: &TileGrid, max_level: u8) -> Vec<TileKey> {
     (0..=max_level).flat_map(|l| grid.keys_overlapping(l, &grid.extent())).collect()
 }
 
-fn relief(dir: &Path, countries: &Path, antialias: u32, keys: &[TileKey]) -> anyhow::Result<(f64, Vec<Vec<u8>>)> {
+/// Alpha planes of tiles, to compare coverage.
+type Alphas = Vec<Vec<u8>>;
+
+/// A GDAL thread's tiles: each one's place in the key list and its alpha.
+type Share = Vec<(usize, Vec<u8>)>;
+
+fn relief(
+    dir: &Path,
+    countries: &Path,
+    antialias: u32,
+    keys: &[TileKey],
+    threads: usize,
+) -> anyhow::Result<(f64, Alphas)> {
     let manifest = relief_examples::write_manifest(
         dir,
         &format!(
@@ -30,7 +48,7 @@ fn relief(dir: &Path, countries: &Path, antialias: u32, keys: &[TileKey]) -> any
             countries.display()
         ),
     )?;
-    let scene = common::load(&manifest, 2)?;
+    let scene = common::load(&manifest, threads)?;
     let snap = scene.snapshot();
     let index = snap.index_of("drawn").context("the bench scene has its rasterizer")?;
     let requests: Vec<(usize, TileKey)> = keys.iter().map(|k| (index, *k)).collect();
@@ -47,20 +65,83 @@ fn relief(dir: &Path, countries: &Path, antialias: u32, keys: &[TileKey]) -> any
     Ok((seconds, alphas))
 }
 
-fn gdal(grid: &TileGrid, countries: &Path, keys: &[TileKey]) -> anyhow::Result<f64> {
-    let source = gdal::Dataset::open(countries)?;
-    let mut layer = source.layer(0)?;
-    let geometries: Vec<gdal::vector::Geometry> = layer.features().filter_map(|f| f.geometry().cloned()).collect();
-    let burn = vec![255.0; geometries.len()];
-    let driver = gdal::DriverManager::get_driver_by_name("MEM")?;
+/// GDAL's rasterize over `keys` on `threads` threads (each opens the file
+/// and burns its share of the tiles), `ss` x `ss` samples per texel: the
+/// seconds and each tile's alpha (coverage of 255 burnt samples).
+fn gdal(
+    grid: &TileGrid,
+    countries: &Path,
+    keys: &[TileKey],
+    ss: usize,
+    threads: usize,
+) -> anyhow::Result<(f64, Alphas)> {
     let started = Instant::now();
-    for key in keys {
-        let l = grid.lattice(*key, SampleKind::TexelWithBorder);
-        let mut ds = driver.create_with_band_type::<u8, _>("", l.cols, l.rows, 1)?;
-        ds.set_geo_transform(&[l.x(0) - l.step_x / 2.0, l.step_x, 0.0, l.y(0) + l.step_y / 2.0, 0.0, -l.step_y])?;
-        gdal::raster::rasterize(&mut ds, &[1], &geometries, &burn, None)?;
+    let shares: Vec<anyhow::Result<Share>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                scope.spawn(move || -> anyhow::Result<Share> {
+                    let source = gdal::Dataset::open(countries)?;
+                    let mut layer = source.layer(0)?;
+                    let geometries: Vec<gdal::vector::Geometry> =
+                        layer.features().filter_map(|f| f.geometry().cloned()).collect();
+                    let burn = vec![255.0; geometries.len()];
+                    let driver = gdal::DriverManager::get_driver_by_name("MEM")?;
+                    let mut out = Vec::new();
+                    for (i, key) in keys.iter().enumerate().skip(t).step_by(threads) {
+                        let l = grid.lattice(*key, SampleKind::TexelWithBorder);
+                        let (w, h) = (l.cols * ss, l.rows * ss);
+                        let mut ds = driver.create_with_band_type::<u8, _>("", w, h, 1)?;
+                        let (sx, sy) = (l.step_x / ss as f64, l.step_y / ss as f64);
+                        ds.set_geo_transform(&[l.x(0) - l.step_x / 2.0, sx, 0.0, l.y(0) + l.step_y / 2.0, 0.0, -sy])?;
+                        gdal::raster::rasterize(&mut ds, &[1], &geometries, &burn, None)?;
+                        let samples = ds.rasterband(1)?.read_as::<u8>((0, 0), (w, h), (w, h), None)?;
+                        let samples = samples.data();
+                        let mut alpha = vec![0u8; l.cols * l.rows];
+                        if ss == 1 {
+                            alpha.copy_from_slice(samples);
+                        } else {
+                            let full = (ss * ss * 255) as u32;
+                            for (k, a) in alpha.iter_mut().enumerate() {
+                                let (i0, j0) = ((k % l.cols) * ss, (k / l.cols) * ss);
+                                let sum: u32 = (j0..j0 + ss)
+                                    .map(|j| {
+                                        samples[j * w + i0..j * w + i0 + ss].iter().map(|&v| u32::from(v)).sum::<u32>()
+                                    })
+                                    .sum();
+                                *a = ((sum * 255 + full / 2) / full) as u8;
+                            }
+                        }
+                        out.push((i, alpha));
+                    }
+                    Ok(out)
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|_| Err(anyhow::anyhow!("a GDAL thread panicked"))))
+            .collect()
+    });
+    let seconds = started.elapsed().as_secs_f64();
+    let mut alphas = vec![Vec::new(); keys.len()];
+    for share in shares {
+        for (i, alpha) in share? {
+            alphas[i] = alpha;
+        }
     }
-    Ok(started.elapsed().as_secs_f64())
+    Ok((seconds, alphas))
+}
+
+/// Mean absolute difference of two sets of alpha planes, in alpha levels.
+fn coverage_error(a: &Alphas, b: &Alphas) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (a, b) in a.iter().zip(b) {
+        for (x, y) in a.iter().zip(b) {
+            sum += (f64::from(*x) - f64::from(*y)).abs();
+            n += 1;
+        }
+    }
+    sum / n as f64
 }
 
 fn main() -> anyhow::Result<()> {
@@ -76,42 +157,55 @@ fn main() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
     let grid = TileGrid::geodetic(256).map_err(anyhow::Error::msg)?;
     let keys = keys(&grid, max_level);
-    let g = gdal(&grid, &countries, &keys)?;
     // A discarded first run: the first ~3 GB of tiles pay the kernel's page
     // faults, which would be charged to whichever setting ran first.
-    relief(dir.path(), &countries, 1, &keys)?;
+    relief(dir.path(), &countries, 1, &keys, 2)?;
     let mut runs = Vec::new();
     for antialias in [1u32, 2, 4, 8] {
-        runs.push((antialias, relief(dir.path(), &countries, antialias, &keys)?));
+        runs.push((antialias, 2, relief(dir.path(), &countries, antialias, &keys, 2)?));
     }
-    let reference = runs.last().map(|r| r.1.1.clone()).unwrap_or_default();
+    runs.push((4, 1, relief(dir.path(), &countries, 4, &keys, 1)?));
+    let reference = runs.iter().find(|r| r.0 == 8).map(|r| r.2.1.clone()).unwrap_or_default();
+    let mut peers = Vec::new();
+    for (ss, threads) in [(4usize, 1usize), (4, 2), (1, 1), (1, 2)] {
+        peers.push((ss, threads, gdal(&grid, &countries, &keys, ss, threads)?));
+    }
     println!(
         "\n## Natural Earth countries rasterized, levels 0..={max_level} ({} tiles of 258 x 258 texels)",
         keys.len()
     );
     println!(
-        "machine: {}; relief through its tile store (2 threads), GDAL in-process, one thread",
+        "machine: {}; relief through its tile store (its shapefile source's tiles included), GDAL in-process \
+         with the geometries read beforehand",
         relief_tests::machine()
     );
     println!(
-        "| rasterizer | antialias | seconds | tiles/s | ratio to GDAL | mean coverage error vs 8x8 (alpha levels) |"
+        "| rasterizer | samples per texel | threads | seconds | tiles/s | mean coverage error vs relief 8x8 (alpha levels) |"
     );
     println!("|---|---|---|---|---|---|");
-    println!("| GDAL rasterize (aliased, centre of texel) | 1 | {g:.2} | {:.0} | 1.00 | - |", keys.len() as f64 / g);
-    for (antialias, (seconds, alphas)) in &runs {
-        let (mut sum, mut n) = (0.0, 0usize);
-        for (a, b) in alphas.iter().zip(&reference) {
-            for (x, y) in a.iter().zip(b) {
-                sum += (f64::from(*x) - f64::from(*y)).abs();
-                n += 1;
-            }
-        }
+    for (ss, threads, (seconds, alphas)) in &peers {
+        let how = if *ss == 1 { "aliased, texel centre" } else { "burnt 4x finer, summed" };
         println!(
-            "| relief rasterize | {antialias}x{antialias} | {seconds:.2} | {:.0} | {:.2} | {:.3} |",
+            "| GDAL rasterize ({how}) | {ss}x{ss} | {threads} | {seconds:.2} | {:.0} | {:.3} |",
             keys.len() as f64 / seconds,
-            g / seconds,
-            sum / n as f64
+            coverage_error(alphas, &reference)
         );
+    }
+    for (antialias, threads, (seconds, alphas)) in &runs {
+        println!(
+            "| relief rasterize | {antialias}x{antialias} | {threads} | {seconds:.2} | {:.0} | {:.3} |",
+            keys.len() as f64 / seconds,
+            coverage_error(alphas, &reference)
+        );
+    }
+    println!("\n### relief at its default antialias = 4 against GDAL, in this run (ratio of tiles/s)");
+    println!("| GDAL | GDAL threads | relief threads | ratio |");
+    println!("|---|---|---|---|");
+    for (ss, gdal_threads, (g, _)) in &peers {
+        for (_, threads, (seconds, _)) in runs.iter().filter(|r| r.0 == 4) {
+            let what = if *ss == 1 { "aliased (lower quality)" } else { "4x4 (equal quality)" };
+            println!("| {what} | {gdal_threads} | {threads} | {:.2} |", g / seconds);
+        }
     }
     Ok(())
 }

@@ -167,10 +167,10 @@ impl GdalSource {
             }
         };
         let changes = match spec.text("change_detection")? {
-            None | Some("exact") => ChangeDetection::Exact,
-            Some("layout") => ChangeDetection::Layout,
+            Some("exact") => ChangeDetection::Exact,
+            None | Some("layout") => ChangeDetection::Layout,
             Some(other) => {
-                return Err(SourceError::option("change_detection", format!("'{other}' is not exact or layout")));
+                return Err(SourceError::option("change_detection", format!("'{other}' is not layout or exact")));
             }
         };
         let overviews = spec.flag("overviews")?.unwrap_or(true);
