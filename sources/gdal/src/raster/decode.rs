@@ -204,13 +204,30 @@ impl Decoder {
     }
 }
 
-/// Reads a window of a band as f32.
+/// Reads a window of a band as f32. A band of small integers is read in
+/// its own type and widened here: GDAL's word-by-word conversion cost more
+/// than decoding the block (the profile of a pyramid over a 3.2 GB Int16
+/// DEM: 60% of the tile threads' time in `GDALCopyWords64`).
 fn read_window(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<f32>, SourceError> {
+    match band.band_type() {
+        GdalDataType::Int16 => read_as::<i16>(band, rect, path),
+        GdalDataType::UInt16 => read_as::<u16>(band, rect, path),
+        GdalDataType::UInt8 => read_as::<u8>(band, rect, path),
+        _ => read_as::<f32>(band, rect, path),
+    }
+}
+
+/// Reads a window of a band as `T`, widened to f32 (exactly: every `T`
+/// read here is an f32 value).
+fn read_as<T>(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<f32>, SourceError>
+where
+    T: gdal::raster::GdalType + Copy + Default + Into<f32>,
+{
     let size = (rect.width(), rect.height());
-    let mut values = vec![0.0f32; size.0 * size.1];
-    band.read_into_slice::<f32>((rect.x0 as isize, rect.y0 as isize), size, size, &mut values, None)
+    let mut values = vec![T::default(); size.0 * size.1];
+    band.read_into_slice::<T>((rect.x0 as isize, rect.y0 as isize), size, size, &mut values, None)
         .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))?;
-    Ok(values)
+    Ok(values.into_iter().map(Into::into).collect())
 }
 
 /// Where the dataset's mask (per-dataset mask or alpha) says a pixel of the
