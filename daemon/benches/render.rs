@@ -76,6 +76,9 @@ fn main() -> anyhow::Result<()> {
     let snap = scene.snapshot();
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
     let gpu = Arc::new(Gpu::headless()?);
+    if let Some(frames) = std::env::var("RELIEF_BENCH_PROFILE_FRAMES").ok().and_then(|v| v.parse().ok()) {
+        return profile(&gpu, &snap, &terrain, frames);
+    }
     println!("\n## Frame time at 1280 x 720, demo scene, against surface error");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!(
@@ -149,6 +152,30 @@ fn main() -> anyhow::Result<()> {
     culling(&gpu, &snap, &terrain, brute)?;
     passes(&gpu, &scene, &terrain)?;
     min_levels(&gpu, &manifest)?;
+    Ok(())
+}
+
+/// Only the default still frame, `frames` times, for a profiler
+/// (`RELIEF_BENCH_PROFILE_FRAMES=200 perf record ...`): each pass's median.
+fn profile(
+    gpu: &Arc<Gpu>,
+    snap: &relief_daemon::graph::SceneSnapshot,
+    terrain: &SceneTerrain<'_>,
+    frames: usize,
+) -> anyhow::Result<()> {
+    let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+    renderer.render(terrain, &pose(10), &SETTINGS)?;
+    // Each frame's pass times only: the images go, as a viewer's do.
+    let runs = (0..frames.max(1))
+        .map(|_| Ok(renderer.render(terrain, &pose(10), &SETTINGS)?.passes))
+        .collect::<anyhow::Result<Vec<Vec<(&str, f64)>>>>()?;
+    println!("\n## The default still frame, {} times (for a profiler)", runs.len());
+    println!("| pass | median ms |");
+    println!("|---|---|");
+    for (i, (name, _)) in runs[0].iter().enumerate() {
+        println!("| {name} | {:.1} |", median(runs.iter().map(|f| f[i].1).collect()));
+    }
+    println!("| frame | {:.1} |", median(runs.iter().map(|f| f.iter().map(|p| p.1).sum()).collect()));
     Ok(())
 }
 

@@ -95,6 +95,8 @@ pub struct Renderer {
     /// Built the first time a frame has instances to draw.
     instances: Option<InstancesPass>,
     counters: PassCounters,
+    /// The last frame's target, drawn into again while the size stays.
+    target: Option<Target>,
 }
 
 impl Renderer {
@@ -103,7 +105,7 @@ impl Renderer {
         let terrain = TerrainPass::new(&gpu.device, &frame_buffer, config)?;
         let mut counters = PassCounters::default();
         counters.set_built(passes::TERRAIN, true);
-        Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, instances: None, counters })
+        Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, instances: None, counters, target: None })
     }
 
     pub fn surface(&self) -> &Surface {
@@ -151,7 +153,10 @@ impl Renderer {
     ) -> Result<Frame, RenderError> {
         self.check(pose, settings)?;
         let view = self.surface.view(pose);
-        let target = Target::new(&self.gpu.device, settings.width, settings.height);
+        let target = match self.target.take() {
+            Some(target) if target.fits(settings.width, settings.height) => target,
+            _ => Target::new(&self.gpu.device, settings.width, settings.height),
+        };
         let mut passes = Vec::new();
 
         let started = Instant::now();
@@ -221,6 +226,7 @@ impl Renderer {
         let started = Instant::now();
         let (rgba, depth) = target.read_back(&self.gpu)?;
         passes.push(("read back", started.elapsed().as_secs_f64() * 1e3));
+        self.target = Some(target);
         let (width, height, update) = (settings.width, settings.height, draw.update);
         Ok(Frame { width, height, rgba, depth, passes, update, view, drawn })
     }

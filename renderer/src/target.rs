@@ -9,6 +9,9 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// The sky: what no pass draws over.
 const CLEAR: wgpu::Color = wgpu::Color { r: 0.02, g: 0.03, b: 0.07, a: 1.0 };
 
+/// Kept by the renderer from frame to frame while the size stays, with its
+/// read-back buffers: the profile of the default frame on lavapipe showed
+/// the render thread faulting in fresh textures and buffers every frame.
 pub struct Target {
     pub width: u32,
     pub height: u32,
@@ -16,6 +19,10 @@ pub struct Target {
     depth: wgpu::Texture,
     color_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
+    /// Bytes per row of the read-back buffers (aligned as copies ask).
+    row: u32,
+    color_buffer: wgpu::Buffer,
+    depth_buffer: wgpu::Buffer,
 }
 
 impl Target {
@@ -35,7 +42,22 @@ impl Target {
         let (color, depth) = (texture(COLOR_FORMAT), texture(DEPTH_FORMAT));
         let color_view = color.create_view(&wgpu::TextureViewDescriptor::default());
         let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
-        Self { width, height, color, depth, color_view, depth_view }
+        let row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let buffer = |label| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: u64::from(row * height),
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+                mapped_at_creation: false,
+            })
+        };
+        let (color_buffer, depth_buffer) = (buffer("colour read-back"), buffer("depth read-back"));
+        Self { width, height, color, depth, color_view, depth_view, row, color_buffer, depth_buffer }
+    }
+
+    /// Whether this target is `width` x `height`.
+    pub fn fits(&self, width: u32, height: u32) -> bool {
+        self.width == width && self.height == height
     }
 
     /// A render pass over the target, first cleared to `clear` (and the
@@ -102,22 +124,13 @@ impl Target {
 
     /// Colour (RGBA8, rows from the top) and depth, copied back.
     pub fn read_back(&self, gpu: &Gpu) -> Result<(Vec<u8>, Vec<f32>), RenderError> {
-        let device = &gpu.device;
-        let (w, h) = (self.width, self.height);
-        let row = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = |label| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: u64::from(row * h),
-                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-                mapped_at_creation: false,
-            })
-        };
-        let (color_buffer, depth_buffer) = (buffer("colour read-back"), buffer("depth read-back"));
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read back") });
+        let (w, h, row) = (self.width, self.height, self.row);
+        let (color_buffer, depth_buffer) = (&self.color_buffer, &self.depth_buffer);
+        let mut encoder =
+            gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("read back") });
         for (texture, target, aspect) in [
-            (&self.color, &color_buffer, wgpu::TextureAspect::All),
-            (&self.depth, &depth_buffer, wgpu::TextureAspect::DepthOnly),
+            (&self.color, color_buffer, wgpu::TextureAspect::All),
+            (&self.depth, depth_buffer, wgpu::TextureAspect::DepthOnly),
         ] {
             encoder.copy_texture_to_buffer(
                 wgpu::TexelCopyTextureInfo { texture, mip_level: 0, origin: wgpu::Origin3d::ZERO, aspect },
@@ -133,22 +146,35 @@ impl Target {
             );
         }
         gpu.queue.submit([encoder.finish()]);
-        for b in [&color_buffer, &depth_buffer] {
+        for b in [color_buffer, depth_buffer] {
             b.slice(..).map_async(wgpu::MapMode::Read, |_| {});
         }
-        wait(gpu)?;
-        let unpad = |b: &wgpu::Buffer| -> Result<Vec<u8>, RenderError> {
-            let view = b.slice(..).get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
-            let mut out = Vec::with_capacity((w * h * 4) as usize);
-            for y in 0..h as usize {
-                out.extend_from_slice(&view[y * row as usize..y * row as usize + (w * 4) as usize]);
-            }
-            Ok(out)
-        };
-        let rgba = unpad(&color_buffer)?;
-        let depth = bytemuck::cast_slice::<u8, f32>(&unpad(&depth_buffer)?).to_vec();
-        Ok((rgba, depth))
+        let row_bytes = (w * 4) as usize;
+        let read = wait(gpu).and_then(|()| {
+            Ok((copy_rows(color_buffer, h, row, row_bytes)?, copy_rows(depth_buffer, h, row, row_bytes)?))
+        });
+        // Unmapped for the next frame's copy, whatever happened.
+        color_buffer.unmap();
+        depth_buffer.unmap();
+        read
     }
+}
+
+/// The `height` rows of a mapped read-back buffer, `row_bytes` of each
+/// padded `row`, copied once into values of `T`.
+fn copy_rows<T: bytemuck::Pod>(
+    buffer: &wgpu::Buffer,
+    height: u32,
+    row: u32,
+    row_bytes: usize,
+) -> Result<Vec<T>, RenderError> {
+    let view = buffer.slice(..).get_mapped_range().map_err(|e| RenderError::Device(e.to_string()))?;
+    let mut out = vec![T::zeroed(); height as usize * row_bytes / size_of::<T>()];
+    let bytes: &mut [u8] = bytemuck::cast_slice_mut(&mut out);
+    for (y, dst) in bytes.chunks_exact_mut(row_bytes).enumerate() {
+        dst.copy_from_slice(&view[y * row as usize..y * row as usize + row_bytes]);
+    }
+    Ok(out)
 }
 
 /// Waits until the device has done all it was given.
