@@ -446,7 +446,7 @@ async fn render(channel: &Channel, camera: pb::Camera) -> Result<pb::RenderRespo
         width: FRAME.0,
         height: FRAME.1,
         format: pb::ImageFormat::Png as i32,
-        quality: None,
+        ..Default::default()
     };
     Ok(ViewServiceClient::new(channel.clone()).max_decoding_message_size(64 << 20).render(request).await?.into_inner())
 }

@@ -15,6 +15,7 @@ pub mod registry;
 pub mod scene;
 pub mod scene_tiles;
 pub mod service;
+pub mod sun;
 pub mod tiles;
 pub mod view;
 pub mod watcher;

@@ -9,6 +9,8 @@ use relief_renderer::{ClipmapConfig, InstanceBands};
 use relief_source::{OptionValue, PayloadKind, Quality, SourceSpec};
 use serde::Deserialize;
 
+use crate::sun::Sun;
+
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ManifestError {
@@ -69,6 +71,18 @@ struct RawManifest {
     #[serde(default)]
     watch: RawWatch,
     camera: Option<RawCamera>,
+    #[serde(default)]
+    sun: RawSun,
+}
+
+/// `[sun]`: a date-time, or a fixed azimuth and elevation.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSun {
+    /// RFC 3339 with its offset, quoted or as a TOML date-time.
+    time: Option<toml::Value>,
+    azimuth_deg: Option<f64>,
+    elevation_deg: Option<f64>,
 }
 
 /// The camera a scene opens with; fields left out are chosen from the
@@ -210,6 +224,8 @@ pub struct Manifest {
     /// billboards.
     pub bands: InstanceBands,
     pub camera: RawCamera,
+    /// Where the sun is (`[sun]`): what lighting follows.
+    pub sun: Sun,
     pub cache_budget_bytes: u64,
     /// The budget of decoded raster blocks (`[cache] raster_mb`), for the
     /// process: the first scene loaded sets it.
@@ -326,7 +342,10 @@ impl Manifest {
             }
         }
         let mut effects = Vec::new();
-        for (name, _params) in raw.effects {
+        for (name, params) in raw.effects {
+            if let Some(key) = params.keys().next() {
+                return Err(field(&format!("effects.{name}.{key}"), "unknown option (this effect takes none)".into()));
+            }
             let Some((_, needs)) = EFFECTS.iter().find(|(e, _)| *e == name) else {
                 let known: Vec<&str> = EFFECTS.iter().map(|(e, _)| *e).collect();
                 let why = if EFFECTS_NOT_YET.contains(&name.as_str()) { "not drawn yet" } else { "unknown effect" };
@@ -387,6 +406,14 @@ impl Manifest {
         if raster_mb == 0 {
             return Err(field("cache.raster_mb", "must be at least 1".into()));
         }
+        let time = match &raw.sun.time {
+            None => None,
+            Some(toml::Value::String(t)) => Some(t.clone()),
+            Some(toml::Value::Datetime(t)) => Some(t.to_string()),
+            Some(other) => return Err(field("sun.time", format!("{other} is not a date-time"))),
+        };
+        let sun = Sun::parse(time.as_deref(), raw.sun.azimuth_deg, raw.sun.elevation_deg)
+            .map_err(|(name, message)| field(&format!("sun.{name}"), message))?;
         let defaults = WatchSettings::default();
         let watch = WatchSettings {
             settle_ms: raw.watch.settle_ms.unwrap_or(defaults.settle_ms),
@@ -420,6 +447,7 @@ impl Manifest {
             interactive_scale,
             bands,
             camera: raw.camera.unwrap_or_default(),
+            sun,
             cache_budget_bytes: memory_mb * 1024 * 1024,
             raster_budget_bytes: raster_mb * 1024 * 1024,
             watch,
@@ -555,6 +583,10 @@ mod tests {
             ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
             // Names relief knows but cannot honour yet are refused, not ignored.
             ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': not drawn yet (drawn: lighting)"),
+            // An effect's option it would ignore is refused too.
+            ("[scene]\nname='a'\n[effects]\nlighting={ sun = 'noon' }\n", "field 'effects.lighting.sun'"),
+            ("[scene]\nname='a'\n[sun]\ntime = 2026-06-21T15:00:00\n", "field 'sun.time'"),
+            ("[scene]\nname='a'\n[sun]\nhour = 15\n", "unknown field `hour`"),
             (
                 "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nvegetation='t'\n",
                 "field 'layers.vegetation': not drawn yet (drawn: height, color, buildings, instances)",

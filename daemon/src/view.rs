@@ -15,6 +15,7 @@ pub use crate::camera::Camera;
 use crate::camera::{default_camera, pose};
 use crate::scene::{EventKind, Scene};
 pub use crate::scene_tiles::{ModelCache, SceneBuildings, SceneInstances, SceneTerrain};
+use crate::sun::{Sun, SunAngles};
 
 /// The largest image side a request may ask for.
 pub const MAX_IMAGE_SIDE: u32 = 4096;
@@ -75,6 +76,8 @@ pub struct Rendered {
     pub camera: Camera,
     /// Every pass as of this frame (built, runs, milliseconds since start).
     pub passes: Vec<PassStats>,
+    /// The sun it was lit by over its camera, and where that came from.
+    pub sun: (SunAngles, Sun),
 }
 
 pub struct Viewer {
@@ -93,6 +96,8 @@ pub struct Overrides {
     pub clipmap: Option<ClipmapConfig>,
     pub quality: Option<Quality>,
     pub bands: Option<InstanceBands>,
+    /// The sun of a request or a stream, over the scene's.
+    pub sun: Option<Sun>,
 }
 
 impl Viewer {
@@ -189,7 +194,7 @@ impl Viewer {
         height: u32,
         overrides: Overrides,
     ) -> Result<Rendered, ViewError> {
-        let Overrides { clipmap, quality, bands } = overrides;
+        let Overrides { clipmap, quality, bands, sun } = overrides;
         for (field, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_SIDE).contains(&v) {
                 return Err(RenderError::Request {
@@ -241,8 +246,13 @@ impl Viewer {
             buildings: buildings.as_ref().map(|b| b as &dyn relief_renderer::MeshTiles),
             instances: instances.as_ref().map(|i| i as &dyn relief_renderer::InstanceTiles),
         };
+        let sun_spec = sun.unwrap_or(snap.manifest.sun);
+        let sun = sun_spec
+            .angles(camera.lon_deg, camera.lat_deg)
+            .map_err(|message| RenderError::Request { field: "sun.time", message })?;
         let settings = RenderSettings {
             bands: bands.unwrap_or(snap.manifest.bands),
+            sun,
             ..RenderSettings::new(width, height, lighting)
         };
         let frame = renderer.render_scene(&terrain, layers, &pose, &settings)?;
@@ -256,7 +266,7 @@ impl Viewer {
         let passes = r.count_passes(&frame);
         self.scene.set_passes(passes.clone());
         self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        Ok(Rendered { frame, generation: snap.generation, camera, passes })
+        Ok(Rendered { frame, generation: snap.generation, camera, passes, sun: (sun, sun_spec) })
     }
 
     /// What the device is, once a frame has opened it.

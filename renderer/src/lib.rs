@@ -25,5 +25,5 @@ pub use passes::buildings::MeshTiles;
 pub use passes::instances::{InstanceBands, InstanceTiles};
 pub use passes::terrain::MAX_LEVELS;
 pub use passes::{ALL as PASSES, PassCounters, PassStats};
-pub use renderer::{Drawn, Frame, RenderSettings, Renderer, SceneLayers};
+pub use renderer::{Drawn, Frame, RenderSettings, Renderer, SceneLayers, SunAngles};
 pub use surface::Surface;

@@ -34,12 +34,35 @@ pub struct RenderSettings {
     /// default). Exact: the image is the same either way; off, for
     /// benchmarks and the test that shows it.
     pub cull: bool,
+    /// Where the sun stands over the camera.
+    pub sun: SunAngles,
 }
 
 impl RenderSettings {
-    /// A frame of `width` x `height`, lit or not, at default quality.
+    /// A frame of `width` x `height`, lit or not, at default quality, the
+    /// sun from the north-west 45 degrees up.
     pub const fn new(width: u32, height: u32, lighting: bool) -> Self {
-        Self { width, height, lighting, bands: InstanceBands::DEFAULT, cull: true }
+        Self { width, height, lighting, bands: InstanceBands::DEFAULT, cull: true, sun: SunAngles::DEFAULT }
+    }
+}
+
+/// The sun in the local sky: azimuth clockwise from north and elevation
+/// above the horizon, degrees.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SunAngles {
+    pub azimuth_deg: f64,
+    pub elevation_deg: f64,
+}
+
+impl SunAngles {
+    /// From the north-west, 45 degrees up: the cartographer's light.
+    pub const DEFAULT: Self = Self { azimuth_deg: 315.0, elevation_deg: 45.0 };
+
+    /// How much daylight there is, 0 (night) to 1: a smooth step through
+    /// civil twilight, from 6 degrees below the horizon to 6 above.
+    pub fn daylight(self) -> f64 {
+        let t = ((self.elevation_deg + 6.0) / 12.0).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
     }
 }
 
@@ -286,8 +309,12 @@ impl Renderer {
         let (eye_high, eye_low) = if base_sink.is_some() { split(view.eye) } else { ([0.0; 3], [0.0; 3]) };
         let frame = FrameUniform {
             view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
-            sun: self.sun(pose),
-            light: [0.35, 0.75, if settings.lighting { 1.0 } else { 0.0 }, 0.0],
+            sun: self.sun(pose, settings.sun),
+            light: {
+                // Night is dark (a little ambient left), never NaN.
+                let day = settings.sun.daylight() as f32;
+                [0.05 + 0.30 * day, 0.75 * day, if settings.lighting { 1.0 } else { 0.0 }, 0.0]
+            },
             centre: {
                 let c = (-view.eye).as_vec3();
                 [c.x, c.y, c.z, if self.surface.is_planet() { 1.0 } else { 0.0 }]
@@ -298,10 +325,11 @@ impl Renderer {
         self.gpu.queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
     }
 
-    /// The sun in the camera's local sky: from the north-west, 45 degrees up.
-    fn sun(&self, pose: &Pose) -> [f32; 4] {
+    /// The direction towards the sun, in world axes, from its angles in the
+    /// camera's local sky.
+    fn sun(&self, pose: &Pose, sun: SunAngles) -> [f32; 4] {
         let [e, n, u] = self.surface.enu(pose.position[0], pose.position[1]);
-        let (az, el) = (315f64.to_radians(), 45f64.to_radians());
+        let (az, el) = (sun.azimuth_deg.to_radians(), sun.elevation_deg.to_radians());
         let d = (az.sin() * e + az.cos() * n) * el.cos() + u * el.sin();
         [d.x as f32, d.y as f32, d.z as f32, 0.0]
     }

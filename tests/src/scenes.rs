@@ -28,8 +28,8 @@ pub async fn render_rgba(
     camera: pb::Camera,
     (width, height): (u32, u32),
 ) -> anyhow::Result<pb::RenderResponse> {
-    let request =
-        pb::RenderRequest { camera: Some(camera), width, height, format: pb::ImageFormat::Rgba8 as i32, quality: None };
+    let format = pb::ImageFormat::Rgba8 as i32;
+    let request = pb::RenderRequest { camera: Some(camera), width, height, format, ..Default::default() };
     Ok(relief_proto::v1::view_service_client::ViewServiceClient::new(channel.clone())
         .max_decoding_message_size(64 << 20)
         .render(request)

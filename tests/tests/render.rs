@@ -32,7 +32,7 @@ async fn render(
             width: size.0,
             height: size.1,
             format: pb::ImageFormat::Rgba8 as i32,
-            quality: None,
+            ..Default::default()
         })
         .await
         .map(tonic::Response::into_inner)
@@ -143,11 +143,25 @@ async fn bad_requests_get_invalid_argument_and_the_daemon_keeps_serving() {
             height: 64,
             format: 0,
             quality: Some(pb::QualityOverrides { clipmap_grid_size: Some(100), ..Default::default() }),
+            ..Default::default()
         })
         .await
         .unwrap_err();
     assert_eq!(status.code(), tonic::Code::InvalidArgument);
     assert!(status.message().contains("clipmap_grid_size"), "{}", status.message());
+    // A sun that cannot be placed is refused by field, never guessed.
+    for (sun, field) in [
+        (pb::Sun { time: "2026-06-21T15:00:00".into(), ..Default::default() }, "sun.time"),
+        (pb::Sun { time: "21 June".into(), ..Default::default() }, "sun.time"),
+        (pb::Sun { time: "2026-06-21T15:00:00Z".into(), azimuth_deg: Some(10.0), ..Default::default() }, "sun.time"),
+        (pb::Sun { azimuth_deg: Some(10.0), elevation_deg: Some(95.0), ..Default::default() }, "sun.elevation_deg"),
+        (pb::Sun { azimuth_deg: Some(10.0), ..Default::default() }, "sun.elevation_deg"),
+    ] {
+        let request = pb::RenderRequest { width: 64, height: 64, sun: Some(sun.clone()), ..Default::default() };
+        let status = views.render(request).await.unwrap_err();
+        assert_eq!(status.code(), tonic::Code::InvalidArgument, "{sun:?}");
+        assert!(status.message().contains(field), "{sun:?}: {}", status.message());
+    }
     // Twelve large frames at once: four run or wait for the device, the
     // rest are told the daemon is busy, by name.
     let burst: Vec<_> = (0..12)

@@ -93,7 +93,7 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
             width: w,
             height: h,
             format: pb::ImageFormat::Rgba8 as i32,
-            quality: None,
+            ..Default::default()
         })
         .await
         .unwrap()

@@ -86,6 +86,15 @@ enum Command {
         /// Clipmap levels, for this frame only.
         #[arg(long)]
         levels: Option<u32>,
+        /// The sun at this date-time, with its UTC offset (2026-06-21T15:00:00+02:00), over the camera.
+        #[arg(long, conflicts_with_all = ["sun_azimuth", "sun_elevation"])]
+        sun_time: Option<String>,
+        /// A fixed sun: azimuth, degrees clockwise from north (with --sun-elevation).
+        #[arg(long, requires = "sun_elevation", allow_hyphen_values = true)]
+        sun_azimuth: Option<f64>,
+        /// A fixed sun: elevation, degrees above the horizon (with --sun-azimuth).
+        #[arg(long, requires = "sun_azimuth", allow_hyphen_values = true)]
+        sun_elevation: Option<f64>,
     },
     /// The current camera.
     #[command(subcommand)]
@@ -252,7 +261,7 @@ async fn run(args: Args) -> anyhow::Result<()> {
                 },
             );
         }
-        Command::Render { camera, fov, size, output, grid_size, levels } => {
+        Command::Render { camera, fov, size, output, grid_size, levels, sun_time, sun_azimuth, sun_elevation } => {
             let (width, height) = parse_size(&size)?;
             let camera = camera.map(|c| parse_camera(&c, fov.unwrap_or(50.0))).transpose()?;
             let quality = (grid_size.is_some() || levels.is_some()).then(|| pb::QualityOverrides {
@@ -260,9 +269,13 @@ async fn run(args: Args) -> anyhow::Result<()> {
                 clipmap_levels: levels,
                 ..Default::default()
             });
-            let frame = rpc(views
-                .render(pb::RenderRequest { camera, width, height, format: pb::ImageFormat::Png as i32, quality })
-                .await)?;
+            let sun = (sun_time.is_some() || sun_azimuth.is_some()).then(|| pb::Sun {
+                time: sun_time.unwrap_or_default(),
+                azimuth_deg: sun_azimuth,
+                elevation_deg: sun_elevation,
+            });
+            let format = pb::ImageFormat::Png as i32;
+            let frame = rpc(views.render(pb::RenderRequest { camera, width, height, format, quality, sun }).await)?;
             std::fs::write(&output, &frame.image).with_context(|| format!("cannot write {}", output.display()))?;
             let value = output::frame_json(&frame, &output);
             output::emit(args.json, &value, || output::frame_text(&frame, &output));

@@ -231,13 +231,18 @@ pub fn frame_json(f: &pb::RenderResponse, path: &std::path::Path) -> Value {
     let passes: serde_json::Map<String, Value> =
         f.passes.iter().map(|p| (p.pass.clone(), json!(p.elapsed_ms))).collect();
     json!({"path": path.display().to_string(), "generation": f.generation, "width": f.width, "height": f.height,
-           "passes_ms": passes, "camera": f.camera.as_ref().map(camera_json)})
+           "passes_ms": passes, "camera": f.camera.as_ref().map(camera_json),
+           "sun": f.sun.as_ref().map(|s| json!({"azimuth_deg": s.azimuth_deg, "elevation_deg": s.elevation_deg,
+                                                 "source": s.source}))})
 }
 
 pub fn frame_text(f: &pb::RenderResponse, path: &std::path::Path) -> String {
     let passes: Vec<String> = f.passes.iter().map(|p| format!("{} {:.1} ms", p.pass, p.elapsed_ms)).collect();
+    let sun = f.sun.as_ref().map_or_else(String::new, |s| {
+        format!("; sun at azimuth {:.2}, elevation {:.2} deg ({})", s.azimuth_deg, s.elevation_deg, s.source)
+    });
     format!(
-        "wrote {}x{} view of generation {} to {} ({})",
+        "wrote {}x{} view of generation {} to {} ({}){sun}",
         f.width,
         f.height,
         f.generation,

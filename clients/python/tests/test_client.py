@@ -234,6 +234,21 @@ def test_frames_say_what_they_drew_and_instance_knobs_are_checked(shared_client:
         shared_client.render(CAMERA, size=SIZE, quality=relief.Quality(atmosphere_steps=8))
 
 
+def test_a_frame_takes_its_own_sun_and_says_which_lit_it(shared_client: relief.Client) -> None:
+    default = shared_client.render(CAMERA, size=SIZE)
+    assert default.sun is not None and default.sun.source.startswith("fixed")
+    assert (default.sun.azimuth_deg, default.sun.elevation_deg) == (315.0, 45.0)
+    study = shared_client.render(CAMERA, size=SIZE, sun="2026-06-21T15:00:00+02:00")
+    assert study.sun is not None and study.sun.source == "at 2026-06-21T15:00:00+02:00"
+    # Mid-afternoon in northern Italy in June: south-west, high.
+    assert 200 < study.sun.azimuth_deg < 280 and 40 < study.sun.elevation_deg < 65
+    night = shared_client.render(CAMERA, size=SIZE, sun=(0.0, -30.0), format="rgba8")
+    assert night.sun is not None and night.sun.elevation_deg == -30.0
+    assert night.to_numpy()[..., :3].mean() < default.to_numpy()[..., :3].mean()
+    with pytest.raises(relief.InvalidArgument, match="sun.time"):
+        shared_client.render(CAMERA, size=SIZE, sun="21 June, 15:00")
+
+
 def test_render_answers_raw_rgba_too(shared_client: relief.Client, tmp_path: Path) -> None:
     png = shared_client.render(CAMERA, size=SIZE)
     raw = shared_client.render(CAMERA, size=SIZE, format="rgba8")

@@ -100,6 +100,17 @@ fn param<T: std::str::FromStr>(q: &HashMap<String, String>, name: &str) -> Resul
         .transpose()
 }
 
+/// `sun_time=2026-06-21T15:00:00+02:00`, or `sun_azimuth_deg` and
+/// `sun_elevation_deg`: the frame's sun (checked where the gRPC one is).
+fn sun_param(q: &HashMap<String, String>) -> Result<Option<pb::Sun>, HttpError> {
+    let (azimuth_deg, elevation_deg) = (param(q, "sun_azimuth_deg")?, param(q, "sun_elevation_deg")?);
+    let time = q.get("sun_time").cloned();
+    if time.is_none() && azimuth_deg.is_none() && elevation_deg.is_none() {
+        return Ok(None);
+    }
+    Ok(Some(pb::Sun { time: time.unwrap_or_default(), azimuth_deg, elevation_deg }))
+}
+
 /// `camera=lon,lat,alt,heading,pitch,roll` and `fov=deg` (default 50).
 fn camera_param(q: &HashMap<String, String>) -> Result<Option<pb::Camera>, HttpError> {
     let Some(text) = q.get("camera") else { return Ok(None) };
@@ -190,6 +201,7 @@ async fn render_image(State(c): Shared, Query(q): Params) -> Result<Response, Ht
         height: param(&q, "height")?.unwrap_or(0),
         format: format_param(&q)?,
         quality: None,
+        sun: sun_param(&q)?,
     };
     let r = c.view.render(&request).await?;
     let png = r.format == pb::ImageFormat::Png as i32;
@@ -241,6 +253,7 @@ async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse,
         quality: None,
         camera: camera_param(&q)?,
         view_id: q.get("view").cloned().unwrap_or_default(),
+        sun: sun_param(&q)?,
     };
     Ok(sse("frame", c.view.stream_frames(&request)?))
 }

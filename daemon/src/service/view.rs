@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use relief_proto::v1::{
     Camera, FrameDrawn, ImageFormat, NavigateRequest, OpenViewRequest, PassTiming, PickRequest, PickResponse,
-    QualityOverrides, RenderRequest, RenderResponse, SetCameraRequest, StreamFramesRequest, UpdateViewRequest,
-    ViewState, navigate_request,
+    QualityOverrides, RenderRequest, RenderResponse, SetCameraRequest, StreamFramesRequest, Sun, SunPosition,
+    UpdateViewRequest, ViewState, navigate_request,
 };
 use relief_renderer::ClipmapConfig;
 use tokio_stream::{Stream, StreamExt, wrappers::ReceiverStream};
@@ -52,6 +52,7 @@ fn frame_request(
     (width, height): (u32, u32),
     format: i32,
     overrides: Option<&QualityOverrides>,
+    sun: Option<&Sun>,
 ) -> Result<FrameRequest, Status> {
     let snap = scene.snapshot();
     let png = match ImageFormat::try_from(format) {
@@ -89,7 +90,14 @@ fn frame_request(
     }
     let camera = camera.map(|c| checked_camera(&snap, c)).transpose()?;
     let bands = overrides.map(|o| convert::bands(snap.manifest.bands, o)).transpose()?.flatten();
-    Ok(FrameRequest { camera, width, height, png, overrides: Overrides { clipmap, quality, bands } })
+    let sun = sun
+        .map(|s| {
+            let time = (!s.time.is_empty()).then_some(s.time.as_str());
+            crate::sun::Sun::parse(time, s.azimuth_deg, s.elevation_deg)
+                .map_err(|(field, message)| invalid_field(&format!("sun.{field}"), message))
+        })
+        .transpose()?;
+    Ok(FrameRequest { camera, width, height, png, overrides: Overrides { clipmap, quality, bands, sun } })
 }
 
 /// A request's camera in relief's types, checked against the scene (every
@@ -128,6 +136,14 @@ fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
             terrain_blocks: f.drawn.terrain_blocks as u32,
             terrain_blocks_drawn: f.drawn.terrain_blocks_drawn as u32,
         }),
+        sun: {
+            let (angles, spec) = &frame.rendered.sun;
+            Some(SunPosition {
+                azimuth_deg: angles.azimuth_deg,
+                elevation_deg: angles.elevation_deg,
+                source: spec.describe(),
+            })
+        },
     })
 }
 
@@ -162,7 +178,14 @@ impl ViewCalls {
 
     /// One frame, rendered for this call alone (at most four at once).
     pub async fn render(&self, r: &RenderRequest) -> Result<RenderResponse, Status> {
-        let req = frame_request(&self.scene, r.camera.as_ref(), (r.width, r.height), r.format, r.quality.as_ref())?;
+        let req = frame_request(
+            &self.scene,
+            r.camera.as_ref(),
+            (r.width, r.height),
+            r.format,
+            r.quality.as_ref(),
+            r.sun.as_ref(),
+        )?;
         let viewer = Arc::clone(self.viewer());
         tokio::task::spawn_blocking(move || {
             let rendered = viewer.render(req.camera, req.width, req.height, req.overrides).map_err(|e| status(&e))?;
@@ -175,7 +198,14 @@ impl ViewCalls {
     /// Frames of the scene camera, a fixed camera or an open view, shared
     /// through the hub with every stream that shows the same.
     pub fn stream_frames(&self, r: &StreamFramesRequest) -> Result<Frames, Status> {
-        let req = frame_request(&self.scene, r.camera.as_ref(), (r.width, r.height), r.format, r.quality.as_ref())?;
+        let req = frame_request(
+            &self.scene,
+            r.camera.as_ref(),
+            (r.width, r.height),
+            r.format,
+            r.quality.as_ref(),
+            r.sun.as_ref(),
+        )?;
         let fps = if r.max_fps == 0.0 { 10.0 } else { r.max_fps };
         if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
             return Err(invalid_field("max_fps", format!("{fps} is not more than 0 and at most {MAX_FPS}")));

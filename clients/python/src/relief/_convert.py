@@ -52,6 +52,8 @@ from relief.types import (
     SourceErrorEvent,
     SourceState,
     SourceStatus,
+    Sun,
+    SunPosition,
     Tile,
     View,
     Zoom,
@@ -137,8 +139,21 @@ def _size(size: tuple[int, int]) -> tuple[int, int]:
     return int(width), int(height)
 
 
+def sun_to_pb(sun: Sun | None) -> pb.Sun | None:
+    if sun is None:
+        return None
+    if isinstance(sun, str):
+        return pb.Sun(time=sun)
+    azimuth_deg, elevation_deg = sun
+    return pb.Sun(azimuth_deg=float(azimuth_deg), elevation_deg=float(elevation_deg))
+
+
 def render_request(
-    camera: Camera | None, size: tuple[int, int], fmt: ImageFormat | str, quality: Quality | None
+    camera: Camera | None,
+    size: tuple[int, int],
+    fmt: ImageFormat | str,
+    quality: Quality | None,
+    sun: Sun | None = None,
 ) -> pb.RenderRequest:
     width, height = _size(size)
     r = pb.RenderRequest(width=width, height=height, format=image_format(fmt))
@@ -147,6 +162,9 @@ def render_request(
     q = quality_to_pb(quality)
     if q is not None:
         r.quality.CopyFrom(q)
+    s = sun_to_pb(sun)
+    if s is not None:
+        r.sun.CopyFrom(s)
     return r
 
 
@@ -157,6 +175,7 @@ def stream_request(
     quality: Quality | None,
     max_fps: float,
     view_id: str | None,
+    sun: Sun | None = None,
 ) -> pb.StreamFramesRequest:
     width, height = _size(size)
     r = pb.StreamFramesRequest(
@@ -171,6 +190,9 @@ def stream_request(
     q = quality_to_pb(quality)
     if q is not None:
         r.quality.CopyFrom(q)
+    s = sun_to_pb(sun)
+    if s is not None:
+        r.sun.CopyFrom(s)
     return r
 
 
@@ -364,6 +386,9 @@ def frame(r: pb.RenderResponse) -> Frame:
             terrain_blocks_drawn=r.drawn.terrain_blocks_drawn,
         )
         if r.HasField("drawn")
+        else None,
+        sun=SunPosition(azimuth_deg=r.sun.azimuth_deg, elevation_deg=r.sun.elevation_deg, source=r.sun.source)
+        if r.HasField("sun")
         else None,
     )
 

@@ -26,6 +26,7 @@ from relief.types import (
     Camera,
     Event,
     Frame,
+    Sun,
     Gesture,
     ImageFormat,
     Pick,
@@ -182,9 +183,10 @@ class AsyncClient:
         *,
         format: ImageFormat | str = ImageFormat.PNG,
         quality: Quality | None = None,
+        sun: Sun | None = None,
         timeout: float = _channel.RENDER_TIMEOUT_S,
     ) -> Frame:
-        request = _convert.render_request(camera, size, format, quality)
+        request = _convert.render_request(camera, size, format, quality, sun)
         r: pb.RenderResponse = await self._unary(self._view.Render, "Render", request, timeout)
         return _convert.frame(r)
 
@@ -197,9 +199,10 @@ class AsyncClient:
         format: ImageFormat | str = ImageFormat.PNG,
         quality: Quality | None = None,
         view_id: str | None = None,
+        sun: Sun | None = None,
         timeout: float | None = None,
     ) -> AsyncStream[Frame]:
-        request = _convert.stream_request(camera, size, format, quality, max_fps, view_id)
+        request = _convert.stream_request(camera, size, format, quality, max_fps, view_id, sun)
         call = self._view.StreamFrames(request, timeout=timeout)
         return AsyncStream(call, _convert.frame, "StreamFrames")
 

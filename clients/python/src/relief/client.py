@@ -22,6 +22,7 @@ from relief.types import (
     Camera,
     Event,
     Frame,
+    Sun,
     Gesture,
     ImageFormat,
     Pick,
@@ -186,11 +187,13 @@ class Client:
         *,
         format: ImageFormat | str = ImageFormat.PNG,
         quality: Quality | None = None,
+        sun: Sun | None = None,
         timeout: float = _channel.RENDER_TIMEOUT_S,
     ) -> Frame:
         """One frame from `camera` (the scene camera when None), `size` as
-        (width, height) pixels."""
-        request = _convert.render_request(camera, size, format, quality)
+        (width, height) pixels, lit by `sun` (a date-time with its UTC offset,
+        or (azimuth_deg, elevation_deg); the scene's [sun] when None)."""
+        request = _convert.render_request(camera, size, format, quality, sun)
         r: pb.RenderResponse = self._unary(self._view.Render, "Render", request, timeout)
         return _convert.frame(r)
 
@@ -203,12 +206,13 @@ class Client:
         format: ImageFormat | str = ImageFormat.PNG,
         quality: Quality | None = None,
         view_id: str | None = None,
+        sun: Sun | None = None,
         timeout: float | None = None,
     ) -> Stream[Frame]:
         """Frames of the scene camera (or a fixed `camera`, or an open view):
         one now, then one whenever the generation or the camera changes, at
         most `max_fps`."""
-        request = _convert.stream_request(camera, size, format, quality, max_fps, view_id)
+        request = _convert.stream_request(camera, size, format, quality, max_fps, view_id, sun)
         call = self._view.StreamFrames(request, timeout=timeout)
         return Stream(call, _convert.frame, "StreamFrames")
 

@@ -331,6 +331,22 @@ class FrameDrawn:
     terrain_blocks_drawn: int = 0
 
 
+@dataclass(frozen=True)
+class SunPosition:
+    """The sun a frame was lit by, over its camera: azimuth clockwise from
+    north and elevation above the horizon (degrees), and where it came from
+    ("at 2026-06-21T15:00:00+02:00" or "fixed: ...")."""
+
+    azimuth_deg: float
+    elevation_deg: float
+    source: str
+
+
+#: A frame's sun: a date-time with its UTC offset ("2026-06-21T15:00:00+02:00",
+#: placed by NREL's SPA over the camera), or fixed (azimuth_deg, elevation_deg).
+Sun = str | tuple[float, float]
+
+
 @dataclass(frozen=True, eq=False)
 class Frame:
     """A rendered view: the image (PNG or raw RGBA8), the generation it
@@ -347,6 +363,8 @@ class Frame:
     pass_counters: tuple[PassState, ...] = ()
     #: What the frame drew besides the terrain.
     drawn: FrameDrawn | None = None
+    #: The sun it was lit by.
+    sun: SunPosition | None = None
 
     def to_numpy(self) -> npt.NDArray[np.uint8]:
         """The pixels, H x W x 4 uint8 (straight RGBA)."""

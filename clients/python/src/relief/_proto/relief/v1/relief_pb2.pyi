@@ -388,18 +388,40 @@ class GetCameraRequest(_message.Message):
     def __init__(self) -> None: ...
 
 class RenderRequest(_message.Message):
-    __slots__ = ("camera", "width", "height", "format", "quality")
+    __slots__ = ("camera", "width", "height", "format", "quality", "sun")
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
     FORMAT_FIELD_NUMBER: _ClassVar[int]
     QUALITY_FIELD_NUMBER: _ClassVar[int]
+    SUN_FIELD_NUMBER: _ClassVar[int]
     camera: Camera
     width: int
     height: int
     format: ImageFormat
     quality: QualityOverrides
-    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., quality: _Optional[_Union[QualityOverrides, _Mapping]] = ...) -> None: ...
+    sun: Sun
+    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., quality: _Optional[_Union[QualityOverrides, _Mapping]] = ..., sun: _Optional[_Union[Sun, _Mapping]] = ...) -> None: ...
+
+class Sun(_message.Message):
+    __slots__ = ("time", "azimuth_deg", "elevation_deg")
+    TIME_FIELD_NUMBER: _ClassVar[int]
+    AZIMUTH_DEG_FIELD_NUMBER: _ClassVar[int]
+    ELEVATION_DEG_FIELD_NUMBER: _ClassVar[int]
+    time: str
+    azimuth_deg: float
+    elevation_deg: float
+    def __init__(self, time: _Optional[str] = ..., azimuth_deg: _Optional[float] = ..., elevation_deg: _Optional[float] = ...) -> None: ...
+
+class SunPosition(_message.Message):
+    __slots__ = ("azimuth_deg", "elevation_deg", "source")
+    AZIMUTH_DEG_FIELD_NUMBER: _ClassVar[int]
+    ELEVATION_DEG_FIELD_NUMBER: _ClassVar[int]
+    SOURCE_FIELD_NUMBER: _ClassVar[int]
+    azimuth_deg: float
+    elevation_deg: float
+    source: str
+    def __init__(self, azimuth_deg: _Optional[float] = ..., elevation_deg: _Optional[float] = ..., source: _Optional[str] = ...) -> None: ...
 
 class PassTiming(_message.Message):
     __slots__ = ("elapsed_ms",)
@@ -409,7 +431,7 @@ class PassTiming(_message.Message):
     def __init__(self, elapsed_ms: _Optional[float] = ..., **kwargs) -> None: ...
 
 class RenderResponse(_message.Message):
-    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters", "drawn")
+    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters", "drawn", "sun")
     GENERATION_FIELD_NUMBER: _ClassVar[int]
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
@@ -419,6 +441,7 @@ class RenderResponse(_message.Message):
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     PASS_COUNTERS_FIELD_NUMBER: _ClassVar[int]
     DRAWN_FIELD_NUMBER: _ClassVar[int]
+    SUN_FIELD_NUMBER: _ClassVar[int]
     generation: int
     width: int
     height: int
@@ -428,7 +451,8 @@ class RenderResponse(_message.Message):
     camera: Camera
     pass_counters: _containers.RepeatedCompositeFieldContainer[PassState]
     drawn: FrameDrawn
-    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., drawn: _Optional[_Union[FrameDrawn, _Mapping]] = ...) -> None: ...
+    sun: SunPosition
+    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., drawn: _Optional[_Union[FrameDrawn, _Mapping]] = ..., sun: _Optional[_Union[SunPosition, _Mapping]] = ...) -> None: ...
 
 class FrameDrawn(_message.Message):
     __slots__ = ("buildings", "models", "billboards", "terrain_blocks", "terrain_blocks_drawn")
@@ -445,7 +469,7 @@ class FrameDrawn(_message.Message):
     def __init__(self, buildings: _Optional[int] = ..., models: _Optional[int] = ..., billboards: _Optional[int] = ..., terrain_blocks: _Optional[int] = ..., terrain_blocks_drawn: _Optional[int] = ...) -> None: ...
 
 class StreamFramesRequest(_message.Message):
-    __slots__ = ("width", "height", "format", "max_fps", "quality", "camera", "view_id")
+    __slots__ = ("width", "height", "format", "max_fps", "quality", "camera", "view_id", "sun")
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
     FORMAT_FIELD_NUMBER: _ClassVar[int]
@@ -453,6 +477,7 @@ class StreamFramesRequest(_message.Message):
     QUALITY_FIELD_NUMBER: _ClassVar[int]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     VIEW_ID_FIELD_NUMBER: _ClassVar[int]
+    SUN_FIELD_NUMBER: _ClassVar[int]
     width: int
     height: int
     format: ImageFormat
@@ -460,7 +485,8 @@ class StreamFramesRequest(_message.Message):
     quality: QualityOverrides
     camera: Camera
     view_id: str
-    def __init__(self, width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., max_fps: _Optional[float] = ..., quality: _Optional[_Union[QualityOverrides, _Mapping]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., view_id: _Optional[str] = ...) -> None: ...
+    sun: Sun
+    def __init__(self, width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., max_fps: _Optional[float] = ..., quality: _Optional[_Union[QualityOverrides, _Mapping]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., view_id: _Optional[str] = ..., sun: _Optional[_Union[Sun, _Mapping]] = ...) -> None: ...
 
 class OpenViewRequest(_message.Message):
     __slots__ = ("camera", "follow_scene_camera")
