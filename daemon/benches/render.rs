@@ -150,6 +150,7 @@ fn main() -> anyhow::Result<()> {
         default_still / brute
     );
     culling(&gpu, &snap, &terrain, brute)?;
+    effects(&gpu, &snap, &terrain)?;
     passes(&gpu, &scene, &terrain)?;
     min_levels(&gpu, &manifest)?;
     Ok(())
@@ -212,6 +213,39 @@ fn culling(
         frames.push(total);
     }
     println!("culled / all drawn: {:.2}x the frame time", frames[1] / frames[0]);
+    Ok(())
+}
+
+/// The default still frame with lighting alone, then with each effect
+/// added alone, then all of them (the demo's own settings for each): the
+/// goal is all of them at most twice lighting alone.
+fn effects(
+    gpu: &Arc<Gpu>,
+    snap: &relief_daemon::graph::SceneSnapshot,
+    terrain: &SceneTerrain<'_>,
+) -> anyhow::Result<()> {
+    let fog = snap.manifest.effect_settings.fog.context("the demo declares fog")?;
+    let cases = [("lighting alone", None), ("lighting + fog", Some(fog)), ("all effects (lighting, fog)", Some(fog))];
+    println!("\n### Effects: the default still frame (n 127, L 8), median of 7");
+    println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
+    println!("| effects | effect passes ms | frame ms | / lighting alone |");
+    println!("|---|---|---|---|");
+    let mut alone = f64::NAN;
+    for (label, fog) in cases {
+        let settings = RenderSettings { fog, ..SETTINGS };
+        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+        renderer.render(terrain, &pose(10), &settings)?;
+        let runs = (0..7)
+            .map(|_| Ok(renderer.render(terrain, &pose(10), &settings)?))
+            .collect::<anyhow::Result<Vec<Frame>>>()?;
+        let total = median(runs.iter().map(total_ms).collect());
+        let effect_ms =
+            median(runs.iter().map(|f| f.passes.iter().filter(|p| p.0 == "fog").map(|p| p.1).sum()).collect());
+        if fog.is_none() {
+            alone = total;
+        }
+        println!("| {label} | {effect_ms:.1} | {total:.1} | {:.2}x |", total / alone);
+    }
     Ok(())
 }
 

@@ -6,6 +6,7 @@
 //! relief-renderer; `view` feeds it the scene's tiles and owns the camera.
 
 pub mod camera;
+pub mod effects;
 pub mod frames;
 pub mod graph;
 pub mod manifest;

@@ -9,6 +9,7 @@ use relief_renderer::{ClipmapConfig, InstanceBands};
 use relief_source::{OptionValue, PayloadKind, Quality, SourceSpec};
 use serde::Deserialize;
 
+use crate::effects::EffectSettings;
 use crate::sun::Sun;
 
 #[derive(Debug, thiserror::Error)]
@@ -33,10 +34,10 @@ pub enum ManifestError {
 pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
 /// The effects a scene may declare, and the layers each one reads.
-pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"])];
+pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"]), ("fog", &["height"])];
 /// Effects relief knows of but does not draw yet: refused by name, never
 /// accepted and ignored.
-pub const EFFECTS_NOT_YET: &[&str] = &["atmosphere", "fog", "shadows", "water", "vegetation"];
+pub const EFFECTS_NOT_YET: &[&str] = &["atmosphere", "shadows", "water", "vegetation", "detail"];
 
 /// Layers the renderer draws, and the payload each must have.
 pub const LAYERS: &[(&str, PayloadKind)] = &[
@@ -213,6 +214,8 @@ pub struct Manifest {
     pub sources: Vec<SourceSpec>,
     pub layers: BTreeMap<String, String>,
     pub effects: Vec<String>,
+    /// The declared effects' options.
+    pub effect_settings: EffectSettings,
     pub quality: Quality,
     /// The renderer's accuracy knobs: samples per clipmap level side and
     /// how many levels.
@@ -342,10 +345,8 @@ impl Manifest {
             }
         }
         let mut effects = Vec::new();
+        let mut effect_settings = EffectSettings::default();
         for (name, params) in raw.effects {
-            if let Some(key) = params.keys().next() {
-                return Err(field(&format!("effects.{name}.{key}"), "unknown option (this effect takes none)".into()));
-            }
             let Some((_, needs)) = EFFECTS.iter().find(|(e, _)| *e == name) else {
                 let known: Vec<&str> = EFFECTS.iter().map(|(e, _)| *e).collect();
                 let why = if EFFECTS_NOT_YET.contains(&name.as_str()) { "not drawn yet" } else { "unknown effect" };
@@ -354,6 +355,9 @@ impl Manifest {
             if let Some(missing) = needs.iter().find(|l| !raw.layers.contains_key(**l)) {
                 return Err(field(&format!("effects.{name}"), format!("needs a '{missing}' layer in [layers]")));
             }
+            effect_settings
+                .add(&name, &params)
+                .map_err(|(option, message)| field(&format!("effects.{name}.{option}"), message))?;
             effects.push(name);
         }
 
@@ -442,6 +446,7 @@ impl Manifest {
             sources,
             layers: raw.layers,
             effects,
+            effect_settings,
             quality,
             clipmap,
             interactive_scale,
@@ -514,6 +519,34 @@ mod tests {
     }
 
     #[test]
+    fn fog_takes_its_options_in_range_and_nothing_else() {
+        let scene = |fog: &str| {
+            parse(&format!(
+                "[scene]\nname='a'\n[[source]]\nid='d'\nkind='gdal'\npath='d.tif'\n[layers]\nheight='d'\n[effects]\nfog = {fog}\n"
+            ))
+        };
+        assert_eq!(scene("{}").unwrap().effect_settings.fog, Some(relief_renderer::Fog::DEFAULT));
+        let fog = scene("{ density = 0.001, falloff_m = 300, base_m = 200, color = '#ff8000' }")
+            .unwrap()
+            .effect_settings
+            .fog
+            .unwrap();
+        assert_eq!((fog.density_per_m, fog.falloff_m, fog.base_m), (0.001, 300.0, 200.0));
+        assert_eq!(fog.color, [1.0, 128.0 / 255.0, 0.0]);
+        for (bad, message) in [
+            ("{ density = -1 }", "effects.fog.density"),
+            ("{ density = 'thick' }", "effects.fog.density"),
+            ("{ falloff_m = 0 }", "effects.fog.falloff_m"),
+            ("{ color = 'grey' }", "effects.fog.color"),
+            ("{ visibility_m = 500 }", "effects.fog.visibility_m"),
+        ] {
+            let e = scene(bad).unwrap_err().to_string();
+            assert!(e.contains(message), "{bad}: {e}");
+        }
+        assert!(parse("[scene]\nname='a'\n").unwrap().effect_settings.fog.is_none());
+    }
+
+    #[test]
     fn projected_grids_parse() {
         let m = parse("[scene]\nname = \"storm\"\ngrid = { crs = \"EPSG:32612\" }\n").unwrap();
         assert_eq!(m.grid, GridSpec::Projected { crs: "EPSG:32612".into(), extent: None });
@@ -582,9 +615,20 @@ mod tests {
             ),
             ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
             // Names relief knows but cannot honour yet are refused, not ignored.
-            ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': not drawn yet (drawn: lighting)"),
+            (
+                "[scene]\nname='a'\n[effects]\natmosphere={}\n",
+                "field 'effects.atmosphere': not drawn yet (drawn: lighting, fog)",
+            ),
+            (
+                "[scene]\nname='a'\n[effects]\nsparkle={}\n",
+                "field 'effects.sparkle': unknown effect (drawn: lighting, fog)",
+            ),
+            ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': needs a 'height' layer"),
             // An effect's option it would ignore is refused too.
-            ("[scene]\nname='a'\n[effects]\nlighting={ sun = 'noon' }\n", "field 'effects.lighting.sun'"),
+            (
+                "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nheight='t'\n[effects]\nlighting={ sun = 'noon' }\n",
+                "field 'effects.lighting.sun'",
+            ),
             ("[scene]\nname='a'\n[sun]\ntime = 2026-06-21T15:00:00\n", "field 'sun.time'"),
             ("[scene]\nname='a'\n[sun]\nhour = 15\n", "unknown field `hour`"),
             (

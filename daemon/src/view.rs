@@ -253,6 +253,7 @@ impl Viewer {
         let settings = RenderSettings {
             bands: bands.unwrap_or(snap.manifest.bands),
             sun,
+            fog: snap.manifest.effect_settings.fog,
             ..RenderSettings::new(width, height, lighting)
         };
         let frame = renderer.render_scene(&terrain, layers, &pose, &settings)?;
@@ -261,6 +262,9 @@ impl Viewer {
             // Lighting is shaded in the terrain pass.
             let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
             ran.insert("lighting".to_owned(), terrain_ms);
+        }
+        if let Some((_, ms)) = frame.passes.iter().find(|(p, _)| *p == "fog") {
+            ran.insert("fog".to_owned(), *ms);
         }
         self.scene.set_effects_ran(ran);
         let passes = r.count_passes(&frame);

@@ -254,6 +254,12 @@ instances = "forest"
 
 [effects]
 lighting = {}
+# A light haze: the far ridges fade into it.
+fog = { density = 0.00006, falloff_m = 2000, color = '#c4ccd6' }
+
+# A late June afternoon: the sun in the west.
+[sun]
+time = "2026-06-21T17:00:00+02:00"
 
 [quality]
 resampling = "bilinear"

@@ -22,6 +22,7 @@ pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, Storage
 pub use error::RenderError;
 pub use gpu::Gpu;
 pub use passes::buildings::MeshTiles;
+pub use passes::fog::Fog;
 pub use passes::instances::{InstanceBands, InstanceTiles};
 pub use passes::terrain::MAX_LEVELS;
 pub use passes::{ALL as PASSES, PassCounters, PassStats};

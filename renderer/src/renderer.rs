@@ -13,6 +13,7 @@ use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
+use crate::passes::fog::{Fog, FogPass, FogView};
 use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, InstancesView};
 use crate::passes::terrain::TerrainPass;
 use crate::passes::{self, PassCounters};
@@ -36,13 +37,15 @@ pub struct RenderSettings {
     pub cull: bool,
     /// Where the sun stands over the camera.
     pub sun: SunAngles,
+    /// The `fog` effect, when the scene declares it.
+    pub fog: Option<Fog>,
 }
 
 impl RenderSettings {
     /// A frame of `width` x `height`, lit or not, at default quality, the
     /// sun from the north-west 45 degrees up.
     pub const fn new(width: u32, height: u32, lighting: bool) -> Self {
-        Self { width, height, lighting, bands: InstanceBands::DEFAULT, cull: true, sun: SunAngles::DEFAULT }
+        Self { width, height, lighting, bands: InstanceBands::DEFAULT, cull: true, sun: SunAngles::DEFAULT, fog: None }
     }
 }
 
@@ -117,6 +120,8 @@ pub struct Renderer {
     buildings: Option<BuildingsPass>,
     /// Built the first time a frame has instances to draw.
     instances: Option<InstancesPass>,
+    /// Built the first time a frame has fog.
+    fog: Option<FogPass>,
     counters: PassCounters,
     /// The last frame's target, drawn into again while the size stays.
     target: Option<Target>,
@@ -128,7 +133,17 @@ impl Renderer {
         let terrain = TerrainPass::new(&gpu.device, &frame_buffer, config)?;
         let mut counters = PassCounters::default();
         counters.set_built(passes::TERRAIN, true);
-        Ok(Self { gpu, surface, frame_buffer, terrain, buildings: None, instances: None, counters, target: None })
+        Ok(Self {
+            gpu,
+            surface,
+            frame_buffer,
+            terrain,
+            buildings: None,
+            instances: None,
+            fog: None,
+            counters,
+            target: None,
+        })
     }
 
     pub fn surface(&self) -> &Surface {
@@ -244,6 +259,24 @@ impl Renderer {
                 (shown.in_view, shown.models_drawn, shown.billboards_drawn);
             target.run(&self.gpu, passes::INSTANCES, false, |pass| instances.record(pass, &shown))?;
             passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
+        }
+
+        if settings.fog.is_none() && self.fog.take().is_some() {
+            self.counters.set_built(passes::FOG, false);
+        }
+        if let Some(fog) = &settings.fog {
+            let started = Instant::now();
+            let pass = self.fog.get_or_insert_with(|| FogPass::new(&self.gpu.device, &self.frame_buffer));
+            self.counters.set_built(passes::FOG, true);
+            let at = FogView {
+                view_proj: view.view_projection(aspect),
+                up: self.surface.enu(pose.position[0], pose.position[1])[2],
+                eye_height_m: pose.position[2],
+                daylight: settings.sun.daylight(),
+            };
+            let bind_group = pass.prepare(&self.gpu, &self.frame_buffer, target.depth_view(), fog, &at);
+            target.run_overlay(&self.gpu, passes::FOG, |p| pass.record(p, &bind_group))?;
+            passes.push((passes::FOG, self.counters.ran(passes::FOG, started)));
         }
 
         let started = Instant::now();

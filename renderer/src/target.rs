@@ -27,7 +27,7 @@ pub struct Target {
 
 impl Target {
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Self {
-        let texture = |format| {
+        let texture = |format, extra| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: None,
                 size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
@@ -35,11 +35,15 @@ impl Target {
                 sample_count: 1,
                 dimension: wgpu::TextureDimension::D2,
                 format,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+                usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC | extra,
                 view_formats: &[],
             })
         };
-        let (color, depth) = (texture(COLOR_FORMAT), texture(DEPTH_FORMAT));
+        // Effects laid over the frame read its depth.
+        let (color, depth) = (
+            texture(COLOR_FORMAT, wgpu::TextureUsages::empty()),
+            texture(DEPTH_FORMAT, wgpu::TextureUsages::TEXTURE_BINDING),
+        );
         let color_view = color.create_view(&wgpu::TextureViewDescriptor::default());
         let depth_view = depth.create_view(&wgpu::TextureViewDescriptor::default());
         let row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
@@ -58,6 +62,40 @@ impl Target {
     /// Whether this target is `width` x `height`.
     pub fn fits(&self, width: u32, height: u32) -> bool {
         self.width == width && self.height == height
+    }
+
+    /// The frame's depth, for a pass laid over it to read.
+    pub fn depth_view(&self) -> &wgpu::TextureView {
+        &self.depth_view
+    }
+
+    /// One full-screen pass laid over the colour (no depth attachment: it
+    /// may read the depth), submitted and waited for.
+    pub fn run_overlay(
+        &self,
+        gpu: &Gpu,
+        label: &str,
+        record: impl FnOnce(&mut wgpu::RenderPass<'_>),
+    ) -> Result<(), RenderError> {
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(label),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &self.color_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            record(&mut pass);
+        }
+        gpu.queue.submit([encoder.finish()]);
+        wait(gpu)
     }
 
     /// A render pass over the target, first cleared to `clear` (and the

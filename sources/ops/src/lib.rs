@@ -16,6 +16,7 @@ mod rasterize;
 mod scatter;
 mod window;
 
+pub use colors::parse_color;
 pub use extrude::{EXTRUDE_INPUTS, EXTRUDE_KIND, Extrude};
 pub use hillshade::{HILLSHADE_INPUTS, HILLSHADE_KIND, Hillshade};
 pub use instances::{INSTANCES_INPUTS, INSTANCES_KIND, Instances};
