@@ -19,7 +19,8 @@ use common::median;
 use glam::DVec3;
 use relief_daemon::view::{SceneBuildings, SceneTerrain};
 use relief_renderer::{
-    ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, SceneLayers, Surface, TerrainSamples,
+    Atmosphere, ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, SceneLayers, SunAngles, Surface,
+    TerrainSamples,
 };
 use relief_source::{Extent, geodesy};
 
@@ -218,33 +219,82 @@ fn culling(
 
 /// The default still frame with lighting alone, then with each effect
 /// added alone, then all of them (the demo's own settings for each): the
-/// goal is all of them at most twice lighting alone.
+/// goal is all of them at most twice lighting alone. Then the knob
+/// `atmosphere_steps` against a 256-step frame, by day and at dawn.
 fn effects(
     gpu: &Arc<Gpu>,
     snap: &relief_daemon::graph::SceneSnapshot,
     terrain: &SceneTerrain<'_>,
 ) -> anyhow::Result<()> {
     let fog = snap.manifest.effect_settings.fog.context("the demo declares fog")?;
-    let cases = [("lighting alone", None), ("lighting + fog", Some(fog)), ("all effects (lighting, fog)", Some(fog))];
+    let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
+    let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
+        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+        renderer.render(terrain, at, &settings)?;
+        let runs =
+            (0..7).map(|_| Ok(renderer.render(terrain, at, &settings)?)).collect::<anyhow::Result<Vec<Frame>>>()?;
+        let total = median(runs.iter().map(total_ms).collect());
+        let effect_ms = median(
+            runs.iter()
+                .map(|f| f.passes.iter().filter(|p| p.0 == "fog" || p.0 == "atmosphere").map(|p| p.1).sum())
+                .collect(),
+        );
+        Ok((total, effect_ms, runs.into_iter().last().context("frames")?))
+    };
+    let cases = [
+        ("lighting alone", None, None),
+        ("lighting + atmosphere", Some(atmosphere), None),
+        ("lighting + fog", None, Some(fog)),
+        ("all effects (lighting, atmosphere, fog)", Some(atmosphere), Some(fog)),
+    ];
     println!("\n### Effects: the default still frame (n 127, L 8), median of 7");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!("| effects | effect passes ms | frame ms | / lighting alone |");
     println!("|---|---|---|---|");
     let mut alone = f64::NAN;
-    for (label, fog) in cases {
-        let settings = RenderSettings { fog, ..SETTINGS };
-        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-        renderer.render(terrain, &pose(10), &settings)?;
-        let runs = (0..7)
-            .map(|_| Ok(renderer.render(terrain, &pose(10), &settings)?))
-            .collect::<anyhow::Result<Vec<Frame>>>()?;
-        let total = median(runs.iter().map(total_ms).collect());
-        let effect_ms =
-            median(runs.iter().map(|f| f.passes.iter().filter(|p| p.0 == "fog").map(|p| p.1).sum()).collect());
-        if fog.is_none() {
+    for (label, atmosphere, fog) in cases {
+        let (total, effect_ms, _) = still(RenderSettings { atmosphere, fog, ..SETTINGS }, &pose(10))?;
+        if atmosphere.is_none() && fog.is_none() {
             alone = total;
         }
         println!("| {label} | {effect_ms:.1} | {total:.1} | {:.2}x |", total / alone);
+    }
+
+    println!("\n### Knobs `atmosphere_steps` and `atmosphere_downsample`, frame 1280 x 720, median of 7");
+    println!(
+        "reference: the same frame with 256 steps, a ray for every pixel; error: RMS over every pixel and channel (0-255)"
+    );
+    println!("| light | steps | downsample | atmosphere pass ms | frame ms | RMS error | max error |");
+    println!("|---|---|---|---|---|---|---|");
+    // Looking level-ish along the range so sky and distance both show.
+    let view = Pose { pitch_deg: -6.0, ..pose(10) };
+    for (light, sun) in [
+        ("day (sun 45 deg up)", SunAngles::DEFAULT),
+        ("dawn (sun 3 deg up, ahead)", SunAngles { azimuth_deg: 30.0, elevation_deg: 3.0 }),
+    ] {
+        let with = |steps, downsample| RenderSettings {
+            sun,
+            atmosphere: Some(Atmosphere { steps, downsample, ..atmosphere }),
+            ..SETTINGS
+        };
+        let (_, _, reference) = still(with(Atmosphere::MAX_STEPS, 1), &view)?;
+        let d = Atmosphere::DEFAULT_DOWNSAMPLE;
+        let settings = [2u32, 4, 8, 12, 16, 24, 36, 64]
+            .map(|s| (s, d))
+            .into_iter()
+            .chain([1, 3, 4].map(|k| (Atmosphere::DEFAULT_STEPS, k)));
+        for (steps, downsample) in settings {
+            let (total, pass_ms, frame) = still(with(steps, downsample), &view)?;
+            let (mut sum, mut max) = (0.0f64, 0.0f64);
+            for (a, b) in frame.rgba.iter().zip(&reference.rgba) {
+                let d = f64::from(*a) - f64::from(*b);
+                sum += d * d;
+                max = max.max(d.abs());
+            }
+            let rms = (sum / frame.rgba.len() as f64).sqrt();
+            let default = if (steps, downsample) == (Atmosphere::DEFAULT_STEPS, d) { " (default)" } else { "" };
+            println!("| {light} | {steps} | {downsample}{default} | {pass_ms:.1} | {total:.1} | {rms:.2} | {max:.0} |");
+        }
     }
     Ok(())
 }

@@ -2,11 +2,13 @@
 //! effect takes exactly its own options, in range, or is refused naming the
 //! option; none is accepted and ignored.
 
-use relief_renderer::Fog;
+use relief_renderer::{Atmosphere, Fog};
 
 /// What `[effects]` asks of the renderer beyond which effects are on.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EffectSettings {
+    /// `atmosphere = { top_m }`, with `[quality] atmosphere_steps`.
+    pub atmosphere: Option<Atmosphere>,
     /// `fog = { density, falloff_m, base_m, color }`.
     pub fog: Option<Fog>,
 }
@@ -16,6 +18,7 @@ impl EffectSettings {
     pub fn add(&mut self, name: &str, params: &toml::Table) -> Result<(), (String, String)> {
         match name {
             "fog" => self.fog = Some(fog(params)?),
+            "atmosphere" => self.atmosphere = Some(atmosphere(params)?),
             _ => {
                 if let Some(key) = params.keys().next() {
                     return Err((key.clone(), "unknown option (this effect takes none)".into()));
@@ -53,4 +56,24 @@ fn fog(params: &toml::Table) -> Result<Fog, (String, String)> {
     }
     fog.validate().map_err(|(option, message)| (option.to_owned(), message))?;
     Ok(fog)
+}
+
+/// `atmosphere`: where its top is (the steps are a quality knob).
+fn atmosphere(params: &toml::Table) -> Result<Atmosphere, (String, String)> {
+    let mut atmosphere = Atmosphere::DEFAULT;
+    for (key, value) in params {
+        match (key.as_str(), value) {
+            ("top_m", toml::Value::Float(v)) => atmosphere.top_m = *v,
+            ("top_m", toml::Value::Integer(v)) => atmosphere.top_m = *v as f64,
+            ("top_m", other) => return Err((key.clone(), format!("{other} is not a number"))),
+            _ => {
+                return Err((
+                    key.clone(),
+                    "unknown option (atmosphere takes top_m; its steps are [quality] atmosphere_steps)".into(),
+                ));
+            }
+        }
+    }
+    atmosphere.validate().map_err(|(option, message)| (option.to_owned(), message))?;
+    Ok(atmosphere)
 }

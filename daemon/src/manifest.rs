@@ -34,10 +34,10 @@ pub enum ManifestError {
 pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
 /// The effects a scene may declare, and the layers each one reads.
-pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"]), ("fog", &["height"])];
+pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"]), ("atmosphere", &["height"]), ("fog", &["height"])];
 /// Effects relief knows of but does not draw yet: refused by name, never
 /// accepted and ignored.
-pub const EFFECTS_NOT_YET: &[&str] = &["atmosphere", "shadows", "water", "vegetation", "detail"];
+pub const EFFECTS_NOT_YET: &[&str] = &["shadows", "water", "vegetation", "detail"];
 
 /// Layers the renderer draws, and the payload each must have.
 pub const LAYERS: &[(&str, PayloadKind)] = &[
@@ -152,6 +152,8 @@ struct RawQuality {
     instance_bands_m: Option<Vec<f64>>,
     instance_band_densities: Option<Vec<f64>>,
     instance_model_distance_m: Option<f64>,
+    atmosphere_steps: Option<u32>,
+    atmosphere_downsample: Option<u32>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -361,6 +363,21 @@ impl Manifest {
             effects.push(name);
         }
 
+        for (name, value) in [
+            ("atmosphere_steps", raw.quality.atmosphere_steps),
+            ("atmosphere_downsample", raw.quality.atmosphere_downsample),
+        ] {
+            let Some(value) = value else { continue };
+            let atmosphere = effect_settings.atmosphere.as_mut().ok_or_else(|| {
+                field(&format!("quality.{name}"), "the scene declares no atmosphere ([effects] atmosphere)".into())
+            })?;
+            if name == "atmosphere_steps" {
+                atmosphere.steps = value;
+            } else {
+                atmosphere.downsample = value;
+            }
+            atmosphere.validate().map_err(|(name, message)| field(&format!("quality.{name}"), message))?;
+        }
         let mut quality = Quality::default();
         if let Some(r) = raw.quality.resampling {
             quality.resampling = r.parse().map_err(|e: String| field("quality.resampling", e))?;
@@ -621,7 +638,7 @@ mod tests {
             ),
             (
                 "[scene]\nname='a'\n[effects]\nsparkle={}\n",
-                "field 'effects.sparkle': unknown effect (drawn: lighting, fog)",
+                "field 'effects.sparkle': unknown effect (drawn: lighting, atmosphere, fog)",
             ),
             ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': needs a 'height' layer"),
             // An effect's option it would ignore is refused too.

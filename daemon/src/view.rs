@@ -98,6 +98,8 @@ pub struct Overrides {
     pub bands: Option<InstanceBands>,
     /// The sun of a request or a stream, over the scene's.
     pub sun: Option<Sun>,
+    /// `atmosphere_steps` for this frame (a scene with an atmosphere).
+    pub atmosphere_steps: Option<u32>,
 }
 
 impl Viewer {
@@ -194,7 +196,7 @@ impl Viewer {
         height: u32,
         overrides: Overrides,
     ) -> Result<Rendered, ViewError> {
-        let Overrides { clipmap, quality, bands, sun } = overrides;
+        let Overrides { clipmap, quality, bands, sun, atmosphere_steps } = overrides;
         for (field, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_SIDE).contains(&v) {
                 return Err(RenderError::Request {
@@ -253,6 +255,11 @@ impl Viewer {
         let settings = RenderSettings {
             bands: bands.unwrap_or(snap.manifest.bands),
             sun,
+            atmosphere: snap
+                .manifest
+                .effect_settings
+                .atmosphere
+                .map(|a| relief_renderer::Atmosphere { steps: atmosphere_steps.unwrap_or(a.steps), ..a }),
             fog: snap.manifest.effect_settings.fog,
             ..RenderSettings::new(width, height, lighting)
         };
@@ -263,8 +270,10 @@ impl Viewer {
             let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
             ran.insert("lighting".to_owned(), terrain_ms);
         }
-        if let Some((_, ms)) = frame.passes.iter().find(|(p, _)| *p == "fog") {
-            ran.insert("fog".to_owned(), *ms);
+        for effect in ["atmosphere", "fog"] {
+            if let Some((_, ms)) = frame.passes.iter().find(|(p, _)| *p == effect) {
+                ran.insert(effect.to_owned(), *ms);
+            }
         }
         self.scene.set_effects_ran(ran);
         let passes = r.count_passes(&frame);

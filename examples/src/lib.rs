@@ -254,6 +254,8 @@ instances = "forest"
 
 [effects]
 lighting = {}
+# Rayleigh and Mie scattering: a sky, and distance in blue.
+atmosphere = {}
 # A light haze: the far ridges fade into it.
 fog = { density = 0.00006, falloff_m = 2000, color = '#c4ccd6' }
 

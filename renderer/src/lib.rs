@@ -21,6 +21,7 @@ pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
 pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
 pub use error::RenderError;
 pub use gpu::Gpu;
+pub use passes::atmosphere::Atmosphere;
 pub use passes::buildings::MeshTiles;
 pub use passes::fog::Fog;
 pub use passes::instances::{InstanceBands, InstanceTiles};

@@ -6,12 +6,14 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use glam::DVec3;
 use relief_source::Extent;
 
 use crate::camera::{Pose, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
+use crate::passes::atmosphere::{Atmosphere, AtmospherePass, AtmosphereView};
 use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
 use crate::passes::fog::{Fog, FogPass, FogView};
 use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, InstancesView};
@@ -37,6 +39,8 @@ pub struct RenderSettings {
     pub cull: bool,
     /// Where the sun stands over the camera.
     pub sun: SunAngles,
+    /// The `atmosphere` effect, when the scene declares it.
+    pub atmosphere: Option<Atmosphere>,
     /// The `fog` effect, when the scene declares it.
     pub fog: Option<Fog>,
 }
@@ -45,7 +49,16 @@ impl RenderSettings {
     /// A frame of `width` x `height`, lit or not, at default quality, the
     /// sun from the north-west 45 degrees up.
     pub const fn new(width: u32, height: u32, lighting: bool) -> Self {
-        Self { width, height, lighting, bands: InstanceBands::DEFAULT, cull: true, sun: SunAngles::DEFAULT, fog: None }
+        Self {
+            width,
+            height,
+            lighting,
+            bands: InstanceBands::DEFAULT,
+            cull: true,
+            sun: SunAngles::DEFAULT,
+            atmosphere: None,
+            fog: None,
+        }
     }
 }
 
@@ -120,6 +133,8 @@ pub struct Renderer {
     buildings: Option<BuildingsPass>,
     /// Built the first time a frame has instances to draw.
     instances: Option<InstancesPass>,
+    /// Built the first time a frame has an atmosphere.
+    atmosphere: Option<AtmospherePass>,
     /// Built the first time a frame has fog.
     fog: Option<FogPass>,
     counters: PassCounters,
@@ -140,6 +155,7 @@ impl Renderer {
             terrain,
             buildings: None,
             instances: None,
+            atmosphere: None,
             fog: None,
             counters,
             target: None,
@@ -261,6 +277,24 @@ impl Renderer {
             passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
         }
 
+        if settings.atmosphere.is_none() && self.atmosphere.take().is_some() {
+            self.counters.set_built(passes::ATMOSPHERE, false);
+        }
+        if let Some(atmosphere) = &settings.atmosphere {
+            let started = Instant::now();
+            let sun = self.sun(pose, settings.sun);
+            let pass = self.atmosphere.get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer));
+            self.counters.set_built(passes::ATMOSPHERE, true);
+            let at = AtmosphereView {
+                view_proj: view.view_projection(aspect),
+                up: self.surface.enu(pose.position[0], pose.position[1])[2],
+                eye_height_m: pose.position[2],
+                ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
+                sun,
+            };
+            pass.run(&self.gpu, &self.frame_buffer, &target, atmosphere, &at)?;
+            passes.push((passes::ATMOSPHERE, self.counters.ran(passes::ATMOSPHERE, started)));
+        }
         if settings.fog.is_none() && self.fog.take().is_some() {
             self.counters.set_built(passes::FOG, false);
         }
@@ -342,7 +376,10 @@ impl Renderer {
         let (eye_high, eye_low) = if base_sink.is_some() { split(view.eye) } else { ([0.0; 3], [0.0; 3]) };
         let frame = FrameUniform {
             view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
-            sun: self.sun(pose, settings.sun),
+            sun: {
+                let d = self.sun(pose, settings.sun).as_vec3();
+                [d.x, d.y, d.z, 0.0]
+            },
             light: {
                 // Night is dark (a little ambient left), never NaN.
                 let day = settings.sun.daylight() as f32;
@@ -360,10 +397,9 @@ impl Renderer {
 
     /// The direction towards the sun, in world axes, from its angles in the
     /// camera's local sky.
-    fn sun(&self, pose: &Pose, sun: SunAngles) -> [f32; 4] {
+    fn sun(&self, pose: &Pose, sun: SunAngles) -> DVec3 {
         let [e, n, u] = self.surface.enu(pose.position[0], pose.position[1]);
         let (az, el) = (sun.azimuth_deg.to_radians(), sun.elevation_deg.to_radians());
-        let d = (az.sin() * e + az.cos() * n) * el.cos() + u * el.sin();
-        [d.x as f32, d.y as f32, d.z as f32, 0.0]
+        (az.sin() * e + az.cos() * n) * el.cos() + u * el.sin()
     }
 }

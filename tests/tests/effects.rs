@@ -93,11 +93,139 @@ async fn a_camera_inside_fog_sees_fog_not_nan() {
     assert!(inside.image.chunks(4).all(|p| p[3] == 255), "every pixel drawn");
 }
 
+/// Mean colour of the rows `rows` of a frame.
+fn mean(f: &pb::RenderResponse, rows: std::ops::Range<usize>) -> [f64; 3] {
+    let w = f.width as usize;
+    let n = (rows.len() * w) as f64;
+    let mut sum = [0.0; 3];
+    for y in rows {
+        for x in 0..w {
+            let p = pixel(f, x, y);
+            for k in 0..3 {
+                sum[k] += p[k] / n;
+            }
+        }
+    }
+    sum
+}
+
+async fn frames_of(effects: &str, views: &[(pb::Camera, Option<pb::Sun>, Option<u32>)]) -> Vec<pb::RenderResponse> {
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), effects).unwrap(), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let mut out = Vec::new();
+    for (camera, sun, steps) in views {
+        let request = pb::RenderRequest {
+            camera: Some(*camera),
+            width: SIZE.0,
+            height: SIZE.1,
+            format: pb::ImageFormat::Rgba8 as i32,
+            quality: steps.map(|s| pb::QualityOverrides { atmosphere_steps: Some(s), ..Default::default() }),
+            sun: sun.clone(),
+        };
+        let mut views = relief_proto::v1::view_service_client::ViewServiceClient::new(channel.clone())
+            .max_decoding_message_size(64 << 20);
+        out.push(views.render(request).await.unwrap().into_inner());
+    }
+    daemon.stop(&[]).unwrap();
+    out
+}
+
+fn sun(azimuth_deg: f64, elevation_deg: f64) -> pb::Sun {
+    pb::Sun { azimuth_deg: Some(azimuth_deg), elevation_deg: Some(elevation_deg), ..Default::default() }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_atmosphere_gives_a_blue_sky_by_day_haze_far_off_and_a_dark_night() {
+    // Level, at 2,500 m: the upper half is sky, the lower the hill.
+    let level = scenes::camera(10.25, 44.93, 2500.0, 0.0, 0.0);
+    let views = [(level, None, None), (across_the_hill(), None, None)];
+    let off = frames_of("[effects]\nlighting = {}\n", &views).await;
+    let on_views = [
+        (level, None, None),
+        (across_the_hill(), None, None),
+        (level, Some(sun(315.0, -30.0)), None),
+        (level, Some(sun(315.0, -0.1)), None),
+        (level, Some(sun(0.0, 90.0)), None),
+        (level, None, Some(1)),
+    ];
+    let on = frames_of("[effects]\nlighting = {}\natmosphere = {}\n", &on_views).await;
+
+    // Undeclared: never built nor run. Declared: built and ran.
+    let idle = pass(&off[0], "atmosphere");
+    assert!(!idle.built && idle.runs == 0, "{idle:?}");
+    let ran = pass(&on[0], "atmosphere");
+    assert!(ran.built && ran.runs >= 1 && ran.total_ms > 0.0, "{ran:?}");
+
+    // The sky by day is blue and bright where it was the dark clear colour.
+    let h = SIZE.1 as usize;
+    let sky_off = mean(&off[0], 0..h / 4);
+    let sky = mean(&on[0], 0..h / 4);
+    assert!(sky[2] > sky[0] + 20.0 && sky[2] > 120.0, "day sky {sky:?}");
+    assert!(sky[2] > sky_off[2] + 60.0, "day sky {sky:?} against the clear colour {sky_off:?}");
+    // Farther terrain is hazier: towards the sky's colour more than near.
+    let towards = |y0: usize, y1: usize| {
+        let (a, b) = (mean(&off[1], y0..y1), mean(&on[1], y0..y1));
+        (0..3).map(|k| (b[k] - a[k]).abs()).sum::<f64>()
+    };
+    let (near, far) = (towards(h - 15, h), towards(h / 2, h / 2 + 10));
+    assert!(far > near, "haze near {near:.1}, far {far:.1}");
+
+    // Night: dark sky, not NaN (black) and not day.
+    let night = mean(&on[2], 0..h / 4);
+    assert!(night.iter().all(|c| *c < 40.0), "night sky {night:?}");
+    // The sun a tenth of a degree under the horizon: twilight, between.
+    let dusk = mean(&on[3], 0..h / 4);
+    let (dusk_sum, day_sum, night_sum): (f64, f64, f64) = (dusk.iter().sum(), sky.iter().sum(), night.iter().sum());
+    assert!(dusk_sum > night_sum && dusk_sum < day_sum, "dusk {dusk:?}, day {sky:?}, night {night:?}");
+    // The sun at the zenith: a blue sky still.
+    let zenith = mean(&on[4], 0..h / 4);
+    assert!(zenith[2] > zenith[0] && zenith[2] > 100.0, "zenith sun sky {zenith:?}");
+    // The steps are the knob: one step is not sixteen.
+    assert_ne!(on[5].image, on[0].image, "atmosphere_steps = 1 drew what 16 did");
+    for f in &on {
+        assert!(f.image.chunks(4).all(|p| p[3] == 255), "every pixel drawn");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn from_space_the_planet_has_a_limb_and_a_pole_has_its_midnight_sun() {
+    let views = [
+        // 8,000 km up, looking down past the planet's edge.
+        (scenes::camera(10.25, 10.0, 8.0e6, 0.0, -60.0), None, None),
+        // Near the north pole at midnight UT on the June solstice, level.
+        (
+            scenes::camera(10.0, 89.5, 2000.0, 180.0, 0.0),
+            Some(pb::Sun { time: "2026-06-21T00:00:00Z".into(), ..Default::default() }),
+            None,
+        ),
+    ];
+    let on = frames_of("[effects]\nlighting = {}\natmosphere = {}\n", &views).await;
+    let (w, h) = (SIZE.0 as usize, SIZE.1 as usize);
+    // Space above, the lit planet below, and between them the limb: a
+    // glow brighter than space.
+    let space = mean(&on[0], 0..2);
+    let planet = mean(&on[0], h - 5..h);
+    assert!(space.iter().sum::<f64>() < 60.0, "space {space:?}");
+    assert!(planet.iter().sum::<f64>() > 200.0, "the planet {planet:?}");
+    let glow = (0..h).map(|y| mean(&on[0], y..y + 1).iter().sum::<f64>()).collect::<Vec<f64>>();
+    assert!(glow.windows(2).all(|r| r[0].is_finite() && r[1].is_finite()));
+    assert!(glow.iter().any(|v| *v > space.iter().sum::<f64>() + 30.0), "no limb: {glow:?}");
+    // Midnight sun: the sun is up at the pole, and the sky is day-blue.
+    let sun = on[1].sun.as_ref().unwrap();
+    assert!(sun.elevation_deg > 20.0, "{sun:?}");
+    let sky = mean(&on[1], 0..h / 4);
+    assert!(sky[2] > sky[0] && sky[2] > 100.0, "midnight sun sky {sky:?} ({w} x {h})");
+}
+
 #[test]
 fn effects_relief_cannot_draw_are_refused_with_the_known_ones() {
     for (effects, message) in [
-        ("[effects]\natmosphere = {}\n", "effects.atmosphere': not drawn yet (drawn: lighting, fog)"),
-        ("[effects]\nsmog = {}\n", "effects.smog': unknown effect (drawn: lighting, fog)"),
+        ("[effects]\nshadows = {}\n", "effects.shadows': not drawn yet (drawn: lighting, atmosphere, fog)"),
+        ("[effects]\nsmog = {}\n", "effects.smog': unknown effect (drawn: lighting, atmosphere, fog)"),
+        ("[effects]\natmosphere = { steps = 8 }\n", "effects.atmosphere.steps"),
+        ("[quality]\natmosphere_steps = 8\n", "declares no atmosphere"),
+        ("[effects]\natmosphere = {}\n[quality]\natmosphere_steps = 0\n", "quality.atmosphere_steps"),
         ("[effects]\nfog = { visibility_m = 100 }\n", "effects.fog.visibility_m"),
     ] {
         let dir = tempfile::tempdir().unwrap();

@@ -68,10 +68,20 @@ fn frame_request(
                 "no renderer precision to choose yet (f64 on the CPU, eye-relative f32 on the GPU)",
             ));
         }
-        if o.atmosphere_steps.is_some() {
-            return Err(invalid_field("quality.atmosphere_steps", "the atmosphere effect is not drawn yet"));
+        if let Some(steps) = o.atmosphere_steps {
+            if snap.manifest.effect_settings.atmosphere.is_none() {
+                return Err(invalid_field(
+                    "quality.atmosphere_steps",
+                    "the scene declares no atmosphere ([effects] atmosphere)",
+                ));
+            }
+            let max = relief_renderer::Atmosphere::MAX_STEPS;
+            if !(1..=max).contains(&steps) {
+                return Err(invalid_field("quality.atmosphere_steps", format!("{steps} is not from 1 to {max}")));
+            }
         }
     }
+    let atmosphere_steps = overrides.and_then(|o| o.atmosphere_steps);
     let clipmap = overrides.and_then(|o| {
         (o.clipmap_grid_size.is_some() || o.clipmap_levels.is_some()).then(|| ClipmapConfig {
             n: o.clipmap_grid_size.map_or(snap.manifest.clipmap.n, |n| n as usize),
@@ -97,7 +107,13 @@ fn frame_request(
                 .map_err(|(field, message)| invalid_field(&format!("sun.{field}"), message))
         })
         .transpose()?;
-    Ok(FrameRequest { camera, width, height, png, overrides: Overrides { clipmap, quality, bands, sun } })
+    Ok(FrameRequest {
+        camera,
+        width,
+        height,
+        png,
+        overrides: Overrides { clipmap, quality, bands, sun, atmosphere_steps },
+    })
 }
 
 /// A request's camera in relief's types, checked against the scene (every

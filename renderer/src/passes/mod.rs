@@ -3,9 +3,11 @@
 //! when the scene calls for it; the counters say which were built, how
 //! often each ran and what it took.
 
+pub mod atmosphere;
 pub mod buildings;
 pub mod fog;
 pub mod instances;
+pub mod overlay;
 pub mod terrain;
 
 use std::time::Instant;
@@ -51,42 +53,6 @@ pub fn pipeline(
     })
 }
 
-/// A full-screen pass's pipeline laid over the frame (no depth attachment:
-/// it reads the depth as a texture), blended by its alpha.
-pub fn overlay_pipeline(
-    device: &wgpu::Device,
-    label: &str,
-    layout: &wgpu::PipelineLayout,
-    shader: &wgpu::ShaderModule,
-    (vs, fs): (&str, &str),
-) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(label),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module: shader,
-            entry_point: Some(vs),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            buffers: &[],
-        },
-        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-        depth_stencil: None,
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: shader,
-            entry_point: Some(fs),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: COLOR_FORMAT,
-                blend: Some(wgpu::BlendState::ALPHA_BLENDING),
-                write_mask: wgpu::ColorWrites::COLOR,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
-}
-
 /// A pass's shader: the frame's uniform and lighting (`frame.wgsl`), then
 /// the pass's own source.
 pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
@@ -106,11 +72,14 @@ pub const BUILDINGS: &str = "buildings";
 /// Instances: the `instances` layer's models and billboards. Built only
 /// for a scene with that layer.
 pub const INSTANCES: &str = "instances";
-/// Fog: the `fog` effect, laid over everything drawn. Built only for a
-/// scene that declares it.
+/// Atmosphere: the `atmosphere` effect's sky and aerial perspective, laid
+/// over everything drawn. Built only for a scene that declares it.
+pub const ATMOSPHERE: &str = "atmosphere";
+/// Fog: the `fog` effect, laid over everything drawn (and the atmosphere).
+/// Built only for a scene that declares it.
 pub const FOG: &str = "fog";
 /// Every pass a renderer knows, in the order a frame runs them.
-pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, FOG];
+pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, ATMOSPHERE, FOG];
 
 /// One pass's record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

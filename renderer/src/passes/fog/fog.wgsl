@@ -5,8 +5,8 @@
 //   density(h) = d0 * exp(-(h - base) / H)
 // Along the ray from the eye (height he) to a point dh higher at distance
 // L, the optical depth is
-//   tau = d0 * L * exp(-(he - base) / H) * (1 - exp(-dh / H)) / (dh / H)
-// (the last factor 1 where dh / H is tiny); the fog's colour is laid over
+//   tau = d0 * L * (exp(-(he - base) / H) - exp(-(he + dh - base) / H)) / (dh / H)
+// (d0 * L * exp(-(he - base) / H) where dh / H is tiny); the fog's colour is laid over
 // with alpha 1 - exp(-tau). Heights along the ray follow the eye's up: the
 // fog of a weather study is local, the planet's curvature under it left out.
 
@@ -24,55 +24,46 @@ struct Fog {
 @group(0) @binding(1) var<uniform> fog: Fog;
 @group(0) @binding(2) var depth: texture_depth_2d;
 
-@vertex
-fn vs_fog(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
-    // One triangle over the whole screen.
-    let x = f32(i32(vi & 1u) * 4 - 1);
-    let y = f32(i32(vi >> 1u) * 4 - 1);
-    return vec4<f32>(x, y, 0.0, 1.0);
-}
-
-// The point at `ndc` (xy) and depth `z`, relative to the eye.
-fn unproject(ndc: vec2<f32>, z: f32) -> vec3<f32> {
-    let p = fog.inv_view_proj * vec4<f32>(ndc, z, 1.0);
-    return p.xyz / p.w;
-}
-
-// Optical depth along `l` metres of a ray rising `dh` metres.
+// Optical depth along `l` metres of a ray rising `dh` metres: the
+// difference of the density at its two ends over the rise (each end's
+// exponent bounded, so a ray from orbit does not overflow).
 fn optical_depth(l: f32, dh: f32) -> f32 {
     let d0 = fog.params.x;
     let h = fog.params.y;
-    let at_eye = d0 * exp(-(fog.up.w - fog.params.z) / h);
+    let eye = exp(-clamp((fog.up.w - fog.params.z) / h, -80.0, 80.0));
     let k = dh / h;
-    var spread = 1.0;
-    if abs(k) > 1e-4 {
-        spread = (1.0 - exp(-k)) / k;
+    if abs(k) < 1e-4 {
+        return d0 * l * eye;
     }
-    return at_eye * l * spread;
+    let end = exp(-clamp((fog.up.w + dh - fog.params.z) / h, -80.0, 80.0));
+    return d0 * l * (eye - end) / k;
 }
 
 @fragment
-fn fs_fog(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let size = vec2<f32>(textureDimensions(depth));
     let pixel = vec2<i32>(frag.xy);
-    let ndc = vec2<f32>(frag.x / size.x * 2.0 - 1.0, 1.0 - frag.y / size.y * 2.0);
+    let ndc = ndc_of(frag.xy, size);
     let z = textureLoad(depth, pixel, 0);
     let up = fog.up.xyz;
     var tau: f32;
     if z > 0.0 {
-        let p = unproject(ndc, z);
+        let p = unproject(fog.inv_view_proj, ndc, z);
         tau = optical_depth(length(p), dot(p, up));
     } else {
         // The sky (reversed-Z: 0 is infinitely far): rising rays leave the
-        // fog, level or falling ones never do.
-        let dir = normalize(unproject(ndc, 1.0));
+        // fog; level ones never do.
+        let dir = normalize(unproject(fog.inv_view_proj, ndc, 1.0));
         let rise = dot(dir, up);
         if rise > 1e-4 {
             let d0 = fog.params.x;
             let h = fog.params.y;
-            tau = d0 * exp(-(fog.up.w - fog.params.z) / h) * h / rise;
+            tau = d0 * exp(-clamp((fog.up.w - fog.params.z) / h, -80.0, 80.0)) * h / rise;
         } else {
-            tau = 1e4;
+            // Down to the datum where nothing was drawn (the planet beyond
+            // the data, seen from afar).
+            let he = max(fog.up.w, 0.0);
+            tau = optical_depth(he / max(-rise, 1e-4), -he);
         }
     }
     let alpha = 1.0 - exp(-min(tau, 1e4));

@@ -5,7 +5,8 @@
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Mat4};
-use wgpu::util::DeviceExt;
+
+use super::overlay::{Overlay, over_frame};
 
 /// Height fog: density at the base height, how fast it thins upwards, and
 /// its colour (straight RGB, 0..1) in full daylight.
@@ -40,7 +41,7 @@ impl Fog {
 }
 
 #[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
 struct FogUniform {
     inv_view_proj: [[f32; 4]; 4],
     up: [f32; 4],
@@ -48,12 +49,8 @@ struct FogUniform {
     color: [f32; 4],
 }
 
-/// The fog pass's pipeline and uniform.
-pub struct FogPass {
-    pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
-    uniform: wgpu::Buffer,
-}
+/// The fog pass: a full-screen overlay.
+pub struct FogPass(Overlay);
 
 /// What a frame's fog needs besides the settings: where the eye is.
 pub struct FogView {
@@ -69,42 +66,8 @@ pub struct FogView {
 
 impl FogPass {
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
-        let shader = super::shader(device, "fog", include_str!("fog.wgsl"));
-        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
-        let uniform = |min| wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(min),
-        };
-        let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("fog"),
-            entries: &[
-                entry(0, stages, uniform(frame_buffer.size())),
-                entry(1, wgpu::ShaderStages::FRAGMENT, uniform(size_of::<FogUniform>() as u64)),
-                entry(
-                    2,
-                    wgpu::ShaderStages::FRAGMENT,
-                    wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Depth,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                ),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("fog"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = super::overlay_pipeline(device, "fog", &pipeline_layout, &shader, ("vs_fog", "fs_fog"));
-        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("fog"),
-            contents: bytemuck::bytes_of(&FogUniform::zeroed()),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        Self { pipeline, layout, uniform }
+        let target = over_frame(wgpu::BlendState::ALPHA_BLENDING);
+        Self(Overlay::new::<FogUniform>(device, frame_buffer, "fog", include_str!("fog.wgsl"), target))
     }
 
     /// The frame's fog uniform written, and the bind group over this
@@ -124,21 +87,10 @@ impl FogPass {
             params: [fog.density_per_m as f32, fog.falloff_m as f32, fog.base_m as f32, 0.0],
             color: [fog.color[0] as f32 * light, fog.color[1] as f32 * light, fog.color[2] as f32 * light, 1.0],
         };
-        gpu.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&u));
-        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fog"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: self.uniform.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(depth) },
-            ],
-        })
+        self.0.prepare(gpu, frame_buffer, depth, &u)
     }
 
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, bind_group: &wgpu::BindGroup) {
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, bind_group, &[]);
-        pass.draw(0..3, 0..1);
+        self.0.record(pass, bind_group);
     }
 }

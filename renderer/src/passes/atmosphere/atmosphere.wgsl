@@ -1,0 +1,193 @@
+// Rayleigh and Mie single scattering (Clasen section 7.2, after O'Neil),
+// a full-screen pass over the drawn frame. Each pixel's view ray is
+// marched in `steps` samples from the eye (or where it enters the
+// atmosphere) to the drawn surface (the depth buffer) or to the top of the
+// atmosphere. At each sample the sunlight reaching it is attenuated along
+// the sun's ray in a single step (one density sample halfway to the top),
+// none where the planet hides the sun. The pixel becomes
+//   in-scattered light + transmittance x what was drawn
+// (sky and aerial perspective alike), computed for one frame pixel in
+// `downsample` to a side and laid over the frame smoothly (`composite`).
+// Heights come from scalar distances
+// and cosines (no f32 positions at planet scale). Over flat ground the
+// same model runs over a plane.
+
+struct Atmosphere {
+    inv_view_proj: mat4x4<f32>,
+    // Up at the eye (xyz, world axes), the eye's height above the ground
+    // the atmosphere sits on (w), metres.
+    up: vec4<f32>,
+    // Towards the sun (xyz), its intensity (w).
+    sun: vec4<f32>,
+    // Ground radius (x; 0 over flat ground), top height (y), steps (z),
+    // exposure (w).
+    params: vec4<f32>,
+    // Frame pixels to a side of each texel computed (x), the frame's
+    // width and height (yz).
+    frame_size: vec4<f32>,
+}
+
+@group(0) @binding(1) var<uniform> atmo: Atmosphere;
+@group(0) @binding(2) var depth: texture_depth_2d;
+
+const BETA_R = vec3<f32>(5.8e-6, 13.5e-6, 33.1e-6);
+const BETA_M = 21.0e-6;
+const MIE_EXTINCTION = 1.1;
+const H_R = 8000.0;
+const H_M = 1200.0;
+const G = 0.76;
+const PI = 3.14159265;
+const FAR = 1.0e9;
+
+// Height at distance t along a ray leaving height h0 with cosine mu to
+// the local up.
+fn height_at(h0: f32, mu: f32, t: f32) -> f32 {
+    let r0 = atmo.params.x;
+    if r0 <= 0.0 {
+        return h0 + t * mu;
+    }
+    let r = r0 + h0;
+    return sqrt(max(r * r + t * t + 2.0 * r * t * mu, 0.0)) - r0;
+}
+
+// Cosine of the angle between the local up and direction `cos_d` (its
+// cosine at the ray's origin, height h0) at distance t along a ray with
+// cosine mu: directions do not turn over flat ground.
+fn cos_at(h0: f32, mu: f32, cos_d0: f32, along: f32, t: f32) -> f32 {
+    let r0 = atmo.params.x;
+    if r0 <= 0.0 {
+        return cos_d0;
+    }
+    let r = r0 + h0;
+    return (r * cos_d0 + t * along) / (height_at(h0, mu, t) + r0);
+}
+
+// Distance from height h along cosine mu to the top (FAR if it never gets
+// there; 0 if above it).
+fn to_top(h: f32, mu: f32) -> f32 {
+    let top = atmo.params.y;
+    let r0 = atmo.params.x;
+    if h >= top {
+        return 0.0;
+    }
+    if r0 <= 0.0 {
+        return select(FAR, (top - h) / mu, mu > 1e-6);
+    }
+    let r = r0 + h;
+    let disc = r * r * mu * mu - (h - top) * (2.0 * r0 + h + top);
+    return -r * mu + sqrt(max(disc, 0.0));
+}
+
+// Whether the ground hides a direction of cosine mu from height h.
+fn below_horizon(h: f32, mu: f32) -> bool {
+    let r0 = atmo.params.x;
+    if r0 <= 0.0 {
+        return mu <= 0.0;
+    }
+    let hh = max(h, 0.0);
+    return mu < -sqrt(hh * (2.0 * r0 + hh)) / (r0 + hh);
+}
+
+// Where a ray from the eye runs inside the atmosphere: (start, end), or
+// end < start when it never does.
+fn inside(h0: f32, mu: f32) -> vec2<f32> {
+    let top = atmo.params.y;
+    let r0 = atmo.params.x;
+    if r0 <= 0.0 {
+        if h0 <= top {
+            var end = FAR;
+            if mu > 1e-6 { end = (top - h0) / mu; }
+            if mu < -1e-6 { end = min(end, h0 / -mu); }
+            return vec2<f32>(0.0, end);
+        }
+        if mu >= -1e-6 {
+            return vec2<f32>(1.0, 0.0);
+        }
+        return vec2<f32>((h0 - top) / -mu, h0 / -mu);
+    }
+    let r = r0 + h0;
+    let disc = r * r * mu * mu - (h0 - top) * (2.0 * r0 + h0 + top);
+    if disc < 0.0 {
+        return vec2<f32>(1.0, 0.0);
+    }
+    let far = -r * mu + sqrt(disc);
+    let near = max(-r * mu - sqrt(disc), 0.0);
+    if far <= 0.0 {
+        return vec2<f32>(1.0, 0.0);
+    }
+    // The ground ends a falling ray.
+    let ground = r * r * mu * mu - h0 * (2.0 * r0 + h0);
+    var end = far;
+    if mu < 0.0 && ground > 0.0 {
+        end = min(end, -r * mu - sqrt(ground));
+    }
+    return vec2<f32>(near, end);
+}
+
+// One texel of the scattering, computed at the frame pixel under its
+// centre: in-scattered light (rgb) and one less the transmittance (a).
+@fragment
+fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+    let size = atmo.frame_size.yz;
+    let at = min(frag.xy * atmo.frame_size.x, size - vec2<f32>(0.5));
+    let ndc = ndc_of(at, size);
+    let z = textureLoad(depth, vec2<i32>(at), 0);
+    let up = atmo.up.xyz;
+    let h0 = atmo.up.w;
+    let s = atmo.sun.xyz;
+    var dir: vec3<f32>;
+    var surface = FAR;
+    if z > 0.0 {
+        let p = unproject(atmo.inv_view_proj, ndc, z);
+        surface = length(p);
+        dir = p / surface;
+    } else {
+        dir = normalize(unproject(atmo.inv_view_proj, ndc, 1.0));
+    }
+    let mu = dot(dir, up);
+    let mu_sun = dot(s, up);
+    let along = dot(dir, s);
+    var span = inside(h0, mu);
+    span.y = min(span.y, surface);
+    if span.y <= span.x {
+        // Outside the atmosphere all the way: nothing added, nothing dimmed.
+        return vec4<f32>(0.0, 0.0, 0.0, 0.0);
+    }
+    let steps = max(i32(atmo.params.z), 1);
+    let ds = (span.y - span.x) / f32(steps);
+    var od_r = 0.0;
+    var od_m = 0.0;
+    var sum_r = vec3<f32>(0.0);
+    var sum_m = vec3<f32>(0.0);
+    for (var i = 0; i < steps; i = i + 1) {
+        let t = span.x + (f32(i) + 0.5) * ds;
+        let h = max(height_at(h0, mu, t), 0.0);
+        let rho_r = exp(-h / H_R) * ds;
+        let rho_m = exp(-h / H_M) * ds;
+        od_r += rho_r;
+        od_m += rho_m;
+        let mu_s = cos_at(h0, mu, mu_sun, along, t);
+        if below_horizon(h, mu_s) {
+            continue;
+        }
+        // The sun's ray to the top in one step: its density halfway.
+        let l = to_top(h, mu_s);
+        let hm = max(height_at(h, mu_s, 0.5 * l), 0.0);
+        let sun_r = exp(-hm / H_R) * l;
+        let sun_m = exp(-hm / H_M) * l;
+        let tau = BETA_R * (od_r + sun_r) + BETA_M * MIE_EXTINCTION * (od_m + sun_m);
+        let attenuation = exp(-tau);
+        sum_r += attenuation * rho_r;
+        sum_m += attenuation * rho_m;
+    }
+    let c = along;
+    let phase_r = 3.0 / (16.0 * PI) * (1.0 + c * c);
+    let g2 = G * G;
+    let phase_m = 3.0 / (8.0 * PI) * ((1.0 - g2) * (1.0 + c * c)) / ((2.0 + g2) * pow(1.0 + g2 - 2.0 * G * c, 1.5));
+    let light = atmo.sun.w * (sum_r * BETA_R * phase_r + sum_m * BETA_M * phase_m);
+    let shown = vec3<f32>(1.0) - exp(-light * atmo.params.w);
+    let transmittance = exp(-(BETA_R * od_r + BETA_M * MIE_EXTINCTION * od_m));
+    let through = clamp(dot(transmittance, vec3<f32>(1.0 / 3.0)), 0.0, 1.0);
+    // Laid over the frame as light + (1 - alpha) x what was drawn.
+    return vec4<f32>(clamp(shown, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0 - through);
+}

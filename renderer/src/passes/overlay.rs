@@ -1,0 +1,144 @@
+//! What the full-screen effect passes share: a pipeline laid over the
+//! frame (blended by its alpha, no depth attachment), and one bind group
+//! of the frame uniform, the effect's own uniform and the frame's depth.
+
+use bytemuck::Pod;
+use wgpu::util::DeviceExt;
+
+use crate::gpu::Gpu;
+
+/// One full-screen effect: its pipeline and uniform.
+pub struct Overlay {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    uniform: wgpu::Buffer,
+}
+
+impl Overlay {
+    /// The effect `label` drawn by `source` (after `frame.wgsl`): vertex
+    /// entry `vs_fullscreen`, fragment entry `fs`, its uniform a `U` at
+    /// binding 1 and the depth at binding 2, drawn into `target` (the
+    /// frame's colour with a blend that lays it over, or a texture of the
+    /// effect's own).
+    pub fn new<U: Pod + Default>(
+        device: &wgpu::Device,
+        frame_buffer: &wgpu::Buffer,
+        label: &str,
+        source: &str,
+        target: wgpu::ColorTargetState,
+    ) -> Self {
+        let shader = super::shader(device, label, &format!("{FULLSCREEN}\n{source}"));
+        let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
+        let uniform = |min| wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: wgpu::BufferSize::new(min),
+        };
+        let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some(label),
+            entries: &[
+                entry(0, stages, uniform(frame_buffer.size())),
+                entry(1, wgpu::ShaderStages::FRAGMENT, uniform(size_of::<U>() as u64)),
+                entry(
+                    2,
+                    wgpu::ShaderStages::FRAGMENT,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                ),
+            ],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                buffers: &[],
+            },
+            primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            depth_stencil: None,
+            multisample: wgpu::MultisampleState::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("fs"),
+                compilation_options: wgpu::PipelineCompilationOptions::default(),
+                targets: &[Some(target)],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents: bytemuck::bytes_of(&U::default()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        Self { pipeline, layout, uniform }
+    }
+
+    /// Writes this frame's uniform; the bind group over this frame's depth.
+    pub fn prepare<U: Pod>(
+        &self,
+        gpu: &Gpu,
+        frame_buffer: &wgpu::Buffer,
+        depth: &wgpu::TextureView,
+        uniform: &U,
+    ) -> wgpu::BindGroup {
+        gpu.queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(uniform));
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: self.uniform.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(depth) },
+            ],
+        })
+    }
+
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, bind_group: &wgpu::BindGroup) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
+/// Laid over the frame's colour with `blend`.
+pub fn over_frame(blend: wgpu::BlendState) -> wgpu::ColorTargetState {
+    wgpu::ColorTargetState {
+        format: crate::target::COLOR_FORMAT,
+        blend: Some(blend),
+        write_mask: wgpu::ColorWrites::COLOR,
+    }
+}
+
+/// One triangle over the whole screen, and a pixel's view ray.
+pub const FULLSCREEN: &str = r"
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
+    let x = f32(i32(vi & 1u) * 4 - 1);
+    let y = f32(i32(vi >> 1u) * 4 - 1);
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+
+// Normalised device coordinates of a fragment in a target `size` pixels.
+fn ndc_of(frag: vec2<f32>, size: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(frag.x / size.x * 2.0 - 1.0, 1.0 - frag.y / size.y * 2.0);
+}
+
+// The point at `ndc` and depth `z` through `inv` (an inverse
+// view-projection), relative to the eye.
+fn unproject(inv: mat4x4<f32>, ndc: vec2<f32>, z: f32) -> vec3<f32> {
+    let p = inv * vec4<f32>(ndc, z, 1.0);
+    return p.xyz / p.w;
+}
+";
