@@ -80,6 +80,9 @@ fn main() -> anyhow::Result<()> {
     if let Some(frames) = std::env::var("RELIEF_BENCH_PROFILE_FRAMES").ok().and_then(|v| v.parse().ok()) {
         return profile(&gpu, &snap, &terrain, frames);
     }
+    if std::env::var_os("RELIEF_BENCH_EFFECTS_ONLY").is_some() {
+        return effects(&gpu, &snap, &terrain);
+    }
     println!("\n## Frame time at 1280 x 720, demo scene, against surface error");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!(
@@ -282,7 +285,7 @@ fn effects(
         let settings = [2u32, 4, 8, 12, 16, 24, 36, 64]
             .map(|s| (s, d))
             .into_iter()
-            .chain([1, 3, 4].map(|k| (Atmosphere::DEFAULT_STEPS, k)));
+            .chain([1, 2, 3, 8].map(|k| (Atmosphere::DEFAULT_STEPS, k)));
         for (steps, downsample) in settings {
             let (total, pass_ms, frame) = still(with(steps, downsample), &view)?;
             let (mut sum, mut max) = (0.0f64, 0.0f64);
