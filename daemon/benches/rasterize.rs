@@ -176,7 +176,7 @@ fn main() -> anyhow::Result<()> {
     );
     println!(
         "machine: {}; relief through its tile store (its shapefile source's tiles included), GDAL in-process \
-         with the geometries read beforehand",
+         (each thread reading the shapefile's geometries once, timed with it)",
         relief_tests::machine()
     );
     println!(

@@ -34,11 +34,7 @@ impl EffectSettings {
 fn fog(params: &toml::Table) -> Result<Fog, (String, String)> {
     let mut fog = Fog::DEFAULT;
     for (key, value) in params {
-        let number = || match value {
-            toml::Value::Float(v) => Ok(*v),
-            toml::Value::Integer(v) => Ok(*v as f64),
-            other => Err((key.clone(), format!("{other} is not a number"))),
-        };
+        let number = || number(key, value);
         match key.as_str() {
             "density" => fog.density_per_m = number()?,
             "falloff_m" => fog.falloff_m = number()?,
@@ -47,8 +43,11 @@ fn fog(params: &toml::Table) -> Result<Fog, (String, String)> {
                 let toml::Value::String(text) = value else {
                     return Err((key.clone(), format!("{value} is not a colour (\"#rrggbb\")")));
                 };
+                // Fog has no opacity of its own: "#rrggbbaa" would be ignored.
                 let c = relief_source_ops::parse_color(key, text)
-                    .map_err(|_| (key.clone(), format!("'{text}' is not #rrggbb")))?;
+                    .ok()
+                    .filter(|_| text.trim_start_matches('#').len() == 6)
+                    .ok_or_else(|| (key.clone(), format!("'{text}' is not #rrggbb")))?;
                 fog.color = [c[0], c[1], c[2]];
             }
             _ => return Err((key.clone(), "unknown option (fog takes density, falloff_m, base_m, color)".into())),
@@ -62,10 +61,8 @@ fn fog(params: &toml::Table) -> Result<Fog, (String, String)> {
 fn atmosphere(params: &toml::Table) -> Result<Atmosphere, (String, String)> {
     let mut atmosphere = Atmosphere::DEFAULT;
     for (key, value) in params {
-        match (key.as_str(), value) {
-            ("top_m", toml::Value::Float(v)) => atmosphere.top_m = *v,
-            ("top_m", toml::Value::Integer(v)) => atmosphere.top_m = *v as f64,
-            ("top_m", other) => return Err((key.clone(), format!("{other} is not a number"))),
+        match key.as_str() {
+            "top_m" => atmosphere.top_m = number(key, value)?,
             _ => {
                 return Err((
                     key.clone(),
@@ -76,4 +73,13 @@ fn atmosphere(params: &toml::Table) -> Result<Atmosphere, (String, String)> {
     }
     atmosphere.validate().map_err(|(option, message)| (option.to_owned(), message))?;
     Ok(atmosphere)
+}
+
+/// An option's number, or the option and what it is instead.
+fn number(key: &str, value: &toml::Value) -> Result<f64, (String, String)> {
+    match value {
+        toml::Value::Float(v) => Ok(*v),
+        toml::Value::Integer(v) => Ok(*v as f64),
+        other => Err((key.to_owned(), format!("{other} is not a number"))),
+    }
 }

@@ -35,6 +35,8 @@ pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
 /// The effects a scene may declare, and the layers each one reads.
 pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"]), ("atmosphere", &["height"]), ("fog", &["height"])];
+/// The effects the sun lights: a `[sun]` (or a request's sun) needs one.
+pub const SUNLIT: &[&str] = &["lighting", "atmosphere", "fog"];
 /// Effects relief knows of but does not draw yet: refused by name, never
 /// accepted and ignored.
 pub const EFFECTS_NOT_YET: &[&str] = &["shadows", "water", "vegetation", "detail"];
@@ -435,6 +437,13 @@ impl Manifest {
         };
         let sun = Sun::parse(time.as_deref(), raw.sun.azimuth_deg, raw.sun.elevation_deg)
             .map_err(|(name, message)| field(&format!("sun.{name}"), message))?;
+        let sunlit = effects.iter().any(|e| SUNLIT.contains(&e.as_str()));
+        if (time.is_some() || raw.sun.azimuth_deg.is_some() || raw.sun.elevation_deg.is_some()) && !sunlit {
+            return Err(field(
+                "sun",
+                format!("no declared effect follows the sun (declare one of {})", SUNLIT.join(", ")),
+            ));
+        }
         let defaults = WatchSettings::default();
         let watch = WatchSettings {
             settle_ms: raw.watch.settle_ms.unwrap_or(defaults.settle_ms),
@@ -633,8 +642,8 @@ mod tests {
             ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
             // Names relief knows but cannot honour yet are refused, not ignored.
             (
-                "[scene]\nname='a'\n[effects]\natmosphere={}\n",
-                "field 'effects.atmosphere': not drawn yet (drawn: lighting, fog)",
+                "[scene]\nname='a'\n[effects]\nshadows={}\n",
+                "field 'effects.shadows': not drawn yet (drawn: lighting, atmosphere, fog)",
             ),
             (
                 "[scene]\nname='a'\n[effects]\nsparkle={}\n",

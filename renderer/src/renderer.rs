@@ -366,6 +366,22 @@ impl Renderer {
             }
         }
         settings.bands.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
+        let sun = settings.sun;
+        if !(sun.azimuth_deg.is_finite() && sun.elevation_deg.is_finite() && sun.elevation_deg.abs() <= 90.0) {
+            return Err(RenderError::Request {
+                field: "sun",
+                message: format!(
+                    "azimuth {} and elevation {} are not a place in the sky",
+                    sun.azimuth_deg, sun.elevation_deg
+                ),
+            });
+        }
+        if let Some(atmosphere) = &settings.atmosphere {
+            atmosphere.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
+        }
+        if let Some(fog) = &settings.fog {
+            fog.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
+        }
         Ok(())
     }
 

@@ -69,16 +69,15 @@ fn frame_request(
             ));
         }
         if let Some(steps) = o.atmosphere_steps {
-            if snap.manifest.effect_settings.atmosphere.is_none() {
+            let Some(atmosphere) = snap.manifest.effect_settings.atmosphere else {
                 return Err(invalid_field(
                     "quality.atmosphere_steps",
                     "the scene declares no atmosphere ([effects] atmosphere)",
                 ));
-            }
-            let max = relief_renderer::Atmosphere::MAX_STEPS;
-            if !(1..=max).contains(&steps) {
-                return Err(invalid_field("quality.atmosphere_steps", format!("{steps} is not from 1 to {max}")));
-            }
+            };
+            relief_renderer::Atmosphere { steps, ..atmosphere }
+                .validate()
+                .map_err(|(field, message)| invalid_field(&format!("quality.{field}"), message))?;
         }
     }
     let atmosphere_steps = overrides.and_then(|o| o.atmosphere_steps);
@@ -103,6 +102,18 @@ fn frame_request(
     let sun = sun
         .map(|s| {
             let time = (!s.time.is_empty()).then_some(s.time.as_str());
+            if time.is_none() && s.azimuth_deg.is_none() && s.elevation_deg.is_none() {
+                return Err(invalid_field("sun", "give a time or an azimuth and an elevation"));
+            }
+            if !snap.manifest.effects.iter().any(|e| crate::manifest::SUNLIT.contains(&e.as_str())) {
+                return Err(invalid_field(
+                    "sun",
+                    format!(
+                        "no effect of the scene follows the sun (it declares none of {})",
+                        crate::manifest::SUNLIT.join(", ")
+                    ),
+                ));
+            }
             crate::sun::Sun::parse(time, s.azimuth_deg, s.elevation_deg)
                 .map_err(|(field, message)| invalid_field(&format!("sun.{field}"), message))
         })

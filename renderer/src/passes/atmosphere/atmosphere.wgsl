@@ -3,8 +3,9 @@
 // marched in `steps` samples from the eye (or where it enters the
 // atmosphere) to the drawn surface (the depth buffer) or to the top of the
 // atmosphere. At each sample the sunlight reaching it is attenuated along
-// the sun's ray in a single step (one density sample halfway to the top),
-// none where the planet hides the sun. The pixel becomes
+// the sun's ray in a single step (the sample's density times its scale
+// height and the Chapman function's approximation), none where the planet
+// hides the sun. The pixel becomes
 //   in-scattered light + transmittance x what was drawn
 // (sky and aerial perspective alike), computed for one frame pixel in
 // `downsample` to a side and laid over the frame smoothly (`composite`).
@@ -38,6 +39,8 @@ const H_M = 1200.0;
 const G = 0.76;
 const PI = 3.14159265;
 const FAR = 1.0e9;
+// The longest stretch of a view ray marched, metres.
+const MAX_MARCH = 400000.0;
 
 // Height at distance t along a ray leaving height h0 with cosine mu to
 // the local up.
@@ -62,20 +65,17 @@ fn cos_at(h0: f32, mu: f32, cos_d0: f32, along: f32, t: f32) -> f32 {
     return (r * cos_d0 + t * along) / (height_at(h0, mu, t) + r0);
 }
 
-// Distance from height h along cosine mu to the top (FAR if it never gets
-// there; 0 if above it).
-fn to_top(h: f32, mu: f32) -> f32 {
-    let top = atmo.params.y;
+// The Chapman function's grazing-aware approximation: the optical depth
+// of an exponential atmosphere (scale height `scale`) from radius-over-
+// scale `x` along cosine mu, in units of the vertical depth. Exact at the
+// zenith (1) and at the horizon (sqrt(pi x / 2)); 1 / mu over flat ground.
+fn chapman(scale: f32, h: f32, mu: f32) -> f32 {
     let r0 = atmo.params.x;
-    if h >= top {
-        return 0.0;
-    }
     if r0 <= 0.0 {
-        return select(FAR, (top - h) / mu, mu > 1e-6);
+        return 1.0 / max(mu, 1e-4);
     }
-    let r = r0 + h;
-    let disc = r * r * mu * mu - (h - top) * (2.0 * r0 + h + top);
-    return -r * mu + sqrt(max(disc, 0.0));
+    let x = (r0 + h) / scale;
+    return 1.0 / (0.5 * mu + sqrt(0.25 * mu * mu + 2.0 / (PI * x)));
 }
 
 // Whether the ground hides a direction of cosine mu from height h.
@@ -88,22 +88,26 @@ fn below_horizon(h: f32, mu: f32) -> bool {
     return mu < -sqrt(hh * (2.0 * r0 + hh)) / (r0 + hh);
 }
 
-// Where a ray from the eye runs inside the atmosphere: (start, end), or
-// end < start when it never does.
-fn inside(h0: f32, mu: f32) -> vec2<f32> {
+// Where a ray from the eye runs inside the atmosphere, to the ground
+// when `to_ground` (nothing drawn there): (start, end), or end < start
+// when it never does.
+fn inside(h0: f32, mu: f32, to_ground: bool) -> vec2<f32> {
     let top = atmo.params.y;
     let r0 = atmo.params.x;
     if r0 <= 0.0 {
-        if h0 <= top {
-            var end = FAR;
-            if mu > 1e-6 { end = (top - h0) / mu; }
-            if mu < -1e-6 { end = min(end, h0 / -mu); }
-            return vec2<f32>(0.0, end);
+        var span = vec2<f32>(0.0, FAR);
+        if h0 > top {
+            if mu >= -1e-6 {
+                return vec2<f32>(1.0, 0.0);
+            }
+            span.x = (h0 - top) / -mu;
+        } else if mu > 1e-6 {
+            span.y = (top - h0) / mu;
         }
-        if mu >= -1e-6 {
-            return vec2<f32>(1.0, 0.0);
+        if to_ground && h0 > 0.0 && mu < -1e-6 {
+            span.y = min(span.y, h0 / -mu);
         }
-        return vec2<f32>((h0 - top) / -mu, h0 / -mu);
+        return span;
     }
     let r = r0 + h0;
     let disc = r * r * mu * mu - (h0 - top) * (2.0 * r0 + h0 + top);
@@ -115,10 +119,9 @@ fn inside(h0: f32, mu: f32) -> vec2<f32> {
     if far <= 0.0 {
         return vec2<f32>(1.0, 0.0);
     }
-    // The ground ends a falling ray.
-    let ground = r * r * mu * mu - h0 * (2.0 * r0 + h0);
     var end = far;
-    if mu < 0.0 && ground > 0.0 {
+    let ground = r * r * mu * mu - h0 * (2.0 * r0 + h0);
+    if to_ground && h0 > 0.0 && mu < 0.0 && ground > 0.0 {
         end = min(end, -r * mu - sqrt(ground));
     }
     return vec2<f32>(near, end);
@@ -147,8 +150,10 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let mu = dot(dir, up);
     let mu_sun = dot(s, up);
     let along = dot(dir, s);
-    var span = inside(h0, mu);
-    span.y = min(span.y, surface);
+    var span = inside(h0, mu, z <= 0.0);
+    // Past a few hundred kilometres of air nothing more of the sky or the
+    // ground shows (a level ray over flat ground never leaves it).
+    span.y = min(min(span.y, surface), span.x + MAX_MARCH);
     if span.y <= span.x {
         // Outside the atmosphere all the way: nothing added, nothing dimmed.
         return vec4<f32>(0.0, 0.0, 0.0, 0.0);
@@ -162,20 +167,23 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     for (var i = 0; i < steps; i = i + 1) {
         let t = span.x + (f32(i) + 0.5) * ds;
         let h = max(height_at(h0, mu, t), 0.0);
-        let rho_r = exp(-h / H_R) * ds;
-        let rho_m = exp(-h / H_M) * ds;
+        let dens_r = exp(-h / H_R);
+        let dens_m = exp(-h / H_M);
+        let rho_r = dens_r * ds;
+        let rho_m = dens_m * ds;
+        // The camera's side: this sample sits halfway through its segment.
+        let cam_r = od_r + 0.5 * rho_r;
+        let cam_m = od_m + 0.5 * rho_m;
         od_r += rho_r;
         od_m += rho_m;
         let mu_s = cos_at(h0, mu, mu_sun, along, t);
         if below_horizon(h, mu_s) {
             continue;
         }
-        // The sun's ray to the top in one step: its density halfway.
-        let l = to_top(h, mu_s);
-        let hm = max(height_at(h, mu_s, 0.5 * l), 0.0);
-        let sun_r = exp(-hm / H_R) * l;
-        let sun_m = exp(-hm / H_M) * l;
-        let tau = BETA_R * (od_r + sun_r) + BETA_M * MIE_EXTINCTION * (od_m + sun_m);
+        // The sun's ray out of the atmosphere in one step (Chapman).
+        let sun_r = dens_r * H_R * chapman(H_R, h, mu_s);
+        let sun_m = dens_m * H_M * chapman(H_M, h, mu_s);
+        let tau = BETA_R * (cam_r + sun_r) + BETA_M * MIE_EXTINCTION * (cam_m + sun_m);
         let attenuation = exp(-tau);
         sum_r += attenuation * rho_r;
         sum_m += attenuation * rho_m;

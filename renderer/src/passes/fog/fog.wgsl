@@ -62,8 +62,13 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         } else {
             // Down to the datum where nothing was drawn (the planet beyond
             // the data, seen from afar).
-            let he = max(fog.up.w, 0.0);
-            tau = optical_depth(he / max(-rise, 1e-4), -he);
+            let he = fog.up.w;
+            if he > 1.0 {
+                tau = optical_depth(he / max(-rise, 1e-4), -he);
+            } else {
+                // At or under the datum: as a level ray, into the fog for good.
+                tau = 1e4;
+            }
         }
     }
     let alpha = 1.0 - exp(-min(tau, 1e4));
