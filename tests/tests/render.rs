@@ -156,6 +156,9 @@ async fn bad_requests_get_invalid_argument_and_the_daemon_keeps_serving() {
         (pb::Sun { time: "2026-06-21T15:00:00Z".into(), azimuth_deg: Some(10.0), ..Default::default() }, "sun.time"),
         (pb::Sun { azimuth_deg: Some(10.0), elevation_deg: Some(95.0), ..Default::default() }, "sun.elevation_deg"),
         (pb::Sun { azimuth_deg: Some(10.0), ..Default::default() }, "sun.elevation_deg"),
+        (pb::Sun::default(), "give a time or an azimuth and an elevation"),
+        // This scene declares no effect: a sun would light nothing.
+        (pb::Sun { azimuth_deg: Some(10.0), elevation_deg: Some(20.0), ..Default::default() }, "follows the sun"),
     ] {
         let request = pb::RenderRequest { width: 64, height: 64, sun: Some(sun.clone()), ..Default::default() };
         let status = views.render(request).await.unwrap_err();

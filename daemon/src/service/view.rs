@@ -105,6 +105,8 @@ fn frame_request(
             if time.is_none() && s.azimuth_deg.is_none() && s.elevation_deg.is_none() {
                 return Err(invalid_field("sun", "give a time or an azimuth and an elevation"));
             }
+            let sun = crate::sun::Sun::parse(time, s.azimuth_deg, s.elevation_deg)
+                .map_err(|(field, message)| invalid_field(&format!("sun.{field}"), message))?;
             if !snap.manifest.effects.iter().any(|e| crate::manifest::SUNLIT.contains(&e.as_str())) {
                 return Err(invalid_field(
                     "sun",
@@ -114,8 +116,7 @@ fn frame_request(
                     ),
                 ));
             }
-            crate::sun::Sun::parse(time, s.azimuth_deg, s.elevation_deg)
-                .map_err(|(field, message)| invalid_field(&format!("sun.{field}"), message))
+            Ok(sun)
         })
         .transpose()?;
     Ok(FrameRequest {
