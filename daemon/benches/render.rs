@@ -184,6 +184,20 @@ fn profile(
     Ok(())
 }
 
+/// Seven still frames from `at` with the default clipmap, after one that
+/// fills its levels and builds its tiles and passes (not kept).
+fn still_frames(
+    gpu: &Arc<Gpu>,
+    snap: &relief_daemon::graph::SceneSnapshot,
+    terrain: &SceneTerrain<'_>,
+    settings: &RenderSettings,
+    at: &Pose,
+) -> anyhow::Result<Vec<Frame>> {
+    let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+    renderer.render(terrain, at, settings)?;
+    (0..7).map(|_| Ok(renderer.render(terrain, at, settings)?)).collect()
+}
+
 /// The default clipmap's still frame with the level blocks outside the
 /// view culled (the default) and with every block drawn: the same image
 /// (the renderer's tests check it), at what cost.
@@ -198,12 +212,7 @@ fn culling(
     println!("|---|---|---|---|---|");
     let mut frames = Vec::new();
     for (label, cull) in [("all drawn", false), ("culled (default)", true)] {
-        let settings = RenderSettings { cull, ..SETTINGS };
-        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-        renderer.render(terrain, &pose(10), &settings)?;
-        let runs = (0..7)
-            .map(|_| Ok(renderer.render(terrain, &pose(10), &settings)?))
-            .collect::<anyhow::Result<Vec<Frame>>>()?;
+        let runs = still_frames(gpu, snap, terrain, &RenderSettings { cull, ..SETTINGS }, &pose(10))?;
         let total = median(runs.iter().map(total_ms).collect());
         let pass =
             median(runs.iter().filter_map(|f| f.passes.iter().find(|p| p.0 == "terrain")).map(|p| p.1).collect());
@@ -232,10 +241,7 @@ fn effects(
     let fog = snap.manifest.effect_settings.fog.context("the demo declares fog")?;
     let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
     let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
-        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-        renderer.render(terrain, at, &settings)?;
-        let runs =
-            (0..7).map(|_| Ok(renderer.render(terrain, at, &settings)?)).collect::<anyhow::Result<Vec<Frame>>>()?;
+        let runs = still_frames(gpu, snap, terrain, &settings, at)?;
         let total = median(runs.iter().map(total_ms).collect());
         let effect_ms = median(
             runs.iter()

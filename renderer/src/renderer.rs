@@ -15,8 +15,9 @@ use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::passes::atmosphere::{Atmosphere, AtmospherePass, AtmosphereView};
 use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
-use crate::passes::fog::{Fog, FogPass, FogView};
+use crate::passes::fog::{Fog, FogPass};
 use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, InstancesView};
+use crate::passes::overlay::Eye;
 use crate::passes::terrain::TerrainPass;
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
@@ -277,6 +278,12 @@ impl Renderer {
             passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
         }
 
+        // The effects laid over the frame read one eye, worked out once
+        // (and not at all for a scene without them).
+        let eye = (settings.atmosphere.is_some() || settings.fog.is_some()).then(|| {
+            let up = self.surface.enu(pose.position[0], pose.position[1])[2];
+            Eye::new(view.view_projection(aspect), up, pose.position[2])
+        });
         if settings.atmosphere.is_none() && self.atmosphere.take().is_some() {
             self.counters.set_built(passes::ATMOSPHERE, false);
         }
@@ -286,9 +293,7 @@ impl Renderer {
             let pass = self.atmosphere.get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer));
             self.counters.set_built(passes::ATMOSPHERE, true);
             let at = AtmosphereView {
-                view_proj: view.view_projection(aspect),
-                up: self.surface.enu(pose.position[0], pose.position[1])[2],
-                eye_height_m: pose.position[2],
+                eye: eye.unwrap_or_default(),
                 ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
                 sun,
             };
@@ -302,13 +307,15 @@ impl Renderer {
             let started = Instant::now();
             let pass = self.fog.get_or_insert_with(|| FogPass::new(&self.gpu.device, &self.frame_buffer));
             self.counters.set_built(passes::FOG, true);
-            let at = FogView {
-                view_proj: view.view_projection(aspect),
-                up: self.surface.enu(pose.position[0], pose.position[1])[2],
-                eye_height_m: pose.position[2],
-                daylight: settings.sun.daylight(),
-            };
-            let bind_group = pass.prepare(&self.gpu, &self.frame_buffer, target.depth_view(), fog, &at);
+            let daylight = settings.sun.daylight();
+            let bind_group = pass.prepare(
+                &self.gpu,
+                &self.frame_buffer,
+                target.depth_view(),
+                fog,
+                eye.unwrap_or_default(),
+                daylight,
+            );
             target.run_overlay(&self.gpu, passes::FOG, |p| pass.record(p, &bind_group))?;
             passes.push((passes::FOG, self.counters.ran(passes::FOG, started)));
         }

@@ -2,7 +2,8 @@
 //! frame (blended by its alpha, no depth attachment), and one bind group
 //! of the frame uniform, the effect's own uniform and the frame's depth.
 
-use bytemuck::Pod;
+use bytemuck::{Pod, Zeroable};
+use glam::{DVec3, Mat4};
 use wgpu::util::DeviceExt;
 
 use crate::gpu::Gpu;
@@ -121,8 +122,34 @@ pub fn over_frame(blend: wgpu::BlendState) -> wgpu::ColorTargetState {
     }
 }
 
-/// One triangle over the whole screen, and a pixel's view ray.
+/// Where the frame's eye is, as every full-screen effect reads it (the
+/// first member of each one's uniform): the inverse of the eye-relative
+/// view-projection the frame was drawn with, up at the eye (xyz, world
+/// axes) and the eye's height above the datum (w, metres). Worked out once
+/// per frame.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
+pub struct Eye {
+    inv_view_proj: [[f32; 4]; 4],
+    up: [f32; 4],
+}
+
+impl Eye {
+    pub fn new(view_proj: Mat4, up: DVec3, height_m: f64) -> Self {
+        Self {
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            up: [up.x as f32, up.y as f32, up.z as f32, height_m as f32],
+        }
+    }
+}
+
+/// One triangle over the whole screen, the eye, and a pixel's view ray.
 pub const FULLSCREEN: &str = r"
+struct Eye {
+    inv_view_proj: mat4x4<f32>,
+    up: vec4<f32>,
+}
+
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
     let x = f32(i32(vi & 1u) * 4 - 1);

@@ -14,10 +14,7 @@
 // same model runs over a plane.
 
 struct Atmosphere {
-    inv_view_proj: mat4x4<f32>,
-    // Up at the eye (xyz, world axes), the eye's height above the ground
-    // the atmosphere sits on (w), metres.
-    up: vec4<f32>,
+    eye: Eye,
     // Towards the sun (xyz), its intensity (w).
     sun: vec4<f32>,
     // Ground radius (x; 0 over flat ground), top height (y), steps (z),
@@ -135,17 +132,17 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let at = min(frag.xy * atmo.frame_size.x, size - vec2<f32>(0.5));
     let ndc = ndc_of(at, size);
     let z = textureLoad(depth, vec2<i32>(at), 0);
-    let up = atmo.up.xyz;
-    let h0 = atmo.up.w;
+    let up = atmo.eye.up.xyz;
+    let h0 = atmo.eye.up.w;
     let s = atmo.sun.xyz;
     var dir: vec3<f32>;
     var surface = FAR;
     if z > 0.0 {
-        let p = unproject(atmo.inv_view_proj, ndc, z);
+        let p = unproject(atmo.eye.inv_view_proj, ndc, z);
         surface = length(p);
         dir = p / surface;
     } else {
-        dir = normalize(unproject(atmo.inv_view_proj, ndc, 1.0));
+        dir = normalize(unproject(atmo.eye.inv_view_proj, ndc, 1.0));
     }
     let mu = dot(dir, up);
     let mu_sun = dot(s, up);

@@ -4,10 +4,10 @@
 //! that reads the depth; built only for a scene that declares it.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{DVec3, Mat4};
+use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-use super::overlay::{FULLSCREEN, Overlay, over_frame};
+use super::overlay::{Eye, FULLSCREEN, Overlay, over_frame};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::target::Target;
@@ -65,11 +65,10 @@ const EXPOSURE: f32 = 1.0;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
 struct AtmosphereUniform {
-    inv_view_proj: [[f32; 4]; 4],
-    up: [f32; 4],
+    eye: Eye,
     sun: [f32; 4],
     params: [f32; 4],
-    target: [f32; 4],
+    frame_size: [f32; 4],
 }
 
 /// Light and transmittance as the scattering computes them.
@@ -90,12 +89,8 @@ pub struct AtmospherePass {
 
 /// What a frame's atmosphere needs besides its knobs.
 pub struct AtmosphereView {
-    /// The eye-relative view-projection the frame was drawn with.
-    pub view_proj: Mat4,
-    /// Up at the eye, world axes.
-    pub up: DVec3,
-    /// The eye's height above the ground the atmosphere sits on, metres.
-    pub eye_height_m: f64,
+    /// The frame's eye (its height is above the ground the atmosphere sits on).
+    pub eye: Eye,
     /// The ground's radius under the eye (None over flat ground).
     pub ground_radius_m: Option<f64>,
     /// Towards the sun, world axes.
@@ -220,8 +215,7 @@ impl AtmospherePass {
         }
         let Some((_, scattered)) = &self.scattered else { return Ok(()) };
         let u = AtmosphereUniform {
-            inv_view_proj: at.view_proj.inverse().to_cols_array_2d(),
-            up: [at.up.x as f32, at.up.y as f32, at.up.z as f32, at.eye_height_m as f32],
+            eye: at.eye,
             sun: [at.sun.x as f32, at.sun.y as f32, at.sun.z as f32, SUN_INTENSITY],
             params: [
                 at.ground_radius_m.unwrap_or(0.0) as f32,
@@ -229,7 +223,7 @@ impl AtmospherePass {
                 atmosphere.steps as f32,
                 EXPOSURE,
             ],
-            target: [d as f32, target.width as f32, target.height as f32, 0.0],
+            frame_size: [d as f32, target.width as f32, target.height as f32, 0.0],
         };
         let bind_group = self.scatter.prepare(gpu, frame_buffer, target.depth_view(), &u);
         let mut encoder =

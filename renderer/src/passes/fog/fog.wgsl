@@ -11,9 +11,7 @@
 // fog of a weather study is local, the planet's curvature under it left out.
 
 struct Fog {
-    inv_view_proj: mat4x4<f32>,
-    // Up at the eye (xyz), the eye's height (w), metres.
-    up: vec4<f32>,
+    eye: Eye,
     // Density at the base height per metre (x), falloff height H (y),
     // base height (z).
     params: vec4<f32>,
@@ -30,12 +28,12 @@ struct Fog {
 fn optical_depth(l: f32, dh: f32) -> f32 {
     let d0 = fog.params.x;
     let h = fog.params.y;
-    let eye = exp(-clamp((fog.up.w - fog.params.z) / h, -80.0, 80.0));
+    let eye = exp(-clamp((fog.eye.up.w - fog.params.z) / h, -80.0, 80.0));
     let k = dh / h;
     if abs(k) < 1e-4 {
         return d0 * l * eye;
     }
-    let end = exp(-clamp((fog.up.w + dh - fog.params.z) / h, -80.0, 80.0));
+    let end = exp(-clamp((fog.eye.up.w + dh - fog.params.z) / h, -80.0, 80.0));
     return d0 * l * (eye - end) / k;
 }
 
@@ -45,24 +43,24 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let pixel = vec2<i32>(frag.xy);
     let ndc = ndc_of(frag.xy, size);
     let z = textureLoad(depth, pixel, 0);
-    let up = fog.up.xyz;
+    let up = fog.eye.up.xyz;
     var tau: f32;
     if z > 0.0 {
-        let p = unproject(fog.inv_view_proj, ndc, z);
+        let p = unproject(fog.eye.inv_view_proj, ndc, z);
         tau = optical_depth(length(p), dot(p, up));
     } else {
         // The sky (reversed-Z: 0 is infinitely far): rising rays leave the
         // fog; level ones never do.
-        let dir = normalize(unproject(fog.inv_view_proj, ndc, 1.0));
+        let dir = normalize(unproject(fog.eye.inv_view_proj, ndc, 1.0));
         let rise = dot(dir, up);
         if rise > 1e-4 {
             let d0 = fog.params.x;
             let h = fog.params.y;
-            tau = d0 * exp(-clamp((fog.up.w - fog.params.z) / h, -80.0, 80.0)) * h / rise;
+            tau = d0 * exp(-clamp((fog.eye.up.w - fog.params.z) / h, -80.0, 80.0)) * h / rise;
         } else {
             // Down to the datum where nothing was drawn (the planet beyond
             // the data, seen from afar).
-            let he = fog.up.w;
+            let he = fog.eye.up.w;
             if he > 1.0 {
                 tau = optical_depth(he / max(-rise, 1e-4), -he);
             } else {

@@ -4,9 +4,8 @@
 //! atmosphere.
 
 use bytemuck::{Pod, Zeroable};
-use glam::{DVec3, Mat4};
 
-use super::overlay::{Overlay, over_frame};
+use super::overlay::{Eye, Overlay, over_frame};
 
 /// Height fog: density at the base height, how fast it thins upwards, and
 /// its colour (straight RGB, 0..1) in full daylight.
@@ -43,8 +42,7 @@ impl Fog {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
 struct FogUniform {
-    inv_view_proj: [[f32; 4]; 4],
-    up: [f32; 4],
+    eye: Eye,
     params: [f32; 4],
     color: [f32; 4],
 }
@@ -52,38 +50,26 @@ struct FogUniform {
 /// The fog pass: a full-screen overlay.
 pub struct FogPass(Overlay);
 
-/// What a frame's fog needs besides the settings: where the eye is.
-pub struct FogView {
-    /// The eye-relative view-projection the frame was drawn with.
-    pub view_proj: Mat4,
-    /// Up at the eye, world axes.
-    pub up: DVec3,
-    /// The eye's height above the datum, metres.
-    pub eye_height_m: f64,
-    /// The sun's daylight, 0 (night) to 1: the fog is lit by it.
-    pub daylight: f64,
-}
-
 impl FogPass {
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
         let target = over_frame(wgpu::BlendState::ALPHA_BLENDING);
         Self(Overlay::new::<FogUniform>(device, frame_buffer, "fog", include_str!("fog.wgsl"), target))
     }
 
-    /// The frame's fog uniform written, and the bind group over this
-    /// frame's depth.
+    /// The frame's fog uniform written (lit by the sun's `daylight`, 0 to
+    /// 1), and the bind group over this frame's depth.
     pub fn prepare(
         &self,
         gpu: &crate::gpu::Gpu,
         frame_buffer: &wgpu::Buffer,
         depth: &wgpu::TextureView,
         fog: &Fog,
-        at: &FogView,
+        eye: Eye,
+        daylight: f64,
     ) -> wgpu::BindGroup {
-        let light = (0.08 + 0.92 * at.daylight) as f32;
+        let light = (0.08 + 0.92 * daylight) as f32;
         let u = FogUniform {
-            inv_view_proj: at.view_proj.inverse().to_cols_array_2d(),
-            up: [at.up.x as f32, at.up.y as f32, at.up.z as f32, at.eye_height_m as f32],
+            eye,
             params: [fog.density_per_m as f32, fog.falloff_m as f32, fog.base_m as f32, 0.0],
             color: [fog.color[0] as f32 * light, fog.color[1] as f32 * light, fog.color[2] as f32 * light, 1.0],
         };
