@@ -142,10 +142,16 @@ pub struct Frustum {
     tan_y: f64,
 }
 
-impl Frustum {
+/// A volume things are culled by: the camera's frustum, or the box a
+/// shadow cascade sees from the sun.
+pub trait Sees {
     /// True unless the sphere (centre relative to the eye) lies wholly
-    /// outside one of the planes.
-    pub fn sees(&self, centre: DVec3, radius: f64) -> bool {
+    /// outside the volume.
+    fn sees(&self, centre: DVec3, radius: f64) -> bool;
+}
+
+impl Sees for Frustum {
+    fn sees(&self, centre: DVec3, radius: f64) -> bool {
         let z = centre.dot(self.forward);
         if z < -radius {
             return false;

@@ -25,6 +25,7 @@ pub use passes::atmosphere::Atmosphere;
 pub use passes::buildings::MeshTiles;
 pub use passes::fog::Fog;
 pub use passes::instances::{InstanceBands, InstanceTiles};
+pub use passes::shadows::Shadows;
 pub use passes::terrain::MAX_LEVELS;
 pub use passes::{ALL as PASSES, PassCounters, PassStats};
 pub use renderer::{Drawn, Frame, RenderSettings, Renderer, SceneLayers, SunAngles};

@@ -18,6 +18,7 @@ use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
 use crate::passes::fog::{Fog, FogPass};
 use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, InstancesView};
 use crate::passes::overlay::Eye;
+use crate::passes::shadows::{Casters, ShadowView, Shadows, ShadowsPass};
 use crate::passes::terrain::TerrainPass;
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
@@ -44,6 +45,9 @@ pub struct RenderSettings {
     pub atmosphere: Option<Atmosphere>,
     /// The `fog` effect, when the scene declares it.
     pub fog: Option<Fog>,
+    /// The `shadows` effect, when the scene declares it (with `lighting`,
+    /// whose sunlight it takes away).
+    pub shadows: Option<Shadows>,
 }
 
 impl RenderSettings {
@@ -59,6 +63,7 @@ impl RenderSettings {
             sun: SunAngles::DEFAULT,
             atmosphere: None,
             fog: None,
+            shadows: None,
         }
     }
 }
@@ -138,6 +143,8 @@ pub struct Renderer {
     atmosphere: Option<AtmospherePass>,
     /// Built the first time a frame has fog.
     fog: Option<FogPass>,
+    /// Built the first time a frame casts shadows.
+    shadows: Option<ShadowsPass>,
     counters: PassCounters,
     /// The last frame's target, drawn into again while the size stays.
     target: Option<Target>,
@@ -158,6 +165,7 @@ impl Renderer {
             instances: None,
             atmosphere: None,
             fog: None,
+            shadows: None,
             counters,
             target: None,
         })
@@ -219,7 +227,7 @@ impl Renderer {
         let aspect = f64::from(settings.width) / f64::from(settings.height);
         let frustum = settings.cull.then(|| view.frustum(aspect));
         let draw = self.terrain.prepare(&self.gpu, &self.surface, source, pose, &view, pixel_angle, frustum.as_ref());
-        self.write_frame_uniform(pose, &view, settings, Some(draw.base_sink));
+        let frame_uniform = self.write_frame_uniform(pose, &view, settings, Some(draw.base_sink));
         target.run(&self.gpu, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
@@ -228,6 +236,7 @@ impl Renderer {
         if layers.buildings.is_none() && self.buildings.take().is_some() {
             self.counters.set_built(passes::BUILDINGS, false);
         }
+        let (mut buildings_shown, mut instances_shown) = (None, None);
         if let Some(meshes) = layers.buildings {
             let started = Instant::now();
             let device = &self.gpu.device;
@@ -246,6 +255,7 @@ impl Renderer {
             drawn.buildings = shown.drawn;
             target.run(&self.gpu, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
             passes.push((passes::BUILDINGS, self.counters.ran(passes::BUILDINGS, started)));
+            buildings_shown = Some(shown);
         }
 
         if layers.instances.is_none() && self.instances.take().is_some() {
@@ -276,26 +286,71 @@ impl Renderer {
                 (shown.in_view, shown.models_drawn, shown.billboards_drawn);
             target.run(&self.gpu, passes::INSTANCES, false, |pass| instances.record(pass, &shown))?;
             passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
+            instances_shown = Some(shown);
         }
 
         // The effects laid over the frame read one eye, worked out once
         // (and not at all for a scene without them).
-        let eye = (settings.atmosphere.is_some() || settings.fog.is_some()).then(|| {
+        let eye = (settings.atmosphere.is_some() || settings.fog.is_some() || settings.shadows.is_some()).then(|| {
             let up = self.surface.enu(pose.position[0], pose.position[1])[2];
             Eye::new(view.view_projection(aspect), up, pose.position[2])
         });
-        if settings.atmosphere.is_none() && self.atmosphere.take().is_some() {
+        if settings.shadows.is_none() && self.shadows.take().is_some() {
+            self.counters.set_built(passes::SHADOWS, false);
+            self.terrain.drop_casters();
+            self.buildings.iter_mut().for_each(BuildingsPass::drop_casters);
+            self.instances.iter_mut().for_each(InstancesPass::drop_casters);
+        }
+        if let Some(shadows) = &settings.shadows {
+            let started = Instant::now();
+            let ground_m = self
+                .terrain
+                .drawn_height(&self.surface, &draw.update.active, pose, pose.position[0], pose.position[1])
+                .unwrap_or(0.0);
+            let sun = self.sun(pose, settings.sun);
+            let up = self.surface.enu(pose.position[0], pose.position[1])[2];
+            let at = ShadowView {
+                view: &view,
+                pose,
+                aspect,
+                pixel_angle,
+                eye: eye.unwrap_or_default(),
+                sun,
+                sin_elevation: sun.dot(up),
+                above_ground_m: (pose.position[2] - ground_m).abs(),
+                frame: frame_uniform,
+            };
+            let casters = Casters {
+                terrain: &mut self.terrain,
+                surface: &self.surface,
+                draw: &draw,
+                buildings: self.buildings.as_mut().zip(buildings_shown.as_ref()),
+                instances: self.instances.as_mut().zip(instances_shown.as_ref()),
+            };
+            let pass = self.shadows.get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, &self.frame_buffer));
+            self.counters.set_built(passes::SHADOWS, true);
+            pass.run(&self.gpu, &self.frame_buffer, &target, shadows, &at, casters)?;
+            passes.push((passes::SHADOWS, self.counters.ran(passes::SHADOWS, started)));
+        }
+        let shadowed = settings.shadows.is_some();
+        if (settings.atmosphere.is_none() || self.atmosphere.as_ref().is_some_and(|a| a.shadowed != shadowed))
+            && self.atmosphere.take().is_some()
+        {
             self.counters.set_built(passes::ATMOSPHERE, false);
         }
         if let Some(atmosphere) = &settings.atmosphere {
             let started = Instant::now();
             let sun = self.sun(pose, settings.sun);
-            let pass = self.atmosphere.get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer));
+            let lookup = self.shadows.as_ref().map(ShadowsPass::lookup_layout);
+            let pass = self
+                .atmosphere
+                .get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer, lookup));
             self.counters.set_built(passes::ATMOSPHERE, true);
             let at = AtmosphereView {
                 eye: eye.unwrap_or_default(),
                 ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
                 sun,
+                shadows: self.shadows.as_ref().and_then(ShadowsPass::lookup),
             };
             pass.run(&self.gpu, &self.frame_buffer, &target, atmosphere, &at)?;
             passes.push((passes::ATMOSPHERE, self.counters.ran(passes::ATMOSPHERE, started)));
@@ -389,13 +444,35 @@ impl Renderer {
         if let Some(fog) = &settings.fog {
             fog.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
         }
+        if let Some(shadows) = &settings.shadows {
+            shadows.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
+            if !settings.lighting {
+                return Err(RenderError::Request {
+                    field: "shadows",
+                    message: "shadows take away the lighting's sunlight: they need lighting on".into(),
+                });
+            }
+            let max = self.gpu.max_size();
+            if shadows.map_size > max {
+                return Err(RenderError::Request {
+                    field: "shadow_map_size",
+                    message: format!("{} is larger than this device's {max} texels", shadows.map_size),
+                });
+            }
+        }
         Ok(())
     }
 
     /// `base_sink`: Some(metres the base is sunk) when meshes are drawn
     /// from double-single world positions; None for a mesh already
     /// relative to the eye.
-    fn write_frame_uniform(&self, pose: &Pose, view: &View, settings: &RenderSettings, base_sink: Option<f64>) {
+    fn write_frame_uniform(
+        &self,
+        pose: &Pose,
+        view: &View,
+        settings: &RenderSettings,
+        base_sink: Option<f64>,
+    ) -> FrameUniform {
         let (eye_high, eye_low) = if base_sink.is_some() { split(view.eye) } else { ([0.0; 3], [0.0; 3]) };
         let frame = FrameUniform {
             view_proj: view.view_projection(f64::from(settings.width) / f64::from(settings.height)).to_cols_array_2d(),
@@ -416,6 +493,7 @@ impl Renderer {
             eye_low: [eye_low[0], eye_low[1], eye_low[2], base_sink.unwrap_or(0.0) as f32],
         };
         self.gpu.queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        frame
     }
 
     /// The direction towards the sun, in world axes, from its angles in the

@@ -8,6 +8,7 @@ pub mod buildings;
 pub mod fog;
 pub mod instances;
 pub mod overlay;
+pub mod shadows;
 pub mod terrain;
 
 use std::time::Instant;
@@ -53,6 +54,52 @@ pub fn pipeline(
     })
 }
 
+/// The attributes of a vertex of four vec4s: position (high and low
+/// parts), normal and colour, as the terrain's base and the buildings have.
+const VEC4_ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+    wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
+/// The vertex buffer of vertices of four vec4s.
+pub const VEC4_VERTICES: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(wgpu::VertexBufferLayout {
+    array_stride: 4 * 16,
+    step_mode: wgpu::VertexStepMode::Vertex,
+    attributes: &VEC4_ATTRIBUTES,
+})];
+
+/// The depth-only twin of a pass's pipeline that draws what it draws into
+/// a shadow map: the same layout and vertex stage `vs` of `shader`, no
+/// fragment stage, reversed-Z depth (nearer the sun is greater).
+pub fn caster_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::PipelineLayout,
+    shader: &wgpu::ShaderModule,
+    vs: &str,
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+) -> wgpu::RenderPipeline {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: shader,
+            entry_point: Some(vs),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            buffers,
+        },
+        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Greater),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: None,
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
 /// A pass's shader: the frame's uniform and lighting (`frame.wgsl`), then
 /// the pass's own source.
 pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
@@ -78,8 +125,12 @@ pub const ATMOSPHERE: &str = "atmosphere";
 /// Fog: the `fog` effect, laid over everything drawn (and the atmosphere).
 /// Built only for a scene that declares it.
 pub const FOG: &str = "fog";
+/// Shadows: the `shadows` effect, cascaded shadow maps drawn from the sun
+/// (terrain, buildings and instance models cast), then the sunlight taken
+/// from what they hide. Built only for a scene that declares it.
+pub const SHADOWS: &str = "shadows";
 /// Every pass a renderer knows, in the order a frame runs them.
-pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, ATMOSPHERE, FOG];
+pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, SHADOWS, ATMOSPHERE, FOG];
 
 /// One pass's record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -20,13 +20,14 @@ impl Overlay {
     /// entry `vs_fullscreen`, fragment entry `fs`, its uniform a `U` at
     /// binding 1 and the depth at binding 2, drawn into `target` (the
     /// frame's colour with a blend that lays it over, or a texture of the
-    /// effect's own).
+    /// effect's own); `group1`, when given, the layout of a second bind
+    /// group (the shadow cascades).
     pub fn new<U: Pod + Default>(
         device: &wgpu::Device,
         frame_buffer: &wgpu::Buffer,
-        label: &str,
-        source: &str,
+        (label, source): (&str, &str),
         target: wgpu::ColorTargetState,
+        group1: Option<&wgpu::BindGroupLayout>,
     ) -> Self {
         let shader = super::shader(device, label, &format!("{FULLSCREEN}\n{source}"));
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
@@ -54,7 +55,7 @@ impl Overlay {
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(label),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: &[Some(&layout), group1],
             immediate_size: 0,
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -106,9 +107,19 @@ impl Overlay {
         })
     }
 
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, bind_group: &wgpu::BindGroup) {
+    /// Draws the effect with `bind_group`, and `group1` where it was
+    /// built with a second group.
+    pub fn record(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        bind_group: &wgpu::BindGroup,
+        group1: Option<&wgpu::BindGroup>,
+    ) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bind_group, &[]);
+        if let Some(group) = group1 {
+            pass.set_bind_group(1, group, &[]);
+        }
         pass.draw(0..3, 0..1);
     }
 }

@@ -3,6 +3,8 @@
 
 #![allow(dead_code, reason = "each test binary uses its own part")]
 
+pub mod raycast;
+
 use std::ops::Range;
 use std::sync::Arc;
 
@@ -71,6 +73,11 @@ pub fn hill_scene(gpu: &Arc<Gpu>, config: ClipmapConfig) -> (Renderer, Analytic)
 
 /// A local scene: 20 km of UTM 12N round the analytic `utm_surface`.
 pub fn utm_scene(config: ClipmapConfig) -> (Renderer, Analytic) {
+    utm_scene_of(config, relief_examples::utm_surface)
+}
+
+/// The same 20 km of UTM 12N round the analytic surface `height`.
+pub fn utm_scene_of(config: ClipmapConfig, height: fn(f64, f64) -> f64) -> (Renderer, Analytic) {
     let grid = TileGrid::new(
         GridKind::Projected(ProjectedGrid {
             crs: "EPSG:32612".into(),
@@ -82,8 +89,7 @@ pub fn utm_scene(config: ClipmapConfig) -> (Renderer, Analytic) {
     )
     .unwrap();
     let surface = Surface::new(grid);
-    let source =
-        Analytic { surface: surface.clone(), height: relief_examples::utm_surface, max_level: 8, ready_up_to: u8::MAX };
+    let source = Analytic { surface: surface.clone(), height, max_level: 8, ready_up_to: u8::MAX };
     (Renderer::new(gpu(), surface, config).unwrap(), source)
 }
 

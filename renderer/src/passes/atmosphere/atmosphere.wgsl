@@ -9,6 +9,8 @@
 //   in-scattered light + transmittance x what was drawn
 // (sky and aerial perspective alike), computed for one frame pixel in
 // `downsample` to a side and laid over the frame smoothly (`composite`).
+// Where the scene casts shadows, air the cascades say the sun does not
+// reach scatters none of its light (`sun_visible`).
 // Heights come from scalar distances
 // and cosines (no f32 positions at planet scale). Over flat ground the
 // same model runs over a plane.
@@ -181,7 +183,9 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         let sun_r = dens_r * H_R * chapman(H_R, h, mu_s);
         let sun_m = dens_m * H_M * chapman(H_M, h, mu_s);
         let tau = BETA_R * (cam_r + sun_r) + BETA_M * MIE_EXTINCTION * (cam_m + sun_m);
-        let attenuation = exp(-tau);
+        // Air in the shadow of the terrain (when shadows are cast) gets no
+        // sunlight to scatter.
+        let attenuation = exp(-tau) * sun_visible(dir * t, vec3<f32>(0.0), 0);
         sum_r += attenuation * rho_r;
         sum_m += attenuation * rho_m;
     }

@@ -85,24 +85,35 @@ pub struct AtmospherePass {
     sampler: wgpu::Sampler,
     /// The scattering's texture, kept while its size stays.
     scattered: Option<(wgpu::Extent3d, wgpu::TextureView)>,
+    /// Built to read the shadow cascades: the sun's light is taken from
+    /// the air in shadow, so a hidden sun does not glow.
+    pub shadowed: bool,
 }
 
 /// What a frame's atmosphere needs besides its knobs.
-pub struct AtmosphereView {
+pub struct AtmosphereView<'a> {
     /// The frame's eye (its height is above the ground the atmosphere sits on).
     pub eye: Eye,
     /// The ground's radius under the eye (None over flat ground).
     pub ground_radius_m: Option<f64>,
     /// Towards the sun, world axes.
     pub sun: DVec3,
+    /// The shadow cascades' bind group, for a pass built `shadowed`.
+    pub shadows: Option<&'a wgpu::BindGroup>,
 }
 
+/// The sun's visibility where no shadows are cast: everywhere.
+const SUN_EVERYWHERE: &str = "fn sun_visible(p: vec3<f32>, normal: vec3<f32>, radius: i32) -> f32 { return 1.0; }";
+
 impl AtmospherePass {
-    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
-        let source = include_str!("atmosphere.wgsl");
+    /// The pass, reading the shadow cascades through `shadows` (their
+    /// bind group's layout) when the scene casts shadows.
+    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer, shadows: Option<&wgpu::BindGroupLayout>) -> Self {
+        let visibility = if shadows.is_some() { super::shadows::LOOKUP } else { SUN_EVERYWHERE };
+        let source = format!("{visibility}\n{}", include_str!("atmosphere.wgsl"));
         let target =
             wgpu::ColorTargetState { format: SCATTERED_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL };
-        let scatter = Overlay::new::<AtmosphereUniform>(device, frame_buffer, "atmosphere", source, target);
+        let scatter = Overlay::new::<AtmosphereUniform>(device, frame_buffer, ("atmosphere", &source), target, shadows);
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("atmosphere composite"),
             source: wgpu::ShaderSource::Wgsl(format!("{}\n{}", FULLSCREEN, include_str!("composite.wgsl")).into()),
@@ -181,7 +192,15 @@ impl AtmospherePass {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        Self { scatter, composite, composite_layout, composite_uniform, sampler, scattered: None }
+        Self {
+            scatter,
+            composite,
+            composite_layout,
+            composite_uniform,
+            sampler,
+            scattered: None,
+            shadowed: shadows.is_some(),
+        }
     }
 
     /// Computes the scattering for this frame into the pass's own texture,
@@ -192,7 +211,7 @@ impl AtmospherePass {
         frame_buffer: &wgpu::Buffer,
         target: &Target,
         atmosphere: &Atmosphere,
-        at: &AtmosphereView,
+        at: &AtmosphereView<'_>,
     ) -> Result<(), RenderError> {
         let d = atmosphere.downsample.max(1);
         let size = wgpu::Extent3d {
@@ -245,7 +264,7 @@ impl AtmospherePass {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            self.scatter.record(&mut pass, &bind_group);
+            self.scatter.record(&mut pass, &bind_group, at.shadows);
         }
         gpu.queue.submit([encoder.finish()]);
         gpu.queue.write_buffer(&self.composite_uniform, 0, bytemuck::bytes_of(&[d as f32, 0.0, 0.0, 0.0]));

@@ -45,6 +45,8 @@ struct Vertex {
     color: [f32; 4],
 }
 
+const _: () = assert!(size_of::<Vertex>() == 64, "the layout of super::VEC4_VERTICES");
+
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 struct Lift {
@@ -99,6 +101,11 @@ pub struct BuildingsDraw {
 pub struct BuildingsPass {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
+    /// What the `shadows` effect's depth-only twin of the pipeline is made
+    /// from, and that twin once a frame casts shadows.
+    pipeline_layout: wgpu::PipelineLayout,
+    shader: wgpu::ShaderModule,
+    caster: Option<wgpu::RenderPipeline>,
     tiles: HashMap<TileKey, TileMesh>,
     /// Mesh tiles turned into device buffers since the pass was built.
     pub tiles_built: u64,
@@ -126,15 +133,15 @@ impl BuildingsPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
-        let buffers = [Some(wgpu::VertexBufferLayout {
-            array_stride: size_of::<Vertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &attributes,
-        })];
-        let pipeline =
-            super::pipeline(device, "buildings", &pipeline_layout, &shader, ("vs_building", "fs_building"), &buffers);
-        Self { pipeline, layout, tiles: HashMap::new(), tiles_built: 0 }
+        let pipeline = super::pipeline(
+            device,
+            "buildings",
+            &pipeline_layout,
+            &shader,
+            ("vs_building", "fs_building"),
+            &super::VEC4_VERTICES,
+        );
+        Self { pipeline, layout, pipeline_layout, shader, caster: None, tiles: HashMap::new(), tiles_built: 0 }
     }
 
     /// Chooses and fetches the mesh tiles the clipmap's rings call for,
@@ -226,8 +233,39 @@ impl BuildingsPass {
     }
 
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw) {
+        self.record_with(pass, &self.pipeline, draw);
+    }
+
+    /// The scene no longer casts shadows: the depth-only pipeline goes.
+    pub fn drop_casters(&mut self) {
+        self.caster = None;
+    }
+
+    /// Builds the depth-only pipeline the first time a frame casts shadows.
+    pub fn prepare_casters(&mut self, device: &wgpu::Device) {
+        if self.caster.is_none() {
+            let (layout, shader) = (&self.pipeline_layout, &self.shader);
+            self.caster = Some(super::caster_pipeline(
+                device,
+                "building casters",
+                layout,
+                shader,
+                "vs_building",
+                &super::VEC4_VERTICES,
+            ));
+        }
+    }
+
+    /// Draws the buildings this frame shows into a shadow map.
+    pub fn record_casters(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw) {
+        if let Some(caster) = &self.caster {
+            self.record_with(pass, caster, draw);
+        }
+    }
+
+    fn record_with(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, draw: &BuildingsDraw) {
         let Some(bind_group) = &draw.bind_group else { return };
-        pass.set_pipeline(&self.pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind_group, &[]);
         for (key, first, shown) in &draw.tiles {
             let tile = &self.tiles[key];

@@ -53,7 +53,7 @@ pub struct FogPass(Overlay);
 impl FogPass {
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
         let target = over_frame(wgpu::BlendState::ALPHA_BLENDING);
-        Self(Overlay::new::<FogUniform>(device, frame_buffer, "fog", include_str!("fog.wgsl"), target))
+        Self(Overlay::new::<FogUniform>(device, frame_buffer, ("fog", include_str!("fog.wgsl")), target, None))
     }
 
     /// The frame's fog uniform written (lit by the sun's `daylight`, 0 to
@@ -77,6 +77,6 @@ impl FogPass {
     }
 
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, bind_group: &wgpu::BindGroup) {
-        self.0.record(pass, bind_group);
+        self.0.record(pass, bind_group, None);
     }
 }

@@ -72,8 +72,32 @@ pub struct InstancesDraw {
     pub unknown_models: usize,
 }
 
+const INSTANCE_BUFFER: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
+    array_stride: size_of::<GpuInstance>() as u64,
+    step_mode: wgpu::VertexStepMode::Instance,
+    attributes: &INSTANCE_ATTRIBUTES,
+};
+
+/// A model's vertices, then the instances placing it.
+fn model_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 2] {
+    [
+        Some(wgpu::VertexBufferLayout {
+            array_stride: size_of::<ModelVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &MODEL_ATTRIBUTES,
+        }),
+        Some(INSTANCE_BUFFER),
+    ]
+}
+
 pub struct InstancesPass {
     model_pipeline: wgpu::RenderPipeline,
+    /// What the `shadows` effect's depth-only twin of the models' pipeline
+    /// is made from, and that twin once a frame casts shadows (billboards
+    /// cast none).
+    model_pipeline_layout: wgpu::PipelineLayout,
+    shader: wgpu::ShaderModule,
+    caster: Option<wgpu::RenderPipeline>,
     model_layout: wgpu::BindGroupLayout,
     model_bind_group: wgpu::BindGroup,
     billboard_pipeline: wgpu::RenderPipeline,
@@ -138,19 +162,7 @@ impl InstancesPass {
                 immediate_size: 0,
             })
         };
-        let instance_buffer = wgpu::VertexBufferLayout {
-            array_stride: size_of::<GpuInstance>() as u64,
-            step_mode: wgpu::VertexStepMode::Instance,
-            attributes: &INSTANCE_ATTRIBUTES,
-        };
-        let model_buffers = [
-            Some(wgpu::VertexBufferLayout {
-                array_stride: size_of::<ModelVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &MODEL_ATTRIBUTES,
-            }),
-            Some(instance_buffer.clone()),
-        ];
+        let model_buffers = model_buffers();
         let model_pipeline_layout = layout("instance models", &model_layout);
         let model_pipeline = super::pipeline(
             device,
@@ -174,7 +186,7 @@ impl InstancesPass {
             &layout("instance billboards", &billboard_layout),
             &shader,
             ("vs_billboard", "fs_billboard"),
-            &[Some(instance_buffer)],
+            &[Some(INSTANCE_BUFFER)],
         );
         let (atlas, normals) = (models::atlas(device), models::atlas(device));
         let array = |t: &wgpu::Texture| {
@@ -208,6 +220,9 @@ impl InstancesPass {
         });
         Self {
             model_pipeline,
+            model_pipeline_layout,
+            shader,
+            caster: None,
             model_layout,
             model_bind_group,
             billboard_pipeline,
@@ -291,22 +306,49 @@ impl InstancesPass {
 
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw) {
         let Some(buffer) = &draw.buffer else { return };
-        if !draw.models.is_empty() {
-            pass.set_pipeline(&self.model_pipeline);
-            pass.set_bind_group(0, &self.model_bind_group, &[]);
-            pass.set_vertex_buffer(1, buffer.slice(..));
-            for (slot, range) in &draw.models {
-                let model = &self.models[*slot as usize];
-                pass.set_vertex_buffer(0, model.vertices.slice(..));
-                pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..model.index_count, 0, range.clone());
-            }
-        }
+        self.record_models(pass, &self.model_pipeline, draw);
         if !draw.billboards.is_empty() {
             pass.set_pipeline(&self.billboard_pipeline);
             pass.set_bind_group(0, &self.billboard_bind_group, &[]);
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(0..6, draw.billboards.clone());
+        }
+    }
+
+    fn record_models(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, draw: &InstancesDraw) {
+        let Some(buffer) = &draw.buffer else { return };
+        if draw.models.is_empty() {
+            return;
+        }
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(0, &self.model_bind_group, &[]);
+        pass.set_vertex_buffer(1, buffer.slice(..));
+        for (slot, range) in &draw.models {
+            let model = &self.models[*slot as usize];
+            pass.set_vertex_buffer(0, model.vertices.slice(..));
+            pass.set_index_buffer(model.indices.slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..model.index_count, 0, range.clone());
+        }
+    }
+
+    /// The scene no longer casts shadows: the depth-only pipeline goes.
+    pub fn drop_casters(&mut self) {
+        self.caster = None;
+    }
+
+    /// Builds the depth-only pipeline the first time a frame casts shadows.
+    pub fn prepare_casters(&mut self, device: &wgpu::Device) {
+        if self.caster.is_none() {
+            let (layout, shader) = (&self.model_pipeline_layout, &self.shader);
+            self.caster =
+                Some(super::caster_pipeline(device, "instance casters", layout, shader, "vs_model", &model_buffers()));
+        }
+    }
+
+    /// Draws the models this frame shows into a shadow map.
+    pub fn record_casters(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw) {
+        if let Some(caster) = &self.caster {
+            self.record_models(pass, caster, draw);
         }
     }
 

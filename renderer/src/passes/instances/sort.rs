@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use super::InstancesView;
 use super::models::{GpuInstance, GpuModel};
-use crate::camera::Frustum;
+use crate::camera::{Frustum, Sees};
 
 /// One instance of a tile, ready for sorting.
 pub struct Placed {

@@ -7,7 +7,7 @@ use glam::DVec3;
 use relief_source::{Extent, geodesy};
 use wgpu::util::DeviceExt;
 
-use crate::camera::{Frustum, Pose, View};
+use crate::camera::{Pose, Sees, View};
 use crate::clipmap::{Clipmap, TerrainSamples};
 use crate::surface::Surface;
 use crate::uniforms::split;
@@ -24,6 +24,8 @@ pub struct BaseVertex {
     pub normal: [f32; 4],
     pub color: [f32; 4],
 }
+
+const _: () = assert!(size_of::<BaseVertex>() == 64, "the layout of passes::VEC4_VERTICES");
 
 /// The coarse grid of the whole scene under the clipmap: every sample of
 /// tile level 0, uploaded once; each frame draws every 1st, 2nd or 4th of
@@ -121,7 +123,7 @@ impl Base {
         view: &View,
         pose: &Pose,
         pixel_angle: f64,
-        cull: Option<&Frustum>,
+        cull: Option<&dyn Sees>,
     ) -> Option<((wgpu::Buffer, wgpu::Buffer, u32), f64)> {
         let base = self;
         let planet = surface.is_planet();

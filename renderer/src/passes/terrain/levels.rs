@@ -9,7 +9,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-use crate::camera::{Frustum, Pose, View};
+use crate::camera::{Pose, Sees, View};
 use crate::clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, StorageRect};
 use crate::surface::Surface;
 
@@ -141,14 +141,15 @@ impl Levels {
 
     /// What each active level draws: every cell but the hole the next
     /// finer level fills, by blocks, leaving out the blocks `cull` (the
-    /// view's frustum and the eye) shows wholly outside the view.
+    /// view's frustum, or a shadow cascade's box, and the eye) shows wholly
+    /// outside it.
     pub fn draws(
         &mut self,
         device: &wgpu::Device,
         surface: &Surface,
         clipmap: &Clipmap,
         active: &[u8],
-        cull: Option<(&Frustum, DVec3)>,
+        cull: Option<(&dyn Sees, DVec3)>,
     ) -> Vec<LevelDraw> {
         let n = clipmap.config.n;
         let mut draws = Vec::new();
@@ -193,7 +194,7 @@ impl Levels {
 /// edge may blend towards), lies wholly outside `frustum`. Bounds are taken
 /// in f64 from the level's stored positions; a block without terrain is
 /// out of view.
-fn in_view(level: &ClipLevel, block: &Block, frustum: &Frustum, eye: DVec3) -> bool {
+fn in_view(level: &ClipLevel, block: &Block, frustum: &dyn Sees, eye: DVec3) -> bool {
     let n = level.n;
     let [i0, i1, j0, j1] = block.cells;
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));

@@ -12,7 +12,7 @@ use wgpu::util::DeviceExt;
 use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
 use self::levels::{LevelDraw, LevelUniform, Levels};
-use crate::camera::{Frustum, Pose, View};
+use crate::camera::{Frustum, Pose, Sees, View};
 use crate::clipmap::{COLOR_DETAIL, Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
@@ -29,6 +29,19 @@ pub struct TerrainPass {
     levels: Levels,
     bind_group: wgpu::BindGroup,
     base: Option<Base>,
+    /// What the `shadows` effect's depth-only twin of the levels' pipeline
+    /// is made from, and that twin once a frame casts shadows.
+    layout: wgpu::PipelineLayout,
+    shader: wgpu::ShaderModule,
+    /// The levels' and the base's.
+    caster: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
+}
+
+/// What a shadow cascade draws of the terrain: the base's cells in its
+/// box, and each level's blocks.
+pub struct TerrainCasters {
+    base: Option<Mesh>,
+    levels: Vec<LevelDraw>,
 }
 
 /// What a frame of the terrain draws: the base's cells (and how far the
@@ -84,20 +97,11 @@ impl TerrainPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let base_attributes = wgpu::vertex_attr_array![0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4];
         let pipeline = |label, entries, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
             super::pipeline(device, label, &pipeline_layout, &shader, entries, buffers)
         };
         let level_pipeline = pipeline("levels", ("vs_level", "fs_level"), &[]);
-        let base_pipeline = pipeline(
-            "base",
-            ("vs_base", "fs_base"),
-            &[Some(wgpu::VertexBufferLayout {
-                array_stride: size_of::<BaseVertex>() as u64,
-                step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &base_attributes,
-            })],
-        );
+        let base_pipeline = pipeline("base", ("vs_base", "fs_base"), &super::VEC4_VERTICES);
         let layers = config.levels as u32;
         let array = |label, side: usize, format| {
             let side = side as u32;
@@ -155,6 +159,9 @@ impl TerrainPass {
             levels: Levels::new(positions, colors, config.levels),
             bind_group,
             base: None,
+            layout: pipeline_layout,
+            shader,
+            caster: None,
         })
     }
 
@@ -202,10 +209,18 @@ impl TerrainPass {
         let (base, sink) = self
             .base
             .as_ref()
-            .and_then(|b| b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle, cull))
+            .and_then(|b| {
+                let cull = cull.map(|f| f as &dyn Sees);
+                b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle, cull)
+            })
             .unzip();
-        let levels =
-            self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active, cull.map(|f| (f, view.eye)));
+        let levels = self.levels.draws(
+            &gpu.device,
+            surface,
+            &self.clipmap,
+            &update.active,
+            cull.map(|f| (f as &dyn Sees, view.eye)),
+        );
         TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update }
     }
 
@@ -215,8 +230,13 @@ impl TerrainPass {
         if let Some(mesh) = &draw.base {
             self.record_mesh(pass, mesh);
         }
-        pass.set_pipeline(&self.level_pipeline);
-        for (slot, level) in draw.levels.iter().enumerate() {
+        self.record_levels(pass, &self.level_pipeline, &draw.levels);
+    }
+
+    fn record_levels(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, levels: &[LevelDraw]) {
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(pipeline);
+        for (slot, level) in levels.iter().enumerate() {
             pass.set_index_buffer(self.levels.cells(level).slice(..), wgpu::IndexFormat::Uint32);
             for range in &level.ranges {
                 pass.draw_indexed(range.clone(), 0, slot as u32..slot as u32 + 1);
@@ -224,10 +244,71 @@ impl TerrainPass {
         }
     }
 
+    /// What a shadow cascade sees (`cull`) of the terrain this frame draws
+    /// (`draw`, from `pose` with `view`): the base's cells and the levels'
+    /// blocks. The depth-only pipelines are built the first time.
+    #[expect(clippy::too_many_arguments, reason = "the frame's parts, each used once")]
+    pub fn casters(
+        &mut self,
+        device: &wgpu::Device,
+        surface: &Surface,
+        draw: &TerrainDraw,
+        cull: &dyn Sees,
+        view: &View,
+        pose: &Pose,
+        pixel_angle: f64,
+    ) -> TerrainCasters {
+        if self.caster.is_none() {
+            let (layout, shader) = (&self.layout, &self.shader);
+            self.caster = Some((
+                super::caster_pipeline(device, "terrain casters", layout, shader, "vs_level", &[]),
+                super::caster_pipeline(
+                    device,
+                    "terrain base casters",
+                    layout,
+                    shader,
+                    "vs_base",
+                    &super::VEC4_VERTICES,
+                ),
+            ));
+        }
+        let active = &draw.update.active;
+        let base = self
+            .base
+            .as_ref()
+            .and_then(|b| b.cells(device, surface, &self.clipmap, active, view, pose, pixel_angle, Some(cull)))
+            .map(|(mesh, _)| mesh);
+        let levels = self.levels.draws(device, surface, &self.clipmap, active, Some((cull, view.eye)));
+        TerrainCasters { base, levels }
+    }
+
+    /// Draws what `casters` chose into a shadow map.
+    pub fn record_casters(&self, pass: &mut wgpu::RenderPass<'_>, casters: &TerrainCasters) {
+        let Some((levels, base)) = &self.caster else { return };
+        if let Some(mesh) = &casters.base {
+            self.record_mesh_with(pass, base, mesh);
+        }
+        self.record_levels(pass, levels, &casters.levels);
+    }
+
+    /// The scene no longer casts shadows: the depth-only pipeline goes.
+    pub fn drop_casters(&mut self) {
+        self.caster = None;
+    }
+
     /// Draws a mesh of base vertices (the base, or the full reference mesh).
-    pub fn record_mesh(&self, pass: &mut wgpu::RenderPass<'_>, (vertices, indices, count): &Mesh) {
+    pub fn record_mesh(&self, pass: &mut wgpu::RenderPass<'_>, mesh: &Mesh) {
+        self.record_mesh_with(pass, &self.base_pipeline, mesh);
+    }
+
+    fn record_mesh_with(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipeline: &wgpu::RenderPipeline,
+        (vertices, indices, count): &Mesh,
+    ) {
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_pipeline(&self.base_pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_vertex_buffer(0, vertices.slice(..));
         pass.set_index_buffer(indices.slice(..), wgpu::IndexFormat::Uint32);
         pass.draw_indexed(0..*count, 0, 0..1);

@@ -1,0 +1,352 @@
+//! The `shadows` effect: cascaded shadow maps from the sun. The view is
+//! split by distance (`cascades.rs`); each slice's box, seen from the sun,
+//! gets a depth map into which the terrain's levels, the buildings and the
+//! instances' models are drawn by depth-only twins of their own pipelines
+//! (the frame uniform carrying the cascade's matrix). A full-screen pass
+//! then takes from each drawn pixel the sunlight the maps say is hidden
+//! (`shadows.wgsl`), and the atmosphere, when declared, reads the same maps
+//! for its in-scattering (`lookup.wgsl`). Built only for a scene that
+//! declares it.
+
+pub mod cascades;
+
+use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
+use wgpu::util::DeviceExt;
+
+use super::buildings::{BuildingsDraw, BuildingsPass};
+use super::instances::{InstancesDraw, InstancesPass};
+use super::overlay::{Eye, Overlay, over_frame};
+use super::terrain::{TerrainDraw, TerrainPass};
+use crate::camera::{Pose, View};
+use crate::error::RenderError;
+use crate::gpu::Gpu;
+use crate::surface::Surface;
+use crate::target::{DEPTH_FORMAT, Target, wait};
+use crate::uniforms::FrameUniform;
+
+/// The shadows' knobs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shadows {
+    /// Maps the view is split into by distance (`shadow_cascades`): an
+    /// accuracy knob.
+    pub cascades: u32,
+    /// Texels to a side of each map (`shadow_map_size`): an accuracy knob.
+    pub map_size: u32,
+    /// How far from the eye shadows are cast, metres (`distance_m`).
+    pub distance_m: f64,
+}
+
+impl Shadows {
+    pub const MAX_CASCADES: u32 = 4;
+    pub const DEFAULT: Self = Self { cascades: 3, map_size: 2048, distance_m: 20_000.0 };
+
+    /// Each value in its range, or the field and what is wrong.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !(1..=Self::MAX_CASCADES).contains(&self.cascades) {
+            return Err(("shadow_cascades", format!("{} is not from 1 to {}", self.cascades, Self::MAX_CASCADES)));
+        }
+        if !(256..=8192).contains(&self.map_size) || !self.map_size.is_power_of_two() {
+            return Err(("shadow_map_size", format!("{} is not a power of two from 256 to 8192", self.map_size)));
+        }
+        if !(self.distance_m.is_finite() && (100.0..=1_000_000.0).contains(&self.distance_m)) {
+            return Err(("distance_m", format!("{} is not from 100 to 1,000,000 m", self.distance_m)));
+        }
+        Ok(())
+    }
+}
+
+/// The lookup every pass reading the maps prepends (group 1).
+pub const LOOKUP: &str = include_str!("lookup.wgsl");
+
+/// Texels either side of each looked-up one in the shadows' filter.
+const FILTER_RADIUS: f32 = 1.0;
+
+/// A sun lower than this (sine of its elevation) casts no maps: its
+/// shadows would stretch past any box, and the lighting's twilight has
+/// already taken its light.
+const LOWEST_SUN: f64 = 0.01;
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
+struct CascadeUniform {
+    clip: [[f32; 4]; 4],
+    params: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
+struct CascadesUniform {
+    items: [CascadeUniform; Shadows::MAX_CASCADES as usize],
+    info: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
+struct ShadowViewUniform {
+    eye: Eye,
+    params: [f32; 4],
+}
+
+/// The maps of one size and count, and the lookup's bind group over them.
+struct Maps {
+    size: u32,
+    layers: Vec<wgpu::TextureView>,
+    lookup: wgpu::BindGroup,
+}
+
+/// What casts shadows in this frame: the terrain's levels, and the
+/// buildings and instances drawn, with what the frame drew of them.
+pub struct Casters<'a> {
+    pub terrain: &'a mut TerrainPass,
+    pub surface: &'a Surface,
+    /// What the frame drew of the terrain.
+    pub draw: &'a TerrainDraw,
+    pub buildings: Option<(&'a mut BuildingsPass, &'a BuildingsDraw)>,
+    pub instances: Option<(&'a mut InstancesPass, &'a InstancesDraw)>,
+}
+
+/// Where the frame is seen from and lit.
+pub struct ShadowView<'a> {
+    pub view: &'a View,
+    pub pose: &'a Pose,
+    pub aspect: f64,
+    /// The angle one pixel of the frame spans, radians.
+    pub pixel_angle: f64,
+    pub eye: Eye,
+    /// Towards the sun (world axes), and the sine of its elevation.
+    pub sun: DVec3,
+    pub sin_elevation: f64,
+    /// Distance from the eye to the ground under it, metres.
+    pub above_ground_m: f64,
+    /// The frame's uniform, each cascade's drawn with its own matrix.
+    pub frame: FrameUniform,
+}
+
+/// The shadows pass: maps, the lookup's layout and uniform, and the
+/// overlay taking the hidden sunlight away.
+pub struct ShadowsPass {
+    overlay: Overlay,
+    lookup_layout: wgpu::BindGroupLayout,
+    cascades_buffer: wgpu::Buffer,
+    sampler: wgpu::Sampler,
+    maps: Option<Maps>,
+}
+
+impl ShadowsPass {
+    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty,
+            count: None,
+        };
+        let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadow lookup"),
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(size_of::<CascadesUniform>() as u64),
+                    },
+                ),
+                entry(
+                    1,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Depth,
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                ),
+                entry(2, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison)),
+            ],
+        });
+        // Multiplies the frame by the factor the overlay answers.
+        let blend = wgpu::BlendState {
+            color: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::Src,
+                operation: wgpu::BlendOperation::Add,
+            },
+            alpha: wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::Zero,
+                dst_factor: wgpu::BlendFactor::One,
+                operation: wgpu::BlendOperation::Add,
+            },
+        };
+        let source = format!("{LOOKUP}\n{}", include_str!("shadows.wgsl"));
+        let overlay = Overlay::new::<ShadowViewUniform>(
+            device,
+            frame_buffer,
+            ("shadows", &source),
+            over_frame(blend),
+            Some(&lookup_layout),
+        );
+        let cascades_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("shadow cascades"),
+            contents: bytemuck::bytes_of(&CascadesUniform::default()),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        // Lit where the point is at least as near the sun as the map's.
+        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("shadow test"),
+            mag_filter: wgpu::FilterMode::Linear,
+            min_filter: wgpu::FilterMode::Linear,
+            compare: Some(wgpu::CompareFunction::GreaterEqual),
+            ..Default::default()
+        });
+        Self { overlay, lookup_layout, cascades_buffer, sampler, maps: None }
+    }
+
+    /// The layout of the cascades' bind group, for passes that read them.
+    pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
+        &self.lookup_layout
+    }
+
+    /// The cascades' bind group (after `run`).
+    pub fn lookup(&self) -> Option<&wgpu::BindGroup> {
+        self.maps.as_ref().map(|m| &m.lookup)
+    }
+
+    /// The frame's shadows: the cascades fitted to the view, the casters
+    /// drawn into their maps, then the hidden sunlight taken from what the
+    /// frame drew. The frame uniform is the camera's again afterwards.
+    pub fn run(
+        &mut self,
+        gpu: &Gpu,
+        frame_buffer: &wgpu::Buffer,
+        target: &Target,
+        shadows: &Shadows,
+        at: &ShadowView<'_>,
+        casters: Casters<'_>,
+    ) -> Result<(), RenderError> {
+        let maps = self.maps(gpu, shadows);
+        let fitted = if at.sin_elevation < LOWEST_SUN {
+            Vec::new()
+        } else {
+            let near = (at.above_ground_m * 0.5).max(1.0);
+            let far = shadows.distance_m.max(near * 2.0);
+            cascades::fit(at.view, at.aspect, at.sun, at.sin_elevation, (near, far), shadows.cascades, shadows.map_size)
+        };
+        let Casters { terrain, surface, draw, mut buildings, mut instances } = casters;
+        if let Some((pass, _)) = &mut buildings {
+            pass.prepare_casters(&gpu.device);
+        }
+        if let Some((pass, _)) = &mut instances {
+            pass.prepare_casters(&gpu.device);
+        }
+        for (cascade, layer) in fitted.iter().zip(&maps.layers) {
+            let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, at.view, at.pose, at.pixel_angle);
+            let frame = FrameUniform { view_proj: cascade.clip.as_mat4().to_cols_array_2d(), ..at.frame };
+            gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&frame));
+            let mut encoder =
+                gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadow casters") });
+            {
+                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some("shadow casters"),
+                    color_attachments: &[],
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: layer,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(0.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                terrain.record_casters(&mut pass, &drawn);
+                if let Some((b, draw)) = &buildings {
+                    b.record_casters(&mut pass, draw);
+                }
+                if let Some((i, draw)) = &instances {
+                    i.record_casters(&mut pass, draw);
+                }
+            }
+            gpu.queue.submit([encoder.finish()]);
+        }
+        gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&at.frame));
+        let mut u = CascadesUniform::default();
+        for (slot, c) in u.items.iter_mut().zip(&fitted) {
+            // Half a texel of slope-free bias, in map depth.
+            let bias = 0.5 * c.texel_m * c.depth_per_m;
+            *slot = CascadeUniform {
+                clip: c.clip.as_mat4().to_cols_array_2d(),
+                params: [c.texel_m as f32, bias as f32, 0.0, 0.0],
+            };
+        }
+        u.info = [fitted.len() as f32, 1.0 / shadows.map_size as f32, 0.0, 0.0];
+        gpu.queue.write_buffer(&self.cascades_buffer, 0, bytemuck::bytes_of(&u));
+        if fitted.is_empty() {
+            return wait(gpu);
+        }
+        let view = ShadowViewUniform { eye: at.eye, params: [FILTER_RADIUS, 0.0, 0.0, 0.0] };
+        let bind_group = self.overlay.prepare(gpu, frame_buffer, target.depth_view(), &view);
+        let lookup = self.maps.as_ref().map(|m| &m.lookup);
+        target.run_overlay(gpu, "shadows", |pass| self.overlay.record(pass, &bind_group, lookup))
+    }
+
+    /// The maps for `shadows`' size and count, made anew when they change.
+    fn maps(&mut self, gpu: &Gpu, shadows: &Shadows) -> &Maps {
+        let kept =
+            self.maps.take().filter(|m| m.size == shadows.map_size && m.layers.len() == shadows.cascades as usize);
+        let maps = match kept {
+            Some(maps) => maps,
+            None => Maps::new(gpu, shadows, &self.lookup_layout, &self.cascades_buffer, &self.sampler),
+        };
+        self.maps.insert(maps)
+    }
+}
+
+impl Maps {
+    fn new(
+        gpu: &Gpu,
+        shadows: &Shadows,
+        layout: &wgpu::BindGroupLayout,
+        cascades: &wgpu::Buffer,
+        sampler: &wgpu::Sampler,
+    ) -> Self {
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadow maps"),
+            size: wgpu::Extent3d {
+                width: shadows.map_size,
+                height: shadows.map_size,
+                depth_or_array_layers: shadows.cascades,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: DEPTH_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let layers = (0..shadows.cascades)
+            .map(|layer| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect();
+        let all = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        let lookup = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadow lookup"),
+            layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: cascades.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&all) },
+                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(sampler) },
+            ],
+        });
+        Self { size: shadows.map_size, layers, lookup }
+    }
+}

@@ -1,0 +1,92 @@
+//! Shadows against a CPU ray-cast on an analytic height field: the drawn
+//! ground in shadow is where the ray-cast says, on the side away from the
+//! sun; the pass exists only when asked for; hard suns give valid images.
+
+#![allow(clippy::unwrap_used, reason = "a test")]
+
+mod common;
+
+use common::raycast::{peaks, score};
+use common::{pose, save, utm_scene_of};
+use relief_renderer::{ClipmapConfig, Pose, RenderSettings, Shadows, SunAngles};
+
+const SUN: SunAngles = SunAngles { azimuth_deg: 250.0, elevation_deg: 12.0 };
+const LIT: RenderSettings = RenderSettings { sun: SUN, ..RenderSettings::new(480, 270, true) };
+/// The lighting's terms for a sun well above the horizon.
+const LIGHT: (f64, f64) = (0.35, 0.75);
+
+/// South-east of the peaks, looking north-west down over them.
+fn over_the_peaks() -> Pose {
+    pose(302_300.0, 5_095_300.0, 3600.0, 340.0, -40.0)
+}
+
+#[test]
+fn shadows_fall_where_the_ray_cast_says_and_away_from_the_sun() {
+    let (mut renderer, source) = utm_scene_of(ClipmapConfig::default(), peaks);
+    let at = over_the_peaks();
+    let lit = renderer.render(&source, &at, &LIT).unwrap();
+    assert!(!renderer.counters().is_built("shadows"), "built for a frame without shadows");
+    let settings = RenderSettings { shadows: Some(Shadows::DEFAULT), ..LIT };
+    let shadowed = renderer.render(&source, &at, &settings).unwrap();
+    save(&lit, "shadows-off.png");
+    save(&shadowed, "shadows-on.png");
+    let pass = renderer.counters().stats().iter().find(|s| s.name == "shadows").copied().unwrap();
+    assert!(pass.built && pass.runs == 1 && pass.total_ms > 0.0, "{pass:?}");
+    assert!(shadowed.passes.iter().any(|(name, _)| *name == "shadows"));
+
+    let s = score(&lit, &shadowed, peaks, SUN, LIGHT);
+    eprintln!("{s:?}, misclassified {:.4}", s.misclassified());
+    assert!(s.compared > 40_000, "{s:?}");
+    // The peaks cast long shadows: a good part of the ground is in them.
+    assert!(s.reference_shadowed > s.compared / 50, "{s:?}");
+    // Tolerance: 2% of the ground pixels (shadow edges a map texel wide,
+    // and the drawn mesh's facets against the analytic surface).
+    assert!(s.misclassified() < 0.02, "{s:?}");
+    // Shadows lie on the side of the peaks away from the sun.
+    assert!(s.towards_sun_m < -500.0, "{s:?}");
+
+    // Undeclared again: the pass and its maps go.
+    renderer.render(&source, &at, &LIT).unwrap();
+    assert!(!renderer.counters().is_built("shadows"));
+}
+
+#[test]
+fn hard_suns_give_valid_images() {
+    let (mut renderer, source) = utm_scene_of(ClipmapConfig::default(), peaks);
+    let at = over_the_peaks();
+    for (name, elevation_deg) in
+        [("zenith", 90.0), ("0.1 degree below the horizon", -0.1), ("grazing", 0.5), ("night", -30.0)]
+    {
+        let sun = SunAngles { azimuth_deg: 250.0, elevation_deg };
+        let settings = RenderSettings { sun, shadows: Some(Shadows::DEFAULT), ..LIT };
+        let frame = renderer.render(&source, &at, &settings).unwrap();
+        let lit = renderer.render(&source, &at, &RenderSettings { sun, ..LIT }).unwrap();
+        assert!(frame.depth.iter().all(|d| d.is_finite()), "{name}");
+        let drawn = frame.depth.iter().filter(|&&d| d > 0.0).count();
+        assert!(drawn > frame.depth.len() / 2, "{name}: {drawn} pixels drawn");
+        // Shadows only ever take light away.
+        let brighter = frame.rgba.chunks(4).zip(lit.rgba.chunks(4)).filter(|(a, b)| a[0] > b[0].saturating_add(1));
+        assert_eq!(brighter.count(), 0, "{name}");
+        if elevation_deg <= 0.0 {
+            assert_eq!(frame.rgba, lit.rgba, "{name}: a sun below the horizon casts no maps");
+        }
+    }
+}
+
+#[test]
+fn shadows_without_lighting_and_bad_knobs_are_refused() {
+    let (mut renderer, source) = utm_scene_of(ClipmapConfig::default(), peaks);
+    let at = over_the_peaks();
+    let unlit = RenderSettings { lighting: false, shadows: Some(Shadows::DEFAULT), ..LIT };
+    let e = renderer.render(&source, &at, &unlit).unwrap_err().to_string();
+    assert!(e.contains("lighting"), "{e}");
+    for (shadows, field) in [
+        (Shadows { cascades: 0, ..Shadows::DEFAULT }, "shadow_cascades"),
+        (Shadows { cascades: 5, ..Shadows::DEFAULT }, "shadow_cascades"),
+        (Shadows { map_size: 1000, ..Shadows::DEFAULT }, "shadow_map_size"),
+        (Shadows { distance_m: f64::NAN, ..Shadows::DEFAULT }, "distance_m"),
+    ] {
+        let e = renderer.render(&source, &at, &RenderSettings { shadows: Some(shadows), ..LIT }).unwrap_err();
+        assert!(e.to_string().contains(field), "{e}");
+    }
+}
