@@ -240,30 +240,32 @@ fn effects(
 ) -> anyhow::Result<()> {
     let fog = snap.manifest.effect_settings.fog.context("the demo declares fog")?;
     let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
+    let shadows = snap.manifest.effect_settings.shadows.context("the demo declares shadows")?;
     let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
         let runs = still_frames(gpu, snap, terrain, &settings, at)?;
         let total = median(runs.iter().map(total_ms).collect());
         let effect_ms = median(
             runs.iter()
-                .map(|f| f.passes.iter().filter(|p| p.0 == "fog" || p.0 == "atmosphere").map(|p| p.1).sum())
+                .map(|f| f.passes.iter().filter(|p| ["fog", "atmosphere", "shadows"].contains(&p.0)).map(|p| p.1).sum())
                 .collect(),
         );
         Ok((total, effect_ms, runs.into_iter().last().context("frames")?))
     };
     let cases = [
-        ("lighting alone", None, None),
-        ("lighting + atmosphere", Some(atmosphere), None),
-        ("lighting + fog", None, Some(fog)),
-        ("all effects (lighting, atmosphere, fog)", Some(atmosphere), Some(fog)),
+        ("lighting alone", None, None, None),
+        ("lighting + atmosphere", Some(atmosphere), None, None),
+        ("lighting + fog", None, Some(fog), None),
+        ("lighting + shadows", None, None, Some(shadows)),
+        ("all effects (lighting, atmosphere, fog, shadows)", Some(atmosphere), Some(fog), Some(shadows)),
     ];
     println!("\n### Effects: the default still frame (n 127, L 8), median of 7");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!("| effects | effect passes ms | frame ms | / lighting alone |");
     println!("|---|---|---|---|");
     let mut alone = f64::NAN;
-    for (label, atmosphere, fog) in cases {
-        let (total, effect_ms, _) = still(RenderSettings { atmosphere, fog, ..SETTINGS }, &pose(10))?;
-        if atmosphere.is_none() && fog.is_none() {
+    for (label, atmosphere, fog, shadows) in cases {
+        let (total, effect_ms, _) = still(RenderSettings { atmosphere, fog, shadows, ..SETTINGS }, &pose(10))?;
+        if atmosphere.is_none() && fog.is_none() && shadows.is_none() {
             alone = total;
         }
         println!("| {label} | {effect_ms:.1} | {total:.1} | {:.2}x |", total / alone);

@@ -2,23 +2,67 @@
 //! effect takes exactly its own options, in range, or is refused naming the
 //! option; none is accepted and ignored.
 
-use relief_renderer::{Atmosphere, Fog};
+use relief_renderer::{Atmosphere, Fog, Shadows};
 
 /// What `[effects]` asks of the renderer beyond which effects are on.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct EffectSettings {
-    /// `atmosphere = { top_m }`, with `[quality] atmosphere_steps`.
+    /// `atmosphere = { top_m }`, with `[quality] atmosphere_steps` and
+    /// `atmosphere_downsample`.
     pub atmosphere: Option<Atmosphere>,
     /// `fog = { density, falloff_m, base_m, color }`.
     pub fog: Option<Fog>,
+    /// `shadows = { distance_m }`, with `[quality] shadow_cascades` and
+    /// `shadow_map_size`.
+    pub shadows: Option<Shadows>,
 }
 
+/// The effects' quality knobs (`[quality]`, and a request's overrides),
+/// and the effect each belongs to.
+pub const QUALITY_KNOBS: &[(&str, &str)] = &[
+    ("atmosphere_steps", "atmosphere"),
+    ("atmosphere_downsample", "atmosphere"),
+    ("shadow_cascades", "shadows"),
+    ("shadow_map_size", "shadows"),
+];
+
 impl EffectSettings {
+    /// Sets quality knob `name` (one of `QUALITY_KNOBS`) to `value`:
+    /// Err(knob, message) when the scene does not declare its effect or
+    /// the value is out of range.
+    pub fn set_quality(&mut self, name: &str, value: u32) -> Result<(), (String, String)> {
+        let undeclared =
+            |effect: &str| (name.to_owned(), format!("the scene declares no {effect} ([effects] {effect})"));
+        let checked = |r: Result<(), (&str, String)>| r.map_err(|(knob, message)| (knob.to_owned(), message));
+        match name {
+            "atmosphere_steps" | "atmosphere_downsample" => {
+                let a = self.atmosphere.as_mut().ok_or_else(|| undeclared("atmosphere"))?;
+                if name == "atmosphere_steps" {
+                    a.steps = value;
+                } else {
+                    a.downsample = value;
+                }
+                checked(a.validate())
+            }
+            "shadow_cascades" | "shadow_map_size" => {
+                let s = self.shadows.as_mut().ok_or_else(|| undeclared("shadows"))?;
+                if name == "shadow_cascades" {
+                    s.cascades = value;
+                } else {
+                    s.map_size = value;
+                }
+                checked(s.validate())
+            }
+            _ => Err((name.to_owned(), "not an effect's quality knob".into())),
+        }
+    }
+
     /// Adds effect `name`'s options from `params`: Err(option, message).
     pub fn add(&mut self, name: &str, params: &toml::Table) -> Result<(), (String, String)> {
         match name {
             "fog" => self.fog = Some(fog(params)?),
             "atmosphere" => self.atmosphere = Some(atmosphere(params)?),
+            "shadows" => self.shadows = Some(shadows(params)?),
             _ => {
                 if let Some(key) = params.keys().next() {
                     return Err((key.clone(), "unknown option (this effect takes none)".into()));
@@ -73,6 +117,27 @@ fn atmosphere(params: &toml::Table) -> Result<Atmosphere, (String, String)> {
     }
     atmosphere.validate().map_err(|(option, message)| (option.to_owned(), message))?;
     Ok(atmosphere)
+}
+
+/// `shadows`: how far from the eye they are cast (cascades and map size
+/// are quality knobs).
+fn shadows(params: &toml::Table) -> Result<Shadows, (String, String)> {
+    let mut shadows = Shadows::DEFAULT;
+    for (key, value) in params {
+        match key.as_str() {
+            "distance_m" => shadows.distance_m = number(key, value)?,
+            _ => {
+                return Err((
+                    key.clone(),
+                    "unknown option (shadows take distance_m; cascades and map size are [quality] shadow_cascades \
+                     and shadow_map_size)"
+                        .into(),
+                ));
+            }
+        }
+    }
+    shadows.validate().map_err(|(option, message)| (option.to_owned(), message))?;
+    Ok(shadows)
 }
 
 /// An option's number, or the option and what it is instead.

@@ -34,12 +34,13 @@ pub enum ManifestError {
 pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
 /// The effects a scene may declare, and the layers each one reads.
-pub const EFFECTS: &[(&str, &[&str])] = &[("lighting", &["height"]), ("atmosphere", &["height"]), ("fog", &["height"])];
+pub const EFFECTS: &[(&str, &[&str])] =
+    &[("lighting", &["height"]), ("atmosphere", &["height"]), ("fog", &["height"]), ("shadows", &["height"])];
 /// The effects the sun lights: a `[sun]` (or a request's sun) needs one.
-pub const SUNLIT: &[&str] = &["lighting", "atmosphere", "fog"];
+pub const SUNLIT: &[&str] = &["lighting", "atmosphere", "fog", "shadows"];
 /// Effects relief knows of but does not draw yet: refused by name, never
 /// accepted and ignored.
-pub const EFFECTS_NOT_YET: &[&str] = &["shadows", "water", "vegetation", "detail"];
+pub const EFFECTS_NOT_YET: &[&str] = &["water", "vegetation", "detail"];
 
 /// Layers the renderer draws, and the payload each must have.
 pub const LAYERS: &[(&str, PayloadKind)] = &[
@@ -156,6 +157,8 @@ struct RawQuality {
     instance_model_distance_m: Option<f64>,
     atmosphere_steps: Option<u32>,
     atmosphere_downsample: Option<u32>,
+    shadow_cascades: Option<u32>,
+    shadow_map_size: Option<u32>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -365,20 +368,22 @@ impl Manifest {
             effects.push(name);
         }
 
+        if effects.iter().any(|e| e == "shadows") && !effects.iter().any(|e| e == "lighting") {
+            return Err(field(
+                "effects.shadows",
+                "shadows take away the lighting's sunlight: declare lighting too".into(),
+            ));
+        }
         for (name, value) in [
             ("atmosphere_steps", raw.quality.atmosphere_steps),
             ("atmosphere_downsample", raw.quality.atmosphere_downsample),
+            ("shadow_cascades", raw.quality.shadow_cascades),
+            ("shadow_map_size", raw.quality.shadow_map_size),
         ] {
             let Some(value) = value else { continue };
-            let atmosphere = effect_settings.atmosphere.as_mut().ok_or_else(|| {
-                field(&format!("quality.{name}"), "the scene declares no atmosphere ([effects] atmosphere)".into())
-            })?;
-            if name == "atmosphere_steps" {
-                atmosphere.steps = value;
-            } else {
-                atmosphere.downsample = value;
-            }
-            atmosphere.validate().map_err(|(name, message)| field(&format!("quality.{name}"), message))?;
+            effect_settings
+                .set_quality(name, value)
+                .map_err(|(knob, message)| field(&format!("quality.{knob}"), message))?;
         }
         let mut quality = Quality::default();
         if let Some(r) = raw.quality.resampling {

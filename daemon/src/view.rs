@@ -13,6 +13,7 @@ use tokio::sync::{Semaphore, watch};
 
 pub use crate::camera::Camera;
 use crate::camera::{default_camera, pose};
+use crate::effects::EffectSettings;
 use crate::scene::{EventKind, Scene};
 pub use crate::scene_tiles::{ModelCache, SceneBuildings, SceneInstances, SceneTerrain};
 use crate::sun::{Sun, SunAngles};
@@ -98,8 +99,9 @@ pub struct Overrides {
     pub bands: Option<InstanceBands>,
     /// The sun of a request or a stream, over the scene's.
     pub sun: Option<Sun>,
-    /// `atmosphere_steps` for this frame (a scene with an atmosphere).
-    pub atmosphere_steps: Option<u32>,
+    /// The effects' settings with this frame's quality knobs, over the
+    /// scene's.
+    pub effects: Option<EffectSettings>,
 }
 
 impl Viewer {
@@ -196,7 +198,7 @@ impl Viewer {
         height: u32,
         overrides: Overrides,
     ) -> Result<Rendered, ViewError> {
-        let Overrides { clipmap, quality, bands, sun, atmosphere_steps } = overrides;
+        let Overrides { clipmap, quality, bands, sun, effects } = overrides;
         for (field, v) in [("width", width), ("height", height)] {
             if !(1..=MAX_IMAGE_SIDE).contains(&v) {
                 return Err(RenderError::Request {
@@ -252,15 +254,13 @@ impl Viewer {
         let sun = sun_spec
             .angles(camera.lon_deg, camera.lat_deg)
             .map_err(|message| RenderError::Request { field: "sun.time", message })?;
+        let effects = effects.unwrap_or(snap.manifest.effect_settings);
         let settings = RenderSettings {
             bands: bands.unwrap_or(snap.manifest.bands),
             sun,
-            atmosphere: snap
-                .manifest
-                .effect_settings
-                .atmosphere
-                .map(|a| relief_renderer::Atmosphere { steps: atmosphere_steps.unwrap_or(a.steps), ..a }),
-            fog: snap.manifest.effect_settings.fog,
+            atmosphere: effects.atmosphere,
+            fog: effects.fog,
+            shadows: effects.shadows,
             ..RenderSettings::new(width, height, lighting)
         };
         let frame = renderer.render_scene(&terrain, layers, &pose, &settings)?;
@@ -270,7 +270,7 @@ impl Viewer {
             let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
             ran.insert("lighting".to_owned(), terrain_ms);
         }
-        for effect in ["atmosphere", "fog"] {
+        for effect in ["shadows", "atmosphere", "fog"] {
             if let Some((_, ms)) = frame.passes.iter().find(|(p, _)| *p == effect) {
                 ran.insert(effect.to_owned(), *ms);
             }

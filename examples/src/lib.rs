@@ -258,6 +258,8 @@ lighting = {}
 atmosphere = {}
 # A light haze: the far ridges fade into it.
 fog = { density = 0.00006, falloff_m = 2000, color = '#c4ccd6' }
+# The ridges, the town and the trees cast shadows from the sun.
+shadows = {}
 
 # A late June afternoon: the sun in the west.
 [sun]

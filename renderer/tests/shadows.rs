@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::raycast::{peaks, score};
+use common::raycast::{PEAKS_TOP_M, peaks, reference, score};
 use common::{pose, save, utm_scene_of};
 use relief_renderer::{ClipmapConfig, Pose, RenderSettings, Shadows, SunAngles};
 
@@ -34,7 +34,7 @@ fn shadows_fall_where_the_ray_cast_says_and_away_from_the_sun() {
     assert!(pass.built && pass.runs == 1 && pass.total_ms > 0.0, "{pass:?}");
     assert!(shadowed.passes.iter().any(|(name, _)| *name == "shadows"));
 
-    let s = score(&lit, &shadowed, peaks, SUN, LIGHT);
+    let s = score(&reference(&lit, peaks, PEAKS_TOP_M, SUN, LIGHT), &lit, &shadowed);
     eprintln!("{s:?}, misclassified {:.4}", s.misclassified());
     assert!(s.compared > 40_000, "{s:?}");
     // The peaks cast long shadows: a good part of the ground is in them.

@@ -109,25 +109,112 @@ fn mean(f: &pb::RenderResponse, rows: std::ops::Range<usize>) -> [f64; 3] {
 }
 
 async fn frames_of(effects: &str, views: &[(pb::Camera, Option<pb::Sun>, Option<u32>)]) -> Vec<pb::RenderResponse> {
+    let views: Vec<_> = views
+        .iter()
+        .map(|(camera, sun, steps)| {
+            let quality = steps.map(|s| pb::QualityOverrides { atmosphere_steps: Some(s), ..Default::default() });
+            (*camera, sun.clone(), quality)
+        })
+        .collect();
+    frames_with(effects, &views).await.0
+}
+
+/// Frames of the hill scene with `effects`, each view with its camera, sun
+/// and quality overrides; and the scene's state after them.
+async fn frames_with(
+    effects: &str,
+    views: &[(pb::Camera, Option<pb::Sun>, Option<pb::QualityOverrides>)],
+) -> (Vec<pb::RenderResponse>, pb::SceneState) {
     let dir = tempfile::tempdir().unwrap();
     let daemon = Reliefd::start(&scenes::hill(dir.path(), effects).unwrap(), &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
     let mut out = Vec::new();
-    for (camera, sun, steps) in views {
+    for (camera, sun, quality) in views {
         let request = pb::RenderRequest {
             camera: Some(*camera),
             width: SIZE.0,
             height: SIZE.1,
             format: pb::ImageFormat::Rgba8 as i32,
-            quality: steps.map(|s| pb::QualityOverrides { atmosphere_steps: Some(s), ..Default::default() }),
+            quality: quality.clone(),
             sun: sun.clone(),
         };
         let mut views = relief_proto::v1::view_service_client::ViewServiceClient::new(channel.clone())
             .max_decoding_message_size(64 << 20);
         out.push(views.render(request).await.unwrap().into_inner());
     }
+    let state = SceneServiceClient::new(channel).get_state(pb::GetStateRequest {}).await.unwrap().into_inner();
     daemon.stop(&[]).unwrap();
-    out
+    (out, state)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shadows_fall_away_from_the_sun_and_cost_nothing_undeclared() {
+    // Straight down over the hill, the sun low in the west: its shadow
+    // lies east of it (right in the image).
+    let above = scenes::camera(10.25, 45.25, 25_000.0, 0.0, -90.0);
+    let west = Some(sun(270.0, 4.0));
+    let (off, off_state) = frames_with("[effects]\nlighting = {}\n", &[(above, west.clone(), None)]).await;
+    let knobs = pb::QualityOverrides { shadow_cascades: Some(1), shadow_map_size: Some(512), ..Default::default() };
+    let views =
+        [(above, west.clone(), None), (above, west.clone(), Some(knobs)), (above, Some(sun(270.0, -0.1)), None)];
+    let (on, on_state) = frames_with("[effects]\nlighting = {}\nshadows = {}\n", &views).await;
+
+    let idle = pass(&off[0], "shadows");
+    assert!(!idle.built && idle.runs == 0, "{idle:?}");
+    assert!(off[0].passes.iter().all(|p| p.pass != "shadows"));
+    assert!(off_state.effects.iter().all(|e| e.name != "shadows"));
+    let ran = pass(&on[0], "shadows");
+    assert!(ran.built && ran.runs >= 1 && ran.total_ms > 0.0, "{ran:?}");
+    let effect = on_state.effects.iter().find(|e| e.name == "shadows").unwrap();
+    assert!(effect.ran && effect.last_cost_ms > 0.0, "{effect:?}");
+
+    // Pixels the shadows darkened by more than 5%, by half of the image.
+    let (w, h) = (SIZE.0 as usize, SIZE.1 as usize);
+    let darkened = |f: &pb::RenderResponse, xs: std::ops::Range<usize>| {
+        xs.flat_map(|x| (0..h).map(move |y| (x, y)))
+            .filter(|&(x, y)| {
+                let (a, b): (f64, f64) = (pixel(&off[0], x, y).iter().sum(), pixel(f, x, y).iter().sum());
+                b < a * 0.95
+            })
+            .count()
+    };
+    let (west_half, east_half) = (darkened(&on[0], 0..w / 2), darkened(&on[0], w / 2..w));
+    assert!(east_half > w * h / 50, "east {east_half}, west {west_half}");
+    assert!(east_half > 10 * west_half.max(1), "east {east_half}, west {west_half}");
+    // The knobs are honoured: one small map draws other shadows, yet east.
+    assert_ne!(on[1].image, on[0].image, "one 512-texel cascade drew what three of 2048 did");
+    assert!(darkened(&on[1], w / 2..w) > 10 * darkened(&on[1], 0..w / 2).max(1));
+    // A sun just under the horizon: no maps, a valid image.
+    let dusk = &on[2];
+    assert_eq!(dusk.image.len(), w * h * 4);
+    assert!(pass(dusk, "shadows").runs >= 3);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn with_an_atmosphere_shadowed_air_scatters_no_sun() {
+    // East of the hill, low, looking west towards a low sun behind it: the
+    // sky just above the hill is seen through air in the hill's shadow.
+    let east_foot = scenes::camera(10.40, 45.25, 700.0, 270.0, 2.0);
+    let view = [(east_foot, Some(sun(270.0, 3.0)), None)];
+    let (bare, _) = frames_with("[effects]\nlighting = {}\n", &view).await;
+    let (plain, _) = frames_with("[effects]\nlighting = {}\natmosphere = {}\n", &view).await;
+    let (shadowed, _) = frames_with("[effects]\nlighting = {}\natmosphere = {}\nshadows = {}\n", &view).await;
+    let (w, h) = (SIZE.0 as usize, SIZE.1 as usize);
+    // Sky pixels: the clear colour where only the terrain is drawn. There
+    // the shadows' own pass changes nothing: any difference is the air's.
+    let clear = pixel(&bare[0], 0, 0);
+    let sky: Vec<(usize, usize)> =
+        (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).filter(|&(x, y)| pixel(&bare[0], x, y) == clear).collect();
+    assert!(sky.len() > w * h / 8, "{} sky pixels", sky.len());
+    let light = |f: &pb::RenderResponse| sky.iter().map(|&(x, y)| pixel(f, x, y).iter().sum::<f64>()).sum::<f64>();
+    let (lit_air, shaded_air) = (light(&plain[0]), light(&shadowed[0]));
+    assert!(shaded_air < lit_air * 0.99, "sky with shadows {shaded_air}, without {lit_air}");
+    // Only ever darker.
+    assert!(sky.iter().all(|&(x, y)| {
+        let (a, b) = (pixel(&plain[0], x, y), pixel(&shadowed[0], x, y));
+        (0..3).all(|k| b[k] <= a[k] + 1.0)
+    }));
+    assert!(pass(&shadowed[0], "atmosphere").built && pass(&shadowed[0], "shadows").built);
 }
 
 fn sun(azimuth_deg: f64, elevation_deg: f64) -> pb::Sun {
@@ -220,8 +307,14 @@ async fn from_space_the_planet_has_a_limb_and_a_pole_has_its_midnight_sun() {
 #[test]
 fn effects_relief_cannot_draw_are_refused_with_the_known_ones() {
     for (effects, message) in [
-        ("[effects]\nshadows = {}\n", "effects.shadows': not drawn yet (drawn: lighting, atmosphere, fog)"),
-        ("[effects]\nsmog = {}\n", "effects.smog': unknown effect (drawn: lighting, atmosphere, fog)"),
+        ("[effects]\nwater = {}\n", "effects.water': not drawn yet (drawn: lighting, atmosphere, fog, shadows)"),
+        ("[effects]\nsmog = {}\n", "effects.smog': unknown effect (drawn: lighting, atmosphere, fog, shadows)"),
+        ("[effects]\nshadows = {}\n", "effects.shadows': shadows take away the lighting's sunlight: declare lighting"),
+        ("[effects]\nlighting = {}\nshadows = { cascades = 2 }\n", "effects.shadows.cascades"),
+        ("[effects]\nlighting = {}\nshadows = { distance_m = 10 }\n", "effects.shadows.distance_m"),
+        ("[quality]\nshadow_cascades = 2\n", "declares no shadows"),
+        ("[effects]\nlighting = {}\nshadows = {}\n[quality]\nshadow_cascades = 5\n", "quality.shadow_cascades"),
+        ("[effects]\nlighting = {}\nshadows = {}\n[quality]\nshadow_map_size = 1000\n", "quality.shadow_map_size"),
         ("[effects]\natmosphere = { steps = 8 }\n", "effects.atmosphere.steps"),
         ("[quality]\natmosphere_steps = 8\n", "declares no atmosphere"),
         ("[effects]\natmosphere = {}\n[quality]\natmosphere_steps = 0\n", "quality.atmosphere_steps"),

@@ -16,6 +16,7 @@ use tokio_stream::{Stream, StreamExt, wrappers::ReceiverStream};
 use tokio_util::sync::CancellationToken;
 use tonic::Status;
 
+use crate::effects::EffectSettings;
 use crate::frames::{CameraSource, FrameHub, HubFrame, OpenView, StreamSpec, ViewSettings};
 use crate::navigate::{Gesture, navigate, pick};
 use crate::scene::Scene;
@@ -68,19 +69,8 @@ fn frame_request(
                 "no renderer precision to choose yet (f64 on the CPU, eye-relative f32 on the GPU)",
             ));
         }
-        if let Some(steps) = o.atmosphere_steps {
-            let Some(atmosphere) = snap.manifest.effect_settings.atmosphere else {
-                return Err(invalid_field(
-                    "quality.atmosphere_steps",
-                    "the scene declares no atmosphere ([effects] atmosphere)",
-                ));
-            };
-            relief_renderer::Atmosphere { steps, ..atmosphere }
-                .validate()
-                .map_err(|(field, message)| invalid_field(&format!("quality.{field}"), message))?;
-        }
     }
-    let atmosphere_steps = overrides.and_then(|o| o.atmosphere_steps);
+    let effects = overrides.map(|o| effect_overrides(&snap.manifest.effect_settings, o)).transpose()?;
     let clipmap = overrides.and_then(|o| {
         (o.clipmap_grid_size.is_some() || o.clipmap_levels.is_some()).then(|| ClipmapConfig {
             n: o.clipmap_grid_size.map_or(snap.manifest.clipmap.n, |n| n as usize),
@@ -119,13 +109,7 @@ fn frame_request(
             Ok(sun)
         })
         .transpose()?;
-    Ok(FrameRequest {
-        camera,
-        width,
-        height,
-        png,
-        overrides: Overrides { clipmap, quality, bands, sun, atmosphere_steps },
-    })
+    Ok(FrameRequest { camera, width, height, png, overrides: Overrides { clipmap, quality, bands, sun, effects } })
 }
 
 /// A request's camera in relief's types, checked against the scene (every
@@ -354,4 +338,23 @@ impl ViewCalls {
             generation: p.generation,
         }))
     }
+}
+
+/// The scene's effect settings with a request's quality knobs over them,
+/// each refused where the scene does not declare its effect.
+fn effect_overrides(scene: &EffectSettings, o: &QualityOverrides) -> Result<EffectSettings, Status> {
+    let mut effects = *scene;
+    let knobs = [
+        ("atmosphere_steps", o.atmosphere_steps),
+        ("shadow_cascades", o.shadow_cascades),
+        ("shadow_map_size", o.shadow_map_size),
+    ];
+    for (name, value) in knobs {
+        if let Some(value) = value {
+            effects
+                .set_quality(name, value)
+                .map_err(|(knob, message)| invalid_field(&format!("quality.{knob}"), message))?;
+        }
+    }
+    Ok(effects)
 }

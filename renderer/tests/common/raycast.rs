@@ -19,14 +19,18 @@ pub fn sun_dir(sun: SunAngles) -> DVec3 {
 }
 
 /// Whether the sun ray from ground point (x, y) meets `height` above it:
-/// marched in 5 m steps for 20 km.
-pub fn in_shadow(height: fn(f64, f64) -> f64, x: f64, y: f64, sun: DVec3) -> bool {
+/// marched in 5 m steps until it climbs above `top_m` (the surface's
+/// highest point) or has gone 20 km.
+pub fn in_shadow(height: fn(f64, f64) -> f64, top_m: f64, x: f64, y: f64, sun: DVec3) -> bool {
     let z = height(x, y);
-    (1..4000).any(|k| {
-        let p = DVec3::new(x, y, z) + sun * (f64::from(k) * 5.0);
-        height(p.x, p.y) > p.z
-    })
+    (1..4000)
+        .map(|k| DVec3::new(x, y, z) + sun * (f64::from(k) * 5.0))
+        .take_while(|p| p.z <= top_m)
+        .any(|p| height(p.x, p.y) > p.z)
 }
+
+/// The peaks' highest point, metres.
+pub const PEAKS_TOP_M: f64 = 2_200.0;
 
 /// The analytic surface's up-facing unit normal at (x, y).
 fn normal(height: fn(f64, f64) -> f64, x: f64, y: f64) -> DVec3 {
@@ -59,50 +63,73 @@ impl Score {
     }
 }
 
-/// Scores `shadowed` (a frame with shadows) against the ray-cast, `lit`
-/// being the same view without them: a pixel is drawn in shadow where it
-/// lost more than half of what full shadow would take. `(ambient,
-/// diffuse)` are the lighting's terms for this sun.
-pub fn score(
+/// One ground pixel the reference judges: whether the ray-cast finds it
+/// in shadow, and what full shadow would leave of its light.
+#[derive(Debug, Clone, Copy)]
+pub struct Judged {
+    pub pixel: usize,
+    pub in_shadow: bool,
+    pub full_shadow: f64,
+    /// Along the sun's horizontal direction from the peaks, metres.
+    pub towards_sun_m: f64,
+}
+
+/// The reference for the view of `lit` (a frame without shadows): every
+/// ground pixel facing the sun enough that a shadow shows (sunlight at
+/// least 0.15 of full) and not too dark to tell, ray-cast on `height`.
+/// `(ambient, diffuse)` are the lighting's terms for this sun.
+pub fn reference(
     lit: &Frame,
-    shadowed: &Frame,
     height: fn(f64, f64) -> f64,
+    top_m: f64,
     sun: SunAngles,
     (ambient, diffuse): (f64, f64),
-) -> Score {
+) -> Vec<Judged> {
     let s = sun_dir(sun);
     let across = DVec3::new(s.x, s.y, 0.0).normalize_or_zero();
-    let mut out = Score::default();
-    let mut offsets = 0.0;
+    let mut out = Vec::new();
     for py in 0..lit.height {
         for px in 0..lit.width {
             let i = (py * lit.width + px) as usize;
             let depth = lit.depth[i];
-            if depth <= 0.0 {
+            if depth <= 0.0 || luminance(lit, i) < 60.0 {
                 continue;
             }
             let (dir, dist) = lit.view.unproject(f64::from(px), f64::from(py), lit.width, lit.height, depth);
             let p = lit.view.eye + dir * dist;
-            let n = normal(height, p.x, p.y);
-            let sunlight = n.dot(s);
+            let sunlight = normal(height, p.x, p.y).dot(s);
             if sunlight < 0.15 {
                 continue;
             }
-            let lum = |f: &Frame| (0..3).map(|k| f64::from(f.rgba[i * 4 + k])).sum::<f64>();
-            let (before, after) = (lum(lit), lum(shadowed));
-            if before < 60.0 {
-                continue;
-            }
-            let full = ambient / (ambient + diffuse * sunlight);
-            let drawn = after / before < f64::midpoint(1.0, full);
-            let reference = in_shadow(height, p.x, p.y, s);
-            out.compared += 1;
-            out.reference_shadowed += usize::from(reference);
-            out.drawn_shadowed += usize::from(drawn);
-            out.wrong += usize::from(drawn != reference);
-            if drawn {
-                offsets += (p - DVec3::new(301_000.0, 5_099_300.0, 0.0)).dot(across);
-            }
+            out.push(Judged {
+                pixel: i,
+                in_shadow: in_shadow(height, top_m, p.x, p.y, s),
+                full_shadow: ambient / (ambient + diffuse * sunlight),
+                towards_sun_m: (p - DVec3::new(301_000.0, 5_099_300.0, 0.0)).dot(across),
+            });
+        }
+    }
+    out
+}
+
+fn luminance(f: &Frame, i: usize) -> f64 {
+    (0..3).map(|k| f64::from(f.rgba[i * 4 + k])).sum()
+}
+
+/// Scores `shadowed` (a frame with shadows) against the reference judged
+/// on `lit` (the same view without them): a pixel is drawn in shadow where
+/// it lost more than half of what full shadow would take.
+pub fn score(judged: &[Judged], lit: &Frame, shadowed: &Frame) -> Score {
+    let mut out = Score::default();
+    let mut offsets = 0.0;
+    for j in judged {
+        let drawn = luminance(shadowed, j.pixel) / luminance(lit, j.pixel) < f64::midpoint(1.0, j.full_shadow);
+        out.compared += 1;
+        out.reference_shadowed += usize::from(j.in_shadow);
+        out.drawn_shadowed += usize::from(drawn);
+        out.wrong += usize::from(drawn != j.in_shadow);
+        if drawn {
+            offsets += j.towards_sun_m;
         }
     }
     out.towards_sun_m = offsets / out.drawn_shadowed.max(1) as f64;

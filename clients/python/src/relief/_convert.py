@@ -116,8 +116,9 @@ def quality_to_pb(q: Quality | None) -> pb.QualityOverrides | None:
         out.clipmap_levels = q.clipmap_levels
     if q.precision is not None:
         out.precision = q.precision
-    if q.atmosphere_steps is not None:
-        out.atmosphere_steps = q.atmosphere_steps
+    for knob in ("atmosphere_steps", "shadow_cascades", "shadow_map_size"):
+        if getattr(q, knob) is not None:
+            setattr(out, knob, getattr(q, knob))
     if q.instance_bands_m is not None:
         out.instance_bands_m.extend(q.instance_bands_m)
     if q.instance_band_densities is not None:

@@ -73,7 +73,10 @@ class Quality:
     clipmap_levels: int | None = None
     #: Not drawn yet: reliefd refuses them (INVALID_ARGUMENT) rather than ignore them.
     precision: str | None = None
+    #: Effects' knobs, refused for a scene that does not declare the effect.
     atmosphere_steps: int | None = None
+    shadow_cascades: int | None = None
+    shadow_map_size: int | None = None
     #: The instances layer's distance bands: three outer edges in metres,
     #: the share drawn in each band, and where models give way to billboards.
     instance_bands_m: tuple[float, float, float] | None = None

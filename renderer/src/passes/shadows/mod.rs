@@ -39,7 +39,10 @@ pub struct Shadows {
 
 impl Shadows {
     pub const MAX_CASCADES: u32 = 4;
-    pub const DEFAULT: Self = Self { cascades: 3, map_size: 2048, distance_m: 20_000.0 };
+    /// Two maps of 1,024: in the `shadows` bench (against a ray-cast) 0.2%
+    /// of the ground misclassified, against 0.1% for three of 2,048 at
+    /// half again the cost on lavapipe.
+    pub const DEFAULT: Self = Self { cascades: 2, map_size: 1024, distance_m: 20_000.0 };
 
     /// Each value in its range, or the field and what is wrong.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
@@ -59,8 +62,14 @@ impl Shadows {
 /// The lookup every pass reading the maps prepends (group 1).
 pub const LOOKUP: &str = include_str!("lookup.wgsl");
 
-/// Texels either side of each looked-up one in the shadows' filter.
-const FILTER_RADIUS: f32 = 1.0;
+/// Texels either side of each looked-up one in the shadows' filter: none
+/// beyond the comparison sampler's own 2 x 2 (3 x 3 cost a third more of
+/// the pass for 1.05% against 1.03% misclassified, one map of 512).
+const FILTER_RADIUS: f32 = 0.0;
+
+/// The finest terrain level drawn into a map has samples at least this
+/// many of its texels apart.
+const CASTER_DETAIL: f64 = 0.5;
 
 /// A sun lower than this (sine of its elevation) casts no maps: its
 /// shadows would stretch past any box, and the lighting's twilight has
@@ -238,7 +247,10 @@ impl ShadowsPass {
             pass.prepare_casters(&gpu.device);
         }
         for (cascade, layer) in fitted.iter().zip(&maps.layers) {
-            let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, at.view, at.pose, at.pixel_angle);
+            // Samples closer than half a texel add nothing the map can hold.
+            let finest_m = cascade.texel_m * CASTER_DETAIL;
+            let frame_view = (at.view, at.pose, at.pixel_angle);
+            let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, finest_m, frame_view);
             let frame = FrameUniform { view_proj: cascade.clip.as_mat4().to_cols_array_2d(), ..at.frame };
             gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&frame));
             let mut encoder =

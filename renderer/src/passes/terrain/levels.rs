@@ -43,6 +43,8 @@ struct LevelCells {
 /// the index ranges of the blocks in view, merged where adjacent.
 #[derive(Debug, Clone)]
 pub struct LevelDraw {
+    /// The level's place in the frame's active levels (its uniform).
+    pub slot: u32,
     hole: Option<(i64, i64)>,
     pub ranges: Vec<Range<u32>>,
     /// Blocks with cells, and those of them drawn.
@@ -142,7 +144,9 @@ impl Levels {
     /// What each active level draws: every cell but the hole the next
     /// finer level fills, by blocks, leaving out the blocks `cull` (the
     /// view's frustum, or a shadow cascade's box, and the eye) shows wholly
-    /// outside it.
+    /// outside it. Levels whose samples are closer than `finest_m` metres
+    /// are left out, the finest level kept drawn whole (no hole): a shadow
+    /// map's texels cannot tell them apart.
     pub fn draws(
         &mut self,
         device: &wgpu::Device,
@@ -150,12 +154,17 @@ impl Levels {
         clipmap: &Clipmap,
         active: &[u8],
         cull: Option<(&dyn Sees, DVec3)>,
+        finest_m: f64,
     ) -> Vec<LevelDraw> {
         let n = clipmap.config.n;
+        let spacing = |t: u8| surface.step(t) * surface.metres_per_unit();
+        // Always the coarsest; finer ones while their samples are far enough apart.
+        let kept = active.iter().enumerate().take_while(|&(k, &t)| k == 0 || spacing(t) >= finest_m).count();
         let mut draws = Vec::new();
-        for (k, &t) in active.iter().enumerate() {
+        for (k, &t) in active.iter().enumerate().take(kept) {
             let Some(level) = clipmap.level(t) else { continue };
-            let hole = active.get(k + 1).and_then(|&f| clipmap.level(f)).map(|finer| {
+            let finer = active.get(k + 1).filter(|_| k + 1 < kept).and_then(|&f| clipmap.level(f));
+            let hole = finer.map(|finer| {
                 let mut hx = finer.origin.0 / 2 - level.origin.0;
                 if surface.is_planet() {
                     let total = surface.revolution(t);
@@ -172,7 +181,7 @@ impl Levels {
                 });
                 LevelCells { buffer, blocks }
             });
-            let mut draw = LevelDraw { hole, ranges: Vec::new(), blocks: 0, blocks_drawn: 0 };
+            let mut draw = LevelDraw { slot: k as u32, hole, ranges: Vec::new(), blocks: 0, blocks_drawn: 0 };
             for block in cells.blocks.iter().filter(|b| !b.indices.is_empty()) {
                 draw.blocks += 1;
                 if cull.is_some_and(|(frustum, eye)| !in_view(level, block, frustum, eye)) {

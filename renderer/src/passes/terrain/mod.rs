@@ -220,6 +220,7 @@ impl TerrainPass {
             &self.clipmap,
             &update.active,
             cull.map(|f| (f as &dyn Sees, view.eye)),
+            0.0,
         );
         TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update }
     }
@@ -236,32 +237,31 @@ impl TerrainPass {
     fn record_levels(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, levels: &[LevelDraw]) {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_pipeline(pipeline);
-        for (slot, level) in levels.iter().enumerate() {
+        for level in levels {
             pass.set_index_buffer(self.levels.cells(level).slice(..), wgpu::IndexFormat::Uint32);
             for range in &level.ranges {
-                pass.draw_indexed(range.clone(), 0, slot as u32..slot as u32 + 1);
+                pass.draw_indexed(range.clone(), 0, level.slot..level.slot + 1);
             }
         }
     }
 
     /// What a shadow cascade sees (`cull`) of the terrain this frame draws
     /// (`draw`, from `pose` with `view`): the base's cells and the levels'
-    /// blocks. The depth-only pipelines are built the first time.
-    #[expect(clippy::too_many_arguments, reason = "the frame's parts, each used once")]
+    /// blocks, down to the finest level whose samples are at least
+    /// `finest_m` apart. The depth-only pipelines are built the first time.
     pub fn casters(
         &mut self,
         device: &wgpu::Device,
         surface: &Surface,
         draw: &TerrainDraw,
         cull: &dyn Sees,
-        view: &View,
-        pose: &Pose,
-        pixel_angle: f64,
+        finest_m: f64,
+        (view, pose, pixel_angle): (&View, &Pose, f64),
     ) -> TerrainCasters {
         if self.caster.is_none() {
             let (layout, shader) = (&self.layout, &self.shader);
             self.caster = Some((
-                super::caster_pipeline(device, "terrain casters", layout, shader, "vs_level", &[]),
+                super::caster_pipeline(device, "terrain casters", layout, shader, "vs_level_depth", &[]),
                 super::caster_pipeline(
                     device,
                     "terrain base casters",
@@ -278,7 +278,7 @@ impl TerrainPass {
             .as_ref()
             .and_then(|b| b.cells(device, surface, &self.clipmap, active, view, pose, pixel_angle, Some(cull)))
             .map(|(mesh, _)| mesh);
-        let levels = self.levels.draws(device, surface, &self.clipmap, active, Some((cull, view.eye)));
+        let levels = self.levels.draws(device, surface, &self.clipmap, active, Some((cull, view.eye)), finest_m);
         TerrainCasters { base, levels }
     }
 

@@ -89,6 +89,41 @@ fn coarse_at(c: Level, gx: i32, gy: i32) -> vec3<f32> {
     return sample_at(c, x0, y0);
 }
 
+// A level's vertex: where it is drawn (relative to the eye) and how far
+// it has blended onto the coarser level.
+struct Placed {
+    p: vec3<f32>,
+    alpha: f32,
+}
+
+// Transition (Losasso & Hoppe): towards the coarser level's own surface
+// near the window's edge, exactly onto it at the outer ring, so no cracks;
+// alpha follows the camera continuously, so no popping.
+fn place(lv: Level, li: u32, i: i32, j: i32) -> Placed {
+    let n = lv.window.w;
+    let half = f32(n - 1) * 0.5;
+    let w = lv.blend.z;
+    let d = max(abs(f32(i) - lv.blend.x), abs(f32(j) - lv.blend.y));
+    var alpha = clamp((d - (half - w - 1.0)) / w, 0.0, 1.0);
+    if i == 0 || j == 0 || i == n - 1 || j == n - 1 {
+        alpha = 1.0;
+    }
+    let fine = load(lv, i, j).xyz + lv.offset.xyz;
+    if lv.coarse.w != 1 {
+        return Placed(fine, 0.0);
+    }
+    let c = levels.items[li - 1u];
+    return Placed(mix(fine, coarse_at(c, lv.window.x + i, lv.window.y + j), alpha), alpha);
+}
+
+// Where a level's vertex is drawn, and nothing else: for shadow maps.
+@vertex
+fn vs_level_depth(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) -> @builtin(position) vec4<f32> {
+    let lv = levels.items[li];
+    let n = lv.window.w;
+    return frame.view_proj * vec4<f32>(place(lv, li, i32(vi) % n, i32(vi) / n).p, 1.0);
+}
+
 @vertex
 fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) -> Out {
     let lv = levels.items[li];
@@ -98,27 +133,15 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
     let gx = lv.window.x + i;
     let gy = lv.window.y + j;
     let here = load(lv, i, j);
-    // Transition (Losasso & Hoppe): towards the coarser level's own
-    // surface near the window's edge, exactly onto it at the outer ring, so
-    // no cracks; alpha follows the camera continuously, so no popping.
-    let half = f32(n - 1) * 0.5;
-    let w = lv.blend.z;
-    let d = max(abs(f32(i) - lv.blend.x), abs(f32(j) - lv.blend.y));
-    var alpha = clamp((d - (half - w - 1.0)) / w, 0.0, 1.0);
-    if i == 0 || j == 0 || i == n - 1 || j == n - 1 {
-        alpha = 1.0;
-    }
-    let fine = here.xyz + lv.offset.xyz;
-    var p = fine;
+    let placed = place(lv, li, i, j);
+    let p = placed.p;
+    let alpha = placed.alpha;
     var normal = normal_at(lv, i, j, 1);
     if lv.coarse.w == 1 {
         let c = levels.items[li - 1u];
-        p = mix(fine, coarse_at(c, gx, gy), alpha);
         let east = coarse_at(c, gx + 2, gy) - coarse_at(c, gx - 2, gy);
         let south = coarse_at(c, gx, gy + 2) - coarse_at(c, gx, gy - 2);
         normal = mix(normal, safe_normalize(cross(south, east)), alpha);
-    } else {
-        alpha = 0.0;
     }
     var out: Out;
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
