@@ -48,10 +48,14 @@ step "$bin/relief" render --camera 6.60,45.065,800,5,-18,0 -o "$out/view-town.pn
 # the wood south of the town, and over the slopes from above.
 step "$bin/relief" render --camera 6.60,45.055,450,5,-8,0 -o "$out/view-forest.png"
 step "$bin/relief" render --camera 6.50,45.13,1900,40,-20,0 -o "$out/view-slopes.png"
+# The lake (lake.tif, at 430 m over the DEM's void) in the late sun, and
+# the range's shadows at a shadow-study hour.
+step "$bin/relief" render --camera 6.26,45.40,1200,320,-12,0 -o "$out/view-lake.png"
+step "$bin/relief" render --camera 6.45,44.95,9000,15,-25,0 --sun-time 2026-06-21T20:00:00+02:00 -o "$out/view-shadows.png"
 step "$bin/relief" state
 echo
 echo "views written:"
-for v in range valley above planet town forest slopes; do echo "  $out/view-$v.png"; done
+for v in range valley above planet town forest slopes lake shadows; do echo "  $out/view-$v.png"; done
 
 cat <<MSG
 

@@ -101,9 +101,9 @@ fn main() -> anyhow::Result<()> {
     println!("|---|---|---|---|---|---|---|---|---|---|");
     let rows = [
         ("terrain alone", SceneLayers::default(), default),
-        ("+ 2,000 buildings", SceneLayers { buildings: town, instances: None }, default),
-        ("+ trees, default quality", SceneLayers { buildings: town, instances: forest }, default),
-        ("+ the same trees all as models", SceneLayers { buildings: town, instances: forest }, all_models),
+        ("+ 2,000 buildings", SceneLayers { buildings: town, instances: None, water: None }, default),
+        ("+ trees, default quality", SceneLayers { buildings: town, instances: forest, water: None }, default),
+        ("+ the same trees all as models", SceneLayers { buildings: town, instances: forest, water: None }, all_models),
     ];
     let mut alone = 0.0;
     let mut by_name = Vec::new();
@@ -137,7 +137,7 @@ fn main() -> anyhow::Result<()> {
 
     // Accuracy against time: every knob row against the reference.
     let reference = InstanceBands::reference(6000.0);
-    let layers = SceneLayers { buildings: town, instances: forest };
+    let layers = SceneLayers { buildings: town, instances: forest, water: None };
     let truth = run(layers, reference)?;
     save(&truth[0], "reference")?;
     let truth_ms = median(truth.iter().map(total_ms).collect());

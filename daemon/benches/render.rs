@@ -20,7 +20,7 @@ use glam::DVec3;
 use relief_daemon::view::{SceneBuildings, SceneTerrain};
 use relief_renderer::{
     Atmosphere, ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, SceneLayers, SunAngles, Surface,
-    TerrainSamples,
+    TerrainSamples, WaterSamples,
 };
 use relief_source::{Extent, geodesy};
 
@@ -194,8 +194,9 @@ fn still_frames(
     at: &Pose,
 ) -> anyhow::Result<Vec<Frame>> {
     let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-    renderer.render(terrain, at, settings)?;
-    (0..7).map(|_| Ok(renderer.render(terrain, at, settings)?)).collect()
+    let layers = SceneLayers { water: settings.water.map(|_| terrain as &dyn WaterSamples), ..SceneLayers::default() };
+    renderer.render_scene(terrain, layers, at, settings)?;
+    (0..7).map(|_| Ok(renderer.render_scene(terrain, layers, at, settings)?)).collect()
 }
 
 /// The default clipmap's still frame with the level blocks outside the
@@ -241,6 +242,7 @@ fn effects(
     let fog = snap.manifest.effect_settings.fog.context("the demo declares fog")?;
     let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
     let shadows = snap.manifest.effect_settings.shadows.context("the demo declares shadows")?;
+    let water = snap.manifest.effect_settings.water.context("the demo declares water")?;
     let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
         let runs = still_frames(gpu, snap, terrain, &settings, at)?;
         let total = median(runs.iter().map(total_ms).collect());
@@ -251,21 +253,36 @@ fn effects(
         );
         Ok((total, effect_ms, runs.into_iter().last().context("frames")?))
     };
+    let lit = SETTINGS;
     let cases = [
-        ("lighting alone", None, None, None),
-        ("lighting + atmosphere", Some(atmosphere), None, None),
-        ("lighting + fog", None, Some(fog), None),
-        ("lighting + shadows", None, None, Some(shadows)),
-        ("all effects (lighting, atmosphere, fog, shadows)", Some(atmosphere), Some(fog), Some(shadows)),
+        ("lighting alone", lit),
+        ("lighting + atmosphere", RenderSettings { atmosphere: Some(atmosphere), ..lit }),
+        ("lighting + fog", RenderSettings { fog: Some(fog), ..lit }),
+        ("lighting + shadows", RenderSettings { shadows: Some(shadows), ..lit }),
+        ("lighting + water", RenderSettings { water: Some(water), ..lit }),
+        (
+            "all effects (lighting, atmosphere, fog, shadows, water)",
+            RenderSettings {
+                atmosphere: Some(atmosphere),
+                fog: Some(fog),
+                shadows: Some(shadows),
+                water: Some(water),
+                ..lit
+            },
+        ),
+        (
+            "all effects but shadows",
+            RenderSettings { atmosphere: Some(atmosphere), fog: Some(fog), water: Some(water), ..lit },
+        ),
     ];
     println!("\n### Effects: the default still frame (n 127, L 8), median of 7");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!("| effects | effect passes ms | frame ms | / lighting alone |");
     println!("|---|---|---|---|");
     let mut alone = f64::NAN;
-    for (label, atmosphere, fog, shadows) in cases {
-        let (total, effect_ms, _) = still(RenderSettings { atmosphere, fog, shadows, ..SETTINGS }, &pose(10))?;
-        if atmosphere.is_none() && fog.is_none() && shadows.is_none() {
+    for (label, settings) in cases {
+        let (total, effect_ms, _) = still(settings, &pose(10))?;
+        if settings == lit {
             alone = total;
         }
         println!("| {label} | {effect_ms:.1} | {total:.1} | {:.2}x |", total / alone);
@@ -343,7 +360,7 @@ fn min_levels(gpu: &Arc<Gpu>, manifest: &std::path::Path) -> anyhow::Result<()> 
         let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
         renderer.render_scene(
             &terrain,
-            SceneLayers { buildings: Some(&buildings), instances: None },
+            SceneLayers { buildings: Some(&buildings), instances: None, water: None },
             &town_view(),
             &SETTINGS,
         )?;
@@ -351,7 +368,7 @@ fn min_levels(gpu: &Arc<Gpu>, manifest: &std::path::Path) -> anyhow::Result<()> 
             .map(|_| {
                 Ok(renderer.render_scene(
                     &terrain,
-                    SceneLayers { buildings: Some(&buildings), instances: None },
+                    SceneLayers { buildings: Some(&buildings), instances: None, water: None },
                     &town_view(),
                     &SETTINGS,
                 )?)
@@ -379,7 +396,12 @@ fn passes(gpu: &Arc<Gpu>, scene: &relief_daemon::scene::Scene, terrain: &SceneTe
     let town = town_view();
     let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
     // First frames fill the levels and build tiles and meshes: not timed.
-    renderer.render_scene(terrain, SceneLayers { buildings: Some(&buildings), instances: None }, &town, &SETTINGS)?;
+    renderer.render_scene(
+        terrain,
+        SceneLayers { buildings: Some(&buildings), instances: None, water: None },
+        &town,
+        &SETTINGS,
+    )?;
     let mut rows = Vec::new();
     for (name, with_buildings) in [("terrain alone", false), ("terrain + buildings", true)] {
         let meshes = with_buildings.then_some(&buildings as &dyn relief_renderer::MeshTiles);
@@ -387,7 +409,7 @@ fn passes(gpu: &Arc<Gpu>, scene: &relief_daemon::scene::Scene, terrain: &SceneTe
         for _ in 0..5 {
             frames.push(renderer.render_scene(
                 terrain,
-                SceneLayers { buildings: meshes, instances: None },
+                SceneLayers { buildings: meshes, instances: None, water: None },
                 &town,
                 &SETTINGS,
             )?);

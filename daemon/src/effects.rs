@@ -2,7 +2,7 @@
 //! effect takes exactly its own options, in range, or is refused naming the
 //! option; none is accepted and ignored.
 
-use relief_renderer::{Atmosphere, Fog, Shadows};
+use relief_renderer::{Atmosphere, Fog, Shadows, Water};
 
 /// What `[effects]` asks of the renderer beyond which effects are on.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -15,6 +15,8 @@ pub struct EffectSettings {
     /// `shadows = { distance_m }`, with `[quality] shadow_cascades` and
     /// `shadow_map_size`.
     pub shadows: Option<Shadows>,
+    /// `water = { level_m, color, clarity_m }`.
+    pub water: Option<Water>,
 }
 
 /// The effects' quality knobs (`[quality]`, and a request's overrides),
@@ -63,6 +65,7 @@ impl EffectSettings {
             "fog" => self.fog = Some(fog(params)?),
             "atmosphere" => self.atmosphere = Some(atmosphere(params)?),
             "shadows" => self.shadows = Some(shadows(params)?),
+            "water" => self.water = Some(water(params)?),
             _ => {
                 if let Some(key) = params.keys().next() {
                     return Err((key.clone(), "unknown option (this effect takes none)".into()));
@@ -83,17 +86,8 @@ fn fog(params: &toml::Table) -> Result<Fog, (String, String)> {
             "density" => fog.density_per_m = number()?,
             "falloff_m" => fog.falloff_m = number()?,
             "base_m" => fog.base_m = number()?,
-            "color" => {
-                let toml::Value::String(text) = value else {
-                    return Err((key.clone(), format!("{value} is not a colour (\"#rrggbb\")")));
-                };
-                // Fog has no opacity of its own: "#rrggbbaa" would be ignored.
-                let c = relief_source_ops::parse_color(key, text)
-                    .ok()
-                    .filter(|_| text.trim_start_matches('#').len() == 6)
-                    .ok_or_else(|| (key.clone(), format!("'{text}' is not #rrggbb")))?;
-                fog.color = [c[0], c[1], c[2]];
-            }
+            // Fog has no opacity of its own: "#rrggbbaa" would be ignored.
+            "color" => fog.color = rgb(key, value)?,
             _ => return Err((key.clone(), "unknown option (fog takes density, falloff_m, base_m, color)".into())),
         }
     }
@@ -138,6 +132,35 @@ fn shadows(params: &toml::Table) -> Result<Shadows, (String, String)> {
     }
     shadows.validate().map_err(|(option, message)| (option.to_owned(), message))?;
     Ok(shadows)
+}
+
+/// `water`: the surface's level (on the terrain without one), its colour
+/// and clarity.
+fn water(params: &toml::Table) -> Result<Water, (String, String)> {
+    let mut water = Water::DEFAULT;
+    for (key, value) in params {
+        match key.as_str() {
+            "level_m" => water.level_m = Some(number(key, value)?),
+            "clarity_m" => water.clarity_m = number(key, value)?,
+            // Water's opacity comes from its depth: "#rrggbbaa" is refused.
+            "color" => water.color = rgb(key, value)?,
+            _ => return Err((key.clone(), "unknown option (water takes level_m, color, clarity_m)".into())),
+        }
+    }
+    water.validate().map_err(|(option, message)| (option.to_owned(), message))?;
+    Ok(water)
+}
+
+/// An option's "#rrggbb" colour as straight RGB, 0..1.
+fn rgb(key: &str, value: &toml::Value) -> Result<[f64; 3], (String, String)> {
+    let toml::Value::String(text) = value else {
+        return Err((key.to_owned(), format!("{value} is not a colour (\"#rrggbb\")")));
+    };
+    let c = relief_source_ops::parse_color(key, text)
+        .ok()
+        .filter(|_| text.trim_start_matches('#').len() == 6)
+        .ok_or_else(|| (key.to_owned(), format!("'{text}' is not #rrggbb")))?;
+    Ok([c[0], c[1], c[2]])
 }
 
 /// An option's number, or the option and what it is instead.

@@ -334,15 +334,16 @@ pub fn build(
         }
     }
     for (layer, id) in &manifest.layers {
-        if let Some(expected) = crate::manifest::layer_payload(layer)
+        if let Some(expected) = crate::manifest::layer_payloads(layer)
             && let Some(slot) = slots.iter().find(|s| &s.spec.id == id)
             && let Some(actual) = slot.output(registry)
-            && actual != expected
+            && !expected.contains(&actual)
         {
+            let needs: Vec<&str> = expected.iter().map(|k| k.name()).collect();
             errors.push(LoadError::Manifest(ManifestError::Field {
                 path: manifest.path.clone(),
                 field: format!("layers.{layer}"),
-                message: format!("source '{id}' gives {actual} tiles, the {layer} layer needs {expected}"),
+                message: format!("source '{id}' gives {actual} tiles, the {layer} layer needs {}", needs.join(" or ")),
             }));
         }
     }

@@ -34,28 +34,36 @@ pub enum ManifestError {
 pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
 /// The effects a scene may declare, and the layers each one reads.
-pub const EFFECTS: &[(&str, &[&str])] =
-    &[("lighting", &["height"]), ("atmosphere", &["height"]), ("fog", &["height"]), ("shadows", &["height"])];
+pub const EFFECTS: &[(&str, &[&str])] = &[
+    ("lighting", &["height"]),
+    ("atmosphere", &["height"]),
+    ("fog", &["height"]),
+    ("shadows", &["height"]),
+    ("water", &["height", "water"]),
+];
 /// The effects the sun lights: a `[sun]` (or a request's sun) needs one.
-pub const SUNLIT: &[&str] = &["lighting", "atmosphere", "fog", "shadows"];
+pub const SUNLIT: &[&str] = &["lighting", "atmosphere", "fog", "shadows", "water"];
 /// Effects relief knows of but does not draw yet: refused by name, never
 /// accepted and ignored.
-pub const EFFECTS_NOT_YET: &[&str] = &["water", "vegetation", "detail"];
+pub const EFFECTS_NOT_YET: &[&str] = &["vegetation", "detail"];
 
-/// Layers the renderer draws, and the payload each must have.
-pub const LAYERS: &[(&str, PayloadKind)] = &[
-    ("height", PayloadKind::Height),
-    ("color", PayloadKind::Color),
-    ("buildings", PayloadKind::Mesh),
-    ("instances", PayloadKind::Instances),
+/// Layers the renderer draws, and the payloads each may have: the water
+/// mask is a colour tile's alpha (a rasterized polygon layer) or a
+/// raster's values (water above 0.5).
+pub const LAYERS: &[(&str, &[PayloadKind])] = &[
+    ("height", &[PayloadKind::Height]),
+    ("color", &[PayloadKind::Color]),
+    ("buildings", &[PayloadKind::Mesh]),
+    ("instances", &[PayloadKind::Instances]),
+    ("water", &[PayloadKind::Color, PayloadKind::Height]),
 ];
 /// Layers relief knows of but does not draw yet: refused by name (their
 /// sources still serve tiles without them).
-pub const LAYERS_NOT_YET: &[&str] = &["water", "vegetation"];
+pub const LAYERS_NOT_YET: &[&str] = &["vegetation"];
 
-/// The payload layer `name` needs, None for an unknown layer.
-pub fn layer_payload(name: &str) -> Option<PayloadKind> {
-    LAYERS.iter().find(|(n, _)| *n == name).map(|(_, kind)| *kind)
+/// The payloads layer `name` may have, None for an unknown layer.
+pub fn layer_payloads(name: &str) -> Option<&'static [PayloadKind]> {
+    LAYERS.iter().find(|(n, _)| *n == name).map(|(_, kinds)| *kinds)
 }
 
 #[derive(Debug, Deserialize)]
@@ -342,7 +350,7 @@ impl Manifest {
         }
 
         for (layer, id) in &raw.layers {
-            if layer_payload(layer).is_none() {
+            if layer_payloads(layer).is_none() {
                 let known: Vec<&str> = LAYERS.iter().map(|(n, _)| *n).collect();
                 let why = if LAYERS_NOT_YET.contains(&layer.as_str()) { "not drawn yet" } else { "unknown layer" };
                 return Err(field(&format!("layers.{layer}"), format!("{why} (drawn: {})", known.join(", "))));

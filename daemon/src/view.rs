@@ -246,7 +246,10 @@ impl Viewer {
         let quality = quality.unwrap_or(snap.manifest.quality);
         let buildings = SceneBuildings::new(&self.scene.store, &snap, quality);
         let instances = SceneInstances::new(&self.scene.store, &snap, quality, &self.models);
+        let effects = effects.unwrap_or(snap.manifest.effect_settings);
         let layers = SceneLayers {
+            // The water layer's source is read only for a scene with water.
+            water: effects.water.map(|_| &terrain as &dyn relief_renderer::WaterSamples),
             buildings: buildings.as_ref().map(|b| b as &dyn relief_renderer::MeshTiles),
             instances: instances.as_ref().map(|i| i as &dyn relief_renderer::InstanceTiles),
         };
@@ -254,13 +257,13 @@ impl Viewer {
         let sun = sun_spec
             .angles(camera.lon_deg, camera.lat_deg)
             .map_err(|message| RenderError::Request { field: "sun.time", message })?;
-        let effects = effects.unwrap_or(snap.manifest.effect_settings);
         let settings = RenderSettings {
             bands: bands.unwrap_or(snap.manifest.bands),
             sun,
             atmosphere: effects.atmosphere,
             fog: effects.fog,
             shadows: effects.shadows,
+            water: effects.water,
             ..RenderSettings::new(width, height, lighting)
         };
         let frame = renderer.render_scene(&terrain, layers, &pose, &settings)?;
@@ -270,7 +273,7 @@ impl Viewer {
             let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
             ran.insert("lighting".to_owned(), terrain_ms);
         }
-        for effect in ["shadows", "atmosphere", "fog"] {
+        for effect in ["shadows", "water", "atmosphere", "fog"] {
             if let Some((_, ms)) = frame.passes.iter().find(|(p, _)| *p == effect) {
                 ran.insert(effect.to_owned(), *ms);
             }

@@ -246,11 +246,19 @@ models = { shrub = 0.9, conifer = 0.1 }
 density = 8000
 scale = [0.5, 1.1]
 
+# The lake's mask: 1 where there is water (a raster; a rasterized polygon
+# layer's coverage would do as well).
+[[source]]
+id = "lake"
+kind = "gdal"
+path = "lake.tif"
+
 [layers]
 height = "dem"
 color = "ortho"
 buildings = "town"
 instances = "forest"
+water = "lake"
 
 [effects]
 lighting = {}
@@ -260,6 +268,8 @@ atmosphere = {}
 fog = { density = 0.00006, falloff_m = 2000, color = '#c4ccd6' }
 # The ridges, the town and the trees cast shadows from the sun.
 shadows = {}
+# The lake (lake.tif, 1 for water) at 430 m: its shallows show the bottom.
+water = { level_m = 430, clarity_m = 6 }
 
 # A late June afternoon: the sun in the west.
 [sun]
@@ -317,6 +327,8 @@ pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
     write_town(&out.join("town.shp"), DEMO_TOWN_CENTRE, DEMO_TOWN_BUILDINGS)?;
     let cover = RasterSpec { width: 2000, height: 1200, pixel: 0.0005, nodata: None, ..dem };
     write_classes(&out.join("landcover.tif"), &cover, demo_landcover)?;
+    let lake = RasterSpec { nodata: None, ..cover };
+    write_dem(&out.join("lake.tif"), &lake, |lon, lat| if in_demo_lake(lon, lat) { 1.0 } else { 0.0 })?;
     write_manifest(out, DEMO_MANIFEST)
 }
 
@@ -371,6 +383,16 @@ pub fn write_town(path: &Path, centre: (f64, f64), count: usize) -> anyhow::Resu
 /// (centre lon, lat and radius in degrees).
 pub const DEMO_EXTENT: [f64; 4] = [6.0, 45.0, 7.0, 45.6];
 pub const DEMO_VOID: [f64; 3] = [6.2, 45.45, 0.01];
+
+/// The demo's lake (centre lon, lat and radius in degrees) round the void,
+/// and its level: the water layer's mask, drawn at that level.
+pub const DEMO_LAKE: [f64; 3] = [6.2, 45.45, 0.03];
+pub const DEMO_LAKE_LEVEL_M: f64 = 430.0;
+
+/// Whether (lon, lat) is in the demo's lake mask.
+pub fn in_demo_lake(lon: f64, lat: f64) -> bool {
+    (lon - DEMO_LAKE[0]).powi(2) + (lat - DEMO_LAKE[1]).powi(2) < DEMO_LAKE[2].powi(2)
+}
 
 /// Whether (lon, lat) is in the demo DEM's nodata void.
 pub fn in_demo_void(lon: f64, lat: f64) -> bool {

@@ -27,6 +27,7 @@ pub use passes::fog::Fog;
 pub use passes::instances::{InstanceBands, InstanceTiles};
 pub use passes::shadows::Shadows;
 pub use passes::terrain::MAX_LEVELS;
+pub use passes::water::{Water, WaterSamples};
 pub use passes::{ALL as PASSES, PassCounters, PassStats};
 pub use renderer::{Drawn, Frame, RenderSettings, Renderer, SceneLayers, SunAngles};
 pub use surface::Surface;

@@ -20,6 +20,7 @@ use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, Inst
 use crate::passes::overlay::Eye;
 use crate::passes::shadows::{Casters, ShadowView, Shadows, ShadowsPass};
 use crate::passes::terrain::TerrainPass;
+use crate::passes::water::{Water, WaterPass, WaterSamples, WaterView};
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
 use crate::target::Target;
@@ -48,6 +49,9 @@ pub struct RenderSettings {
     /// The `shadows` effect, when the scene declares it (with `lighting`,
     /// whose sunlight it takes away).
     pub shadows: Option<Shadows>,
+    /// The `water` effect, when the scene declares it (its layer in
+    /// `SceneLayers::water`).
+    pub water: Option<Water>,
 }
 
 impl RenderSettings {
@@ -64,6 +68,7 @@ impl RenderSettings {
             atmosphere: None,
             fog: None,
             shadows: None,
+            water: None,
         }
     }
 }
@@ -94,6 +99,8 @@ impl SunAngles {
 pub struct SceneLayers<'a> {
     pub buildings: Option<&'a dyn MeshTiles>,
     pub instances: Option<&'a dyn InstanceTiles>,
+    /// The water layer, read only for a scene with the `water` effect.
+    pub water: Option<&'a dyn WaterSamples>,
 }
 
 /// What a frame drew.
@@ -145,6 +152,8 @@ pub struct Renderer {
     fog: Option<FogPass>,
     /// Built the first time a frame casts shadows.
     shadows: Option<ShadowsPass>,
+    /// Built the first time a frame has water.
+    water: Option<WaterPass>,
     counters: PassCounters,
     /// The last frame's target, drawn into again while the size stays.
     target: Option<Target>,
@@ -166,6 +175,7 @@ impl Renderer {
             atmosphere: None,
             fog: None,
             shadows: None,
+            water: None,
             counters,
             target: None,
         })
@@ -191,6 +201,9 @@ impl Renderer {
     /// The scene rebuilt tiles in `area`: refresh those samples only.
     pub fn invalidate(&mut self, source: &dyn TerrainSamples, area: &Extent) {
         self.terrain.invalidate(&self.gpu, &self.surface, source, area);
+        if let Some(water) = &mut self.water {
+            water.invalidate(area);
+        }
     }
 
     /// Renders the view from `pose`: the terrain alone.
@@ -291,7 +304,10 @@ impl Renderer {
 
         // The effects laid over the frame read one eye, worked out once
         // (and not at all for a scene without them).
-        let eye = (settings.atmosphere.is_some() || settings.fog.is_some() || settings.shadows.is_some()).then(|| {
+        let water = settings.water.zip(layers.water);
+        let overlaid =
+            settings.atmosphere.is_some() || settings.fog.is_some() || settings.shadows.is_some() || water.is_some();
+        let eye = overlaid.then(|| {
             let up = self.surface.enu(pose.position[0], pose.position[1])[2];
             Eye::new(view.view_projection(aspect), up, pose.position[2])
         });
@@ -331,6 +347,29 @@ impl Renderer {
             self.counters.set_built(passes::SHADOWS, true);
             pass.run(&self.gpu, &self.frame_buffer, &target, shadows, &at, casters)?;
             passes.push((passes::SHADOWS, self.counters.ran(passes::SHADOWS, started)));
+        }
+        if water.is_none() && self.water.take().is_some() {
+            self.counters.set_built(passes::WATER, false);
+        }
+        if let Some((knobs, samples)) = water {
+            let started = Instant::now();
+            let ground_m = self
+                .terrain
+                .drawn_height(&self.surface, &draw.update.active, pose, pose.position[0], pose.position[1])
+                .unwrap_or(0.0);
+            let at = WaterView {
+                eye: eye.unwrap_or_default(),
+                eye_world: view.eye,
+                under: (pose.position[0], pose.position[1]),
+                above_ground_m: (pose.position[2] - ground_m).abs(),
+                ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
+                surface: &self.surface,
+                samples,
+            };
+            let pass = self.water.get_or_insert_with(|| WaterPass::new(&self.gpu, &self.frame_buffer));
+            self.counters.set_built(passes::WATER, true);
+            pass.run(&self.gpu, &self.frame_buffer, &target, &knobs, &at)?;
+            passes.push((passes::WATER, self.counters.ran(passes::WATER, started)));
         }
         let shadowed = settings.shadows.is_some();
         if (settings.atmosphere.is_none() || self.atmosphere.as_ref().is_some_and(|a| a.shadowed != shadowed))
@@ -443,6 +482,9 @@ impl Renderer {
         }
         if let Some(fog) = &settings.fog {
             fog.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
+        }
+        if let Some(water) = &settings.water {
+            water.validate().map_err(|(field, message)| RenderError::Request { field, message })?;
         }
         if let Some(shadows) = &settings.shadows {
             shadows.validate().map_err(|(field, message)| RenderError::Request { field, message })?;

@@ -173,8 +173,9 @@ fn check_standing(
 ) -> (usize, usize) {
     let source = town.source;
     let bare = renderer.render(source, view, settings).unwrap();
-    let frame =
-        renderer.render_scene(source, SceneLayers { buildings: Some(town), instances: None }, view, settings).unwrap();
+    let frame = renderer
+        .render_scene(source, SceneLayers { buildings: Some(town), instances: None, water: None }, view, settings)
+        .unwrap();
     save(&frame, &format!("{label}.png"));
     assert_eq!(frame.passes.iter().map(|p| p.0).collect::<Vec<_>>(), ["terrain", "buildings", "read back"]);
     assert!(frame.depth.iter().all(|d| d.is_finite()), "{label}: a depth is not finite");
@@ -311,7 +312,9 @@ fn a_frame_without_buildings_builds_no_buildings_pass() {
     // Built when a frame has buildings, dropped when the scene has none again.
     let town = Town::new(&source, 9);
     let view = pose(10.2, 45.118, 880.0, 0.0, -12.0);
-    renderer.render_scene(&source, SceneLayers { buildings: Some(&town), instances: None }, &view, &SETTINGS).unwrap();
+    renderer
+        .render_scene(&source, SceneLayers { buildings: Some(&town), instances: None, water: None }, &view, &SETTINGS)
+        .unwrap();
     assert!(renderer.counters().stats().iter().any(|s| s.name == "buildings" && s.built && s.runs == 1));
     renderer.render(&source, &view, &SETTINGS).unwrap();
     assert!(renderer.counters().stats().iter().any(|s| s.name == "buildings" && !s.built && s.runs == 1));
@@ -327,10 +330,15 @@ fn buildings_stay_after_the_camera_flies_round_the_planet() {
     let town = Town { source: &source, centres, min_level: 12 };
     let view = |lon: f64| pose(lon, -17.004, 420.0, 0.0, -15.0);
     let drawn = |r: &mut Renderer, lon: f64| {
-        r.render_scene(&source, SceneLayers { buildings: Some(&town), instances: None }, &view(lon), &SETTINGS)
-            .unwrap()
-            .drawn
-            .buildings
+        r.render_scene(
+            &source,
+            SceneLayers { buildings: Some(&town), instances: None, water: None },
+            &view(lon),
+            &SETTINGS,
+        )
+        .unwrap()
+        .drawn
+        .buildings
     };
     assert_eq!(drawn(&mut renderer, 180.0), 3);
     // Twice round eastwards, 45 degrees a frame: the clipmap's windows

@@ -84,7 +84,7 @@ fn scene(height: fn(f64, f64) -> f64) -> (Renderer, Analytic) {
 
 fn draw(renderer: &mut Renderer, source: &Analytic, forest: &Forest, view: &Pose, bands: InstanceBands) -> Frame {
     let settings = RenderSettings { bands, ..SETTINGS };
-    let layers = SceneLayers { buildings: None, instances: Some(forest) };
+    let layers = SceneLayers { buildings: None, instances: Some(forest), water: None };
     renderer.render_scene(source, layers, view, &settings).unwrap()
 }
 

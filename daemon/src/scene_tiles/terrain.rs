@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::ops::Range;
 use std::sync::Arc;
 
-use relief_renderer::TerrainSamples;
+use relief_renderer::{TerrainSamples, WaterSamples};
 use relief_source::{Payload, Quality, TileKey};
 
 use crate::graph::SceneSnapshot;
@@ -17,6 +17,8 @@ pub struct SceneTerrain<'a> {
     quality: Quality,
     height: Option<usize>,
     color: Option<usize>,
+    /// The water layer: read only when the renderer draws water.
+    water: Option<usize>,
     max_level: u8,
 }
 
@@ -39,7 +41,7 @@ impl<'a> SceneTerrain<'a> {
             }
             (level + 1).min(relief_source::MAX_LEVEL - 1)
         });
-        Self { store, snap, quality, height, color: layer("color"), max_level }
+        Self { store, snap, quality, height, color: layer("color"), water: layer("water"), max_level }
     }
 }
 
@@ -121,6 +123,29 @@ impl TerrainSamples for SceneTerrain<'_> {
     }
 
     fn max_level(&self) -> u8 {
+        self.max_level
+    }
+}
+
+/// The water layer's coverage: a colour tile's alpha (the mean of the four
+/// texels round the corner, as colours), or a raster's value above 0.5
+/// (nodata is dry).
+impl WaterSamples for SceneTerrain<'_> {
+    fn coverage(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<u8>> {
+        self.read(self.water, level, xs, ys, 0, |tile, i, j| match tile {
+            Payload::Color(t) => {
+                let alpha = [(0, 0), (1, 0), (0, 1), (1, 1)]
+                    .iter()
+                    .map(|(di, dj)| u32::from(t.rgba[((j + dj) * t.size + i + di) * 4 + 3]))
+                    .sum::<u32>();
+                Some(((alpha + 2) / 4) as u8)
+            }
+            Payload::Height(t) => Some(if t.get(i, j) > 0.5 { 255 } else { 0 }),
+            _ => None,
+        })
+    }
+
+    fn finest_level(&self) -> u8 {
         self.max_level
     }
 }

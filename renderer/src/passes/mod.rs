@@ -10,6 +10,7 @@ pub mod instances;
 pub mod overlay;
 pub mod shadows;
 pub mod terrain;
+pub mod water;
 
 use std::time::Instant;
 
@@ -129,8 +130,11 @@ pub const FOG: &str = "fog";
 /// (terrain, buildings and instance models cast), then the sunlight taken
 /// from what they hide. Built only for a scene that declares it.
 pub const SHADOWS: &str = "shadows";
+/// Water: the `water` effect, the water layer drawn as a surface at its
+/// level or on the terrain. Built only for a scene that declares it.
+pub const WATER: &str = "water";
 /// Every pass a renderer knows, in the order a frame runs them.
-pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, SHADOWS, ATMOSPHERE, FOG];
+pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, SHADOWS, WATER, ATMOSPHERE, FOG];
 
 /// One pass's record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -1,0 +1,113 @@
+//! The water mask around the camera: a square window in the local east and
+//! north metres round the ground under the eye, each texel the water
+//! layer's coverage there, read from one block of the layer's samples at
+//! the tile level whose spacing matches the texels. Kept while the eye
+//! stays well inside it and the layer does not change.
+
+use std::ops::Range;
+
+use glam::DVec3;
+use rayon::prelude::*;
+use relief_source::Extent;
+
+use crate::surface::Surface;
+
+/// Texels to a side of the mask window.
+pub const MASK_SIZE: usize = 1024;
+
+/// The most samples one window reads.
+const MAX_BLOCK: i64 = 4 * 1024 * 1024;
+
+/// The water layer as the renderer asks for it.
+pub trait WaterSamples: Sync {
+    /// Water coverage, 0 (dry) to 255 (water), at every sample of the
+    /// block; None while its tiles are not ready.
+    fn coverage(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<u8>>;
+    /// The finest tile level worth reading.
+    fn finest_level(&self) -> u8;
+}
+
+/// A mask window: where it is and what it holds.
+pub struct Window {
+    /// The window's centre (world) and its east and north axes there.
+    pub centre: DVec3,
+    pub east: DVec3,
+    pub north: DVec3,
+    /// Half its side, metres.
+    pub half_m: f64,
+    /// Coverage, rows from the north.
+    pub texels: Vec<u8>,
+    /// The grid area it read (for invalidation).
+    pub area: Extent,
+}
+
+impl Window {
+    /// Whether this window still serves an eye over `ground` wanting
+    /// `half_m`: the eye inside its middle half, the size within a quarter.
+    pub fn serves(&self, ground: DVec3, half_m: f64) -> bool {
+        let d = ground - self.centre;
+        let (e, n) = (d.dot(self.east).abs(), d.dot(self.north).abs());
+        e < self.half_m / 4.0 && n < self.half_m / 4.0 && (half_m / self.half_m - 1.0).abs() < 0.25
+    }
+
+    /// Reads the window round grid point (x, y) on `surface`, `half_m`
+    /// metres each way; None while the layer's tiles are not ready.
+    pub fn read(surface: &Surface, water: &dyn WaterSamples, (x, y): (f64, f64), half_m: f64) -> Option<Self> {
+        let centre = surface.world(x, y, 0.0);
+        let [east, north, _] = surface.enu(x, y);
+        let texel = 2.0 * half_m / MASK_SIZE as f64;
+        // The tile level whose samples are about a texel apart.
+        let mut level = 0u8;
+        while level < water.finest_level() && surface.step(level) * surface.metres_per_unit() > texel {
+            level += 1;
+        }
+        // Each texel centre's grid point (longitudes kept near the
+        // centre's, so a window over the antimeridian reads one block).
+        let points: Vec<(f64, f64)> = (0..MASK_SIZE * MASK_SIZE)
+            .into_par_iter()
+            .map(|k| {
+                let (row, col) = (k / MASK_SIZE, k % MASK_SIZE);
+                let e = (col as f64 + 0.5) * texel - half_m;
+                let n = half_m - (row as f64 + 0.5) * texel;
+                let [mut gx, gy, _] = surface.grid_point(centre + east * e + north * n);
+                if surface.is_planet() {
+                    gx = x + (gx - x + 540.0).rem_euclid(360.0) - 180.0;
+                }
+                (gx, gy)
+            })
+            .collect();
+        // Their places in the level's samples, and the block they span: a
+        // coarser level where it would be too large (round a pole).
+        let (places, xs, ys) = loop {
+            let places: Vec<(f64, f64)> =
+                points.par_iter().map(|&(gx, gy)| surface.sample_coords(level, gx, gy)).collect();
+            let (lo, hi) = places
+                .iter()
+                .fold(((f64::INFINITY, f64::INFINITY), (f64::NEG_INFINITY, f64::NEG_INFINITY)), |(lo, hi), s| {
+                    ((lo.0.min(s.0), lo.1.min(s.1)), (hi.0.max(s.0), hi.1.max(s.1)))
+                });
+            let xs = lo.0.floor() as i64..hi.0.floor() as i64 + 2;
+            let ys = lo.1.floor() as i64..hi.1.floor() as i64 + 2;
+            if level == 0 || (xs.end - xs.start) * (ys.end - ys.start) <= MAX_BLOCK {
+                break (places, xs, ys);
+            }
+            level -= 1;
+        };
+        let cols = (xs.end - xs.start) as usize;
+        let samples = water.coverage(level, xs.clone(), ys.clone())?;
+        let at = |i: i64, j: i64| f64::from(samples[(j - ys.start) as usize * cols + (i - xs.start) as usize]);
+        let texels = places
+            .par_iter()
+            .map(|&(sx, sy)| {
+                let (i, j) = (sx.floor() as i64, sy.floor() as i64);
+                let (fx, fy) = (sx - i as f64, sy - j as f64);
+                let top = at(i, j) * (1.0 - fx) + at(i + 1, j) * fx;
+                let bottom = at(i, j + 1) * (1.0 - fx) + at(i + 1, j + 1) * fx;
+                (top * (1.0 - fy) + bottom * fy).round() as u8
+            })
+            .collect();
+        let (a, b) = (surface.sample_point(level, xs.start, ys.start), surface.sample_point(level, xs.end, ys.end));
+        let area = Extent { min_x: a.0.min(b.0), min_y: a.1.min(b.1), max_x: a.0.max(b.0), max_y: a.1.max(b.1) };
+        Some(Self { centre, east, north, half_m, texels, area })
+    }
+}
