@@ -17,6 +17,9 @@ pub struct EffectSettings {
     pub shadows: Option<Shadows>,
     /// `water = { level_m, color, clarity_m }`.
     pub water: Option<Water>,
+    /// `detail = {}`: the octaves synthesized below the data, `[quality]
+    /// detail_octaves`.
+    pub detail_octaves: Option<u32>,
 }
 
 /// The effects' quality knobs (`[quality]`, and a request's overrides),
@@ -26,9 +29,29 @@ pub const QUALITY_KNOBS: &[(&str, &str)] = &[
     ("atmosphere_downsample", "atmosphere"),
     ("shadow_cascades", "shadows"),
     ("shadow_map_size", "shadows"),
+    ("detail_octaves", "detail"),
 ];
 
 impl EffectSettings {
+    /// The declared effects' quality knobs and their values, for the
+    /// scene's state (a knob of an undeclared effect is not there).
+    pub fn quality(&self) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let mut put = |name: &str, value: String| out.push((name.to_owned(), value));
+        if let Some(a) = &self.atmosphere {
+            put("atmosphere_steps", a.steps.to_string());
+            put("atmosphere_downsample", a.downsample.to_string());
+        }
+        if let Some(s) = &self.shadows {
+            put("shadow_cascades", s.cascades.to_string());
+            put("shadow_map_size", s.map_size.to_string());
+        }
+        if let Some(octaves) = self.detail_octaves {
+            put("detail_octaves", octaves.to_string());
+        }
+        out
+    }
+
     /// Sets quality knob `name` (one of `QUALITY_KNOBS`) to `value`:
     /// Err(knob, message) when the scene does not declare its effect or
     /// the value is out of range.
@@ -55,6 +78,15 @@ impl EffectSettings {
                 }
                 checked(s.validate())
             }
+            "detail_octaves" => {
+                let octaves = self.detail_octaves.as_mut().ok_or_else(|| undeclared("detail"))?;
+                if !(1..=relief_renderer::Detail::MAX_OCTAVES).contains(&value) {
+                    let most = relief_renderer::Detail::MAX_OCTAVES;
+                    return Err((name.to_owned(), format!("{value} is not from 1 to {most}")));
+                }
+                *octaves = value;
+                Ok(())
+            }
             _ => Err((name.to_owned(), "not an effect's quality knob".into())),
         }
     }
@@ -66,6 +98,15 @@ impl EffectSettings {
             "atmosphere" => self.atmosphere = Some(atmosphere(params)?),
             "shadows" => self.shadows = Some(shadows(params)?),
             "water" => self.water = Some(water(params)?),
+            "detail" => {
+                if let Some(key) = params.keys().next() {
+                    return Err((
+                        key.clone(),
+                        "unknown option (detail takes none; its octaves are [quality] detail_octaves)".into(),
+                    ));
+                }
+                self.detail_octaves = Some(relief_renderer::Detail::DEFAULT_OCTAVES);
+            }
             _ => {
                 if let Some(key) = params.keys().next() {
                     return Err((key.clone(), "unknown option (this effect takes none)".into()));

@@ -40,12 +40,13 @@ pub const EFFECTS: &[(&str, &[&str])] = &[
     ("fog", &["height"]),
     ("shadows", &["height"]),
     ("water", &["height", "water"]),
+    ("detail", &["height"]),
 ];
 /// The effects the sun lights: a `[sun]` (or a request's sun) needs one.
 pub const SUNLIT: &[&str] = &["lighting", "atmosphere", "fog", "shadows", "water"];
 /// Effects relief knows of but does not draw yet: refused by name, never
 /// accepted and ignored.
-pub const EFFECTS_NOT_YET: &[&str] = &["vegetation", "detail"];
+pub const EFFECTS_NOT_YET: &[&str] = &["vegetation"];
 
 /// Layers the renderer draws, and the payloads each may have: the water
 /// mask is a colour tile's alpha (a rasterized polygon layer) or a
@@ -167,6 +168,7 @@ struct RawQuality {
     atmosphere_downsample: Option<u32>,
     shadow_cascades: Option<u32>,
     shadow_map_size: Option<u32>,
+    detail_octaves: Option<u32>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -387,6 +389,7 @@ impl Manifest {
             ("atmosphere_downsample", raw.quality.atmosphere_downsample),
             ("shadow_cascades", raw.quality.shadow_cascades),
             ("shadow_map_size", raw.quality.shadow_map_size),
+            ("detail_octaves", raw.quality.detail_octaves),
         ] {
             let Some(value) = value else { continue };
             effect_settings

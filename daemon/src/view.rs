@@ -5,8 +5,8 @@ use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::{Arc, Mutex};
 
 use relief_renderer::{
-    ClipmapConfig, Frame, Gpu, InstanceBands, PassCounters, PassStats, RenderError, RenderSettings, Renderer,
-    SceneLayers, Surface,
+    ClipmapConfig, Detail, Detailed, Frame, Gpu, InstanceBands, PassCounters, PassStats, RenderError, RenderSettings,
+    Renderer, SceneLayers, Surface, TerrainSamples,
 };
 use relief_source::{Extent, Quality};
 use tokio::sync::{Semaphore, watch};
@@ -46,7 +46,11 @@ pub enum ViewError {
 /// Renderers by clipmap configuration, with the generation each has seen.
 struct Renderers {
     gpu: Option<Arc<Gpu>>,
-    by_config: HashMap<ClipmapConfig, (Renderer, u64)>,
+    /// By clipmap configuration and octaves of synthesized detail (0: none).
+    by_config: HashMap<(ClipmapConfig, u32), (Renderer, u64)>,
+    /// The detail's noise fitted to the height layer, and the generation
+    /// it was fitted at.
+    detail_fit: Option<(u64, Detail)>,
     /// (generation, extents it dirtied), oldest first.
     dirt: VecDeque<(u64, Vec<Extent>)>,
     /// Each pass's runs and time since start, over every renderer; built
@@ -115,6 +119,7 @@ impl Viewer {
             renderers: Mutex::new(Renderers {
                 gpu: None,
                 by_config: HashMap::new(),
+                detail_fit: None,
                 dirt: VecDeque::new(),
                 passes: PassCounters::default(),
             }),
@@ -215,30 +220,48 @@ impl Viewer {
         config.validate().map_err(|message| RenderError::Request { field: "quality.clipmap_grid_size", message })?;
         let terrain = SceneTerrain::new(&self.scene.store, &snap, quality.unwrap_or(snap.manifest.quality));
         let lighting = snap.manifest.effects.iter().any(|e| e == "lighting");
+        let effects = effects.unwrap_or(snap.manifest.effect_settings);
         let mut guard = self.renderers();
         let r = &mut *guard;
+        // Detail below the data: its noise fitted to the height layer once
+        // a generation, over the middle of the layer's data.
+        let detail = effects.detail_octaves.and_then(|octaves| {
+            if r.detail_fit.is_none_or(|(g, _)| g != snap.generation) {
+                let at = terrain.data_centre(terrain.max_level());
+                r.detail_fit = at.and_then(|at| Detail::fit(&terrain, at, octaves)).map(|d| (snap.generation, d));
+            }
+            r.detail_fit.map(|(_, d)| Detail { octaves, ..d })
+        });
+        let detail_surface = Surface::new(snap.grid.clone());
+        let detailed = detail.map(|d| Detailed::new(&terrain, &detail_surface, d));
+        let source: &dyn TerrainSamples = match &detailed {
+            Some(d) => d,
+            None => &terrain,
+        };
+        let key = (config, detail.map_or(0, |d| d.octaves));
         if r.gpu.is_none() {
             r.gpu = Some(Arc::new(Gpu::headless().map_err(|e| ViewError::NoDevice(e.to_string()))?));
         }
         let gpu = Arc::clone(r.gpu.as_ref().expect("opened above"));
         // A manifest edit may change the grid: start over then.
         r.by_config.retain(|_, (renderer, _)| renderer.surface().grid() == &snap.grid);
-        if !r.by_config.contains_key(&config) {
+        if !r.by_config.contains_key(&key) {
             if r.by_config.len() >= 3 {
                 r.by_config.clear();
             }
             let renderer = Renderer::new(gpu, Surface::new(snap.grid.clone()), config)?;
-            r.by_config.insert(config, (renderer, snap.generation));
+            r.by_config.insert(key, (renderer, snap.generation));
         }
         let oldest = r.dirt.front().map_or(u64::MAX, |(g, _)| *g);
-        let (renderer, seen) = r.by_config.get_mut(&config).expect("inserted above");
+        let (renderer, seen) = r.by_config.get_mut(&key).expect("inserted above");
         if *seen < snap.generation {
-            if oldest > *seen + 1 {
-                renderer.invalidate(&terrain, &snap.grid.extent());
+            // Detail refitted to a new generation changes every synthesized sample.
+            if oldest > *seen + 1 || detail.is_some() {
+                renderer.invalidate(source, &snap.grid.extent());
             }
             for (_, extents) in r.dirt.iter().filter(|(g, _)| *g > *seen && *g <= snap.generation) {
                 for e in extents {
-                    renderer.invalidate(&terrain, e);
+                    renderer.invalidate(source, e);
                 }
             }
             *seen = snap.generation;
@@ -246,7 +269,6 @@ impl Viewer {
         let quality = quality.unwrap_or(snap.manifest.quality);
         let buildings = SceneBuildings::new(&self.scene.store, &snap, quality);
         let instances = SceneInstances::new(&self.scene.store, &snap, quality, &self.models);
-        let effects = effects.unwrap_or(snap.manifest.effect_settings);
         let layers = SceneLayers {
             // The water layer's source is read only for a scene with water.
             water: effects.water.map(|_| &terrain as &dyn relief_renderer::WaterSamples),
@@ -266,12 +288,15 @@ impl Viewer {
             water: effects.water,
             ..RenderSettings::new(width, height, lighting)
         };
-        let frame = renderer.render_scene(&terrain, layers, &pose, &settings)?;
+        let frame = renderer.render_scene(source, layers, &pose, &settings)?;
         let mut ran = BTreeMap::new();
+        // Lighting is shaded, and detail drawn, in the terrain pass.
+        let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
         if lighting {
-            // Lighting is shaded in the terrain pass.
-            let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);
             ran.insert("lighting".to_owned(), terrain_ms);
+        }
+        if detail.is_some() {
+            ran.insert("detail".to_owned(), terrain_ms);
         }
         for effect in ["shadows", "water", "atmosphere", "fog"] {
             if let Some((_, ms)) = frame.passes.iter().find(|(p, _)| *p == effect) {

@@ -270,6 +270,8 @@ fog = { density = 0.00006, falloff_m = 2000, color = '#c4ccd6' }
 shadows = {}
 # The lake (lake.tif, 1 for water) at 430 m: its shallows show the bottom.
 water = { level_m = 430, clarity_m = 6 }
+# Ground finer than the DEM's 100 m, its roughness fitted to the DEM's own.
+detail = {}
 
 # A late June afternoon: the sun in the west.
 [sun]

@@ -8,6 +8,7 @@
 
 mod camera;
 mod clipmap;
+mod detail;
 mod error;
 mod gpu;
 mod navigate;
@@ -19,6 +20,7 @@ mod uniforms;
 
 pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
 pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
+pub use detail::{Detail, Detailed};
 pub use error::RenderError;
 pub use gpu::Gpu;
 pub use passes::atmosphere::Atmosphere;

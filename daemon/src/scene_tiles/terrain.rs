@@ -46,6 +46,15 @@ impl<'a> SceneTerrain<'a> {
 }
 
 impl SceneTerrain<'_> {
+    /// The corner sample of `level` nearest the middle of the height
+    /// layer's data; None without one.
+    pub fn data_centre(&self, level: u8) -> Option<(i64, i64)> {
+        let e = self.snap.slots[self.height?].source.as_ref()?.info().extent?;
+        let (x, y) =
+            self.snap.grid.sample_coords(level, f64::midpoint(e.min_x, e.max_x), f64::midpoint(e.min_y, e.max_y));
+        Some((x.round() as i64, y.round() as i64))
+    }
+
     /// One value per corner sample of the block from source `index`'s tiles
     /// (`default` without that layer), the tiles built in parallel first.
     fn read<T: Copy>(

@@ -178,6 +178,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             ("instance_model_distance_m".to_string(), m.bands.model_distance_m.to_string()),
         ]
         .into_iter()
+        .chain(m.effect_settings.quality())
         .collect(),
         counters: Some(pb::Counters {
             tiles_generated: c.tiles_generated,

@@ -348,6 +348,7 @@ fn effect_overrides(scene: &EffectSettings, o: &QualityOverrides) -> Result<Effe
         ("atmosphere_steps", o.atmosphere_steps),
         ("shadow_cascades", o.shadow_cascades),
         ("shadow_map_size", o.shadow_map_size),
+        ("detail_octaves", o.detail_octaves),
     ];
     for (name, value) in knobs {
         if let Some(value) = value {

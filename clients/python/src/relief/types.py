@@ -77,6 +77,7 @@ class Quality:
     atmosphere_steps: int | None = None
     shadow_cascades: int | None = None
     shadow_map_size: int | None = None
+    detail_octaves: int | None = None
     #: The instances layer's distance bands: three outer edges in metres,
     #: the share drawn in each band, and where models give way to billboards.
     instance_bands_m: tuple[float, float, float] | None = None
