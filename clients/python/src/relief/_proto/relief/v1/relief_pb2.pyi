@@ -84,7 +84,7 @@ class GeodeticPoint(_message.Message):
     def __init__(self, lon_deg: _Optional[float] = ..., lat_deg: _Optional[float] = ...) -> None: ...
 
 class QualityOverrides(_message.Message):
-    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m", "shadow_cascades", "shadow_map_size")
+    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m", "shadow_cascades", "shadow_map_size", "detail_octaves")
     RESAMPLING_FIELD_NUMBER: _ClassVar[int]
     REPROJECTION_ERROR_PX_FIELD_NUMBER: _ClassVar[int]
     CLIPMAP_GRID_SIZE_FIELD_NUMBER: _ClassVar[int]
@@ -96,6 +96,7 @@ class QualityOverrides(_message.Message):
     INSTANCE_MODEL_DISTANCE_M_FIELD_NUMBER: _ClassVar[int]
     SHADOW_CASCADES_FIELD_NUMBER: _ClassVar[int]
     SHADOW_MAP_SIZE_FIELD_NUMBER: _ClassVar[int]
+    DETAIL_OCTAVES_FIELD_NUMBER: _ClassVar[int]
     resampling: str
     reprojection_error_px: float
     clipmap_grid_size: int
@@ -107,7 +108,8 @@ class QualityOverrides(_message.Message):
     instance_model_distance_m: float
     shadow_cascades: int
     shadow_map_size: int
-    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ..., shadow_cascades: _Optional[int] = ..., shadow_map_size: _Optional[int] = ...) -> None: ...
+    detail_octaves: int
+    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ..., shadow_cascades: _Optional[int] = ..., shadow_map_size: _Optional[int] = ..., detail_octaves: _Optional[int] = ...) -> None: ...
 
 class GetStateRequest(_message.Message):
     __slots__ = ()
