@@ -248,7 +248,10 @@ fn effects(
         let total = median(runs.iter().map(total_ms).collect());
         let effect_ms = median(
             runs.iter()
-                .map(|f| f.passes.iter().filter(|p| ["fog", "atmosphere", "shadows"].contains(&p.0)).map(|p| p.1).sum())
+                .map(|f| {
+                    let effects = ["fog", "atmosphere", "shadows", "water"];
+                    f.passes.iter().filter(|p| effects.contains(&p.0)).map(|p| p.1).sum()
+                })
                 .collect(),
         );
         Ok((total, effect_ms, runs.into_iter().last().context("frames")?))

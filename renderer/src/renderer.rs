@@ -359,6 +359,7 @@ impl Renderer {
                 .unwrap_or(0.0);
             let at = WaterView {
                 eye: eye.unwrap_or_default(),
+                view_proj: view.view_projection(aspect),
                 eye_world: view.eye,
                 under: (pose.position[0], pose.position[1]),
                 above_ground_m: (pose.position[2] - ground_m).abs(),

@@ -39,6 +39,9 @@ pub struct Window {
     pub texels: Vec<u8>,
     /// The grid area it read (for invalidation).
     pub area: Extent,
+    /// East and north metres (min, max) round the centre that hold water;
+    /// None for a window without any.
+    pub wet: Option<([f64; 2], [f64; 2])>,
 }
 
 impl Window {
@@ -96,7 +99,7 @@ impl Window {
         let cols = (xs.end - xs.start) as usize;
         let samples = water.coverage(level, xs.clone(), ys.clone())?;
         let at = |i: i64, j: i64| f64::from(samples[(j - ys.start) as usize * cols + (i - xs.start) as usize]);
-        let texels = places
+        let texels: Vec<u8> = places
             .par_iter()
             .map(|&(sx, sy)| {
                 let (i, j) = (sx.floor() as i64, sy.floor() as i64);
@@ -106,8 +109,18 @@ impl Window {
                 (top * (1.0 - fy) + bottom * fy).round() as u8
             })
             .collect();
+        let wet = texels.iter().enumerate().filter(|(_, v)| **v > 0).fold(
+            None,
+            |acc: Option<([f64; 2], [f64; 2])>, (k, _)| {
+                let (row, col) = (k / MASK_SIZE, k % MASK_SIZE);
+                let e = (col as f64 + 0.5) * texel - half_m;
+                let n = half_m - (row as f64 + 0.5) * texel;
+                let ([e0, e1], [n0, n1]) = acc.unwrap_or(([e, e], [n, n]));
+                Some(([e0.min(e), e1.max(e)], [n0.min(n), n1.max(n)]))
+            },
+        );
         let (a, b) = (surface.sample_point(level, xs.start, ys.start), surface.sample_point(level, xs.end, ys.end));
         let area = Extent { min_x: a.0.min(b.0), min_y: a.1.min(b.1), max_x: a.0.max(b.0), max_y: a.1.max(b.1) };
-        Some(Self { centre, east, north, half_m, texels, area })
+        Some(Self { centre, east, north, half_m, texels, area, wet })
     }
 }

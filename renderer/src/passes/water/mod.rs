@@ -59,6 +59,8 @@ struct WaterUniform {
 /// What a frame's water needs besides its knobs.
 pub struct WaterView<'a> {
     pub eye: Eye,
+    /// The frame's eye-relative view-projection.
+    pub view_proj: glam::Mat4,
     /// The eye, world axes, and the grid point under it.
     pub eye_world: DVec3,
     pub under: (f64, f64),
@@ -190,6 +192,14 @@ impl WaterPass {
             }
         }
         let Some(window) = &self.window else { return Ok(()) };
+        // No water round the camera: nothing to draw. Else only the part
+        // of the screen the water's box can cover.
+        let Some(wet) = window.wet else { return Ok(()) };
+        let heights = water.level_m.map_or([-500.0, 9000.0], |l| [l - 1.0, l + 1.0]);
+        let scissor = screen_box(at, window, wet, heights, (target.width, target.height));
+        if scissor.is_some_and(|[_, _, w, h]| w == 0 || h == 0) {
+            return Ok(());
+        }
         // The eye's place over the window, from the window's centre at the datum.
         let from_centre = at.eye_world - window.centre;
         let (e, n) = (window.east.as_vec3(), window.north.as_vec3());
@@ -206,8 +216,47 @@ impl WaterPass {
             body: [water.color[0] as f32, water.color[1] as f32, water.color[2] as f32, water.clarity_m as f32],
         };
         let bind_group = self.overlay.prepare(gpu, frame_buffer, target.depth_view(), &u);
-        target.run_overlay(gpu, "water", |pass| self.overlay.record(pass, &bind_group, Some(&self.textures)))
+        target.run_overlay(gpu, "water", |pass| {
+            if let Some([x, y, w, h]) = scissor {
+                pass.set_scissor_rect(x, y, w, h);
+            }
+            self.overlay.record(pass, &bind_group, Some(&self.textures));
+        })
     }
+}
+
+/// The pixels (x, y, width, height) the box of the window's wet part
+/// between `heights` (above the datum at the window's centre) covers in a
+/// frame `size` pixels; None (the whole frame) when a corner is behind the
+/// eye.
+fn screen_box(
+    at: &WaterView<'_>,
+    window: &Window,
+    (e, n): ([f64; 2], [f64; 2]),
+    heights: [f64; 2],
+    (width, height): (u32, u32),
+) -> Option<[u32; 4]> {
+    let up = window.east.cross(window.north);
+    let margin = 2.0 * window.half_m / MASK_SIZE as f64;
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for (ee, nn, hh) in [e[0] - margin, e[1] + margin]
+        .into_iter()
+        .flat_map(|ee| [n[0] - margin, n[1] + margin].map(|nn| (ee, nn)))
+        .flat_map(|(ee, nn)| heights.map(|hh| (ee, nn, hh)))
+    {
+        let p = window.centre + window.east * ee + window.north * nn + up * hh - at.eye_world;
+        let clip = at.view_proj * p.as_vec3().extend(1.0);
+        if clip.w <= 1e-3 {
+            return None;
+        }
+        let (x, y) = (f64::from(clip.x / clip.w), f64::from(clip.y / clip.w));
+        (lo, hi) = ([lo[0].min(x), lo[1].min(y)], [hi[0].max(x), hi[1].max(y)]);
+    }
+    let px = |v: f64, size: u32| (f64::midpoint(v, 1.0).clamp(0.0, 1.0) * f64::from(size)).round() as u32;
+    let (x0, x1) = (px(lo[0], width), px(hi[0], width));
+    // Rows run down from the top: NDC y up.
+    let (y0, y1) = (height - px(hi[1], height), height - px(lo[1], height));
+    Some([x0, y0, x1 - x0, y1 - y0])
 }
 
 /// Writes `texels` (`bytes` per texel) into a square texture `side` wide.
