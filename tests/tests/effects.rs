@@ -307,8 +307,14 @@ async fn from_space_the_planet_has_a_limb_and_a_pole_has_its_midnight_sun() {
 #[test]
 fn effects_relief_cannot_draw_are_refused_with_the_known_ones() {
     for (effects, message) in [
-        ("[effects]\nwater = {}\n", "effects.water': not drawn yet (drawn: lighting, atmosphere, fog, shadows)"),
-        ("[effects]\nsmog = {}\n", "effects.smog': unknown effect (drawn: lighting, atmosphere, fog, shadows)"),
+        (
+            "[effects]\nvegetation = {}\n",
+            "effects.vegetation': not drawn yet (drawn: lighting, atmosphere, fog, shadows, water, detail)",
+        ),
+        (
+            "[effects]\nsmog = {}\n",
+            "effects.smog': unknown effect (drawn: lighting, atmosphere, fog, shadows, water, detail)",
+        ),
         ("[effects]\nshadows = {}\n", "effects.shadows': shadows take away the lighting's sunlight: declare lighting"),
         ("[effects]\nlighting = {}\nshadows = { cascades = 2 }\n", "effects.shadows.cascades"),
         ("[effects]\nlighting = {}\nshadows = { distance_m = 10 }\n", "effects.shadows.distance_m"),

@@ -26,33 +26,7 @@ pub fn pipeline(
     (vs, fs): (&str, &str),
     buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
 ) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(label),
-        layout: Some(layout),
-        vertex: wgpu::VertexState {
-            module: shader,
-            entry_point: Some(vs),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            buffers,
-        },
-        primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(true),
-            depth_compare: Some(wgpu::CompareFunction::Greater),
-            stencil: wgpu::StencilState::default(),
-            bias: wgpu::DepthBiasState::default(),
-        }),
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: shader,
-            entry_point: Some(fs),
-            compilation_options: wgpu::PipelineCompilationOptions::default(),
-            targets: &[Some(COLOR_FORMAT.into())],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+    reversed_z(device, label, (layout, shader), (vs, Some(fs)), buffers)
 }
 
 /// The attributes of a vertex of four vec4s: position (high and low
@@ -77,6 +51,19 @@ pub fn caster_pipeline(
     vs: &str,
     buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
 ) -> wgpu::RenderPipeline {
+    reversed_z(device, label, (layout, shader), (vs, None), buffers)
+}
+
+/// A pipeline with reversed-Z depth and no culling: `vs`, and `fs` into
+/// the frame's colour when given (else depth only).
+fn reversed_z(
+    device: &wgpu::Device,
+    label: &str,
+    (layout, shader): (&wgpu::PipelineLayout, &wgpu::ShaderModule),
+    (vs, fs): (&str, Option<&str>),
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+) -> wgpu::RenderPipeline {
+    let targets = [Some(COLOR_FORMAT.into())];
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(label),
         layout: Some(layout),
@@ -95,9 +82,35 @@ pub fn caster_pipeline(
             bias: wgpu::DepthBiasState::default(),
         }),
         multisample: wgpu::MultisampleState::default(),
-        fragment: None,
+        fragment: fs.map(|fs| wgpu::FragmentState {
+            module: shader,
+            entry_point: Some(fs),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            targets: &targets,
+        }),
         multiview_mask: None,
         cache: None,
+    })
+}
+
+/// A square texture `side` texels a side with `layers` layers, sampled by
+/// a pass and written from the CPU.
+pub fn sampled_texture(
+    device: &wgpu::Device,
+    label: &str,
+    side: u32,
+    layers: u32,
+    format: wgpu::TextureFormat,
+) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: side, height: side, depth_or_array_layers: layers },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
     })
 }
 

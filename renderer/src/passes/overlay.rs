@@ -179,4 +179,15 @@ fn unproject(inv: mat4x4<f32>, ndc: vec2<f32>, z: f32) -> vec3<f32> {
     let p = inv * vec4<f32>(ndc, z, 1.0);
     return p.xyz / p.w;
 }
+
+// The view ray through `ndc` where the frame's depth is `z`: its direction
+// (xyz) and the distance to what was drawn there (w), `far` for the sky.
+fn view_ray(inv: mat4x4<f32>, ndc: vec2<f32>, z: f32, far: f32) -> vec4<f32> {
+    if z > 0.0 {
+        let p = unproject(inv, ndc, z);
+        let d = length(p);
+        return vec4<f32>(p / d, d);
+    }
+    return vec4<f32>(normalize(unproject(inv, ndc, 1.0)), far);
+}
 ";

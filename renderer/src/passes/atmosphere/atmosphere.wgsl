@@ -137,15 +137,9 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let up = atmo.eye.up.xyz;
     let h0 = atmo.eye.up.w;
     let s = atmo.sun.xyz;
-    var dir: vec3<f32>;
-    var surface = FAR;
-    if z > 0.0 {
-        let p = unproject(atmo.eye.inv_view_proj, ndc, z);
-        surface = length(p);
-        dir = p / surface;
-    } else {
-        dir = normalize(unproject(atmo.eye.inv_view_proj, ndc, 1.0));
-    }
+    let ray = view_ray(atmo.eye.inv_view_proj, ndc, z, FAR);
+    let dir = ray.xyz;
+    let surface = ray.w;
     let mu = dot(dir, up);
     let mu_sun = dot(s, up);
     let along = dot(dir, s);

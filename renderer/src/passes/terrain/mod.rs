@@ -103,19 +103,7 @@ impl TerrainPass {
         let level_pipeline = pipeline("levels", ("vs_level", "fs_level"), &[]);
         let base_pipeline = pipeline("base", ("vs_base", "fs_base"), &super::VEC4_VERTICES);
         let layers = config.levels as u32;
-        let array = |label, side: usize, format| {
-            let side = side as u32;
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width: side, height: side, depth_or_array_layers: layers },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        };
+        let array = |label, side: usize, format| super::sampled_texture(device, label, side as u32, layers, format);
         let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
         let colors = array("level colours", COLOR_DETAIL as usize * config.n, wgpu::TextureFormat::Rgba8Unorm);
         let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {

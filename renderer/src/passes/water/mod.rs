@@ -119,18 +119,7 @@ impl WaterPass {
             over_frame(blend),
             Some(&layout),
         );
-        let texture = |label, side: u32, format| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width: side, height: side, depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-                view_formats: &[],
-            })
-        };
+        let texture = |label, side: u32, format| super::sampled_texture(device, label, side, 1, format);
         let mask = texture("water mask", MASK_SIZE as u32, wgpu::TextureFormat::R8Unorm);
         let waves = texture("water waves", WAVES, wgpu::TextureFormat::Rgba8Unorm);
         write(gpu, &waves, WAVES, 4, &wave_slopes());

@@ -84,15 +84,9 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let size = vec2<f32>(textureDimensions(depth));
     let z = textureLoad(depth, vec2<i32>(frag.xy), 0);
     let ndc = ndc_of(frag.xy, size);
-    var ground_t = 1.0e30;
-    var dir: vec3<f32>;
-    if z > 0.0 {
-        let p = unproject(water.eye.inv_view_proj, ndc, z);
-        ground_t = length(p);
-        dir = p / ground_t;
-    } else {
-        dir = normalize(unproject(water.eye.inv_view_proj, ndc, 1.0));
-    }
+    let ray = view_ray(water.eye.inv_view_proj, ndc, z, 1.0e30);
+    let dir = ray.xyz;
+    let ground_t = ray.w;
     let up = water.eye.up.xyz;
     let h0 = water.eye.up.w;
     let level = water.place.z;
