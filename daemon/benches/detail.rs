@@ -43,9 +43,8 @@ fn true_residual(truth: &Analytic, level: u8) -> f64 {
     let (xs, ys) = (x0..x0 + 64, y0..y0 + 64);
     let fine = truth.heights(level, xs.clone(), ys.clone()).unwrap();
     let above = Analytic { max_level: level - 1, surface: truth.surface.clone(), ..*truth };
-    let predicted = Detailed::new(&above, &truth.surface, Detail { octaves: 1, sigma_m: 0.0, ratio: 0.5 })
-        .heights(level, xs, ys)
-        .unwrap();
+    let none = Detail { octaves: 1, sigma_m: 0.0, ratio: 0.5, data_level: level - 1 };
+    let predicted = Detailed::new(&above, &truth.surface, none).heights(level, xs, ys).unwrap();
     let sum: f64 = fine.iter().zip(&predicted).map(|(a, b)| f64::from(a - b).powi(2)).sum();
     (sum / fine.len() as f64).sqrt()
 }
@@ -55,13 +54,13 @@ fn main() -> anyhow::Result<()> {
     let (_, base) = utm_scene_of(ClipmapConfig::default(), fractal);
     let data = Analytic { max_level: DATA_LEVEL, surface: base.surface.clone(), ..base };
     let truth = Analytic { max_level: DATA_LEVEL + 6, surface: base.surface.clone(), ..base };
-    let fit = Detail::fit(&data, MIDDLE, Detail::MAX_OCTAVES).unwrap();
+    let fit = Detail::fit(&data, MIDDLE, DATA_LEVEL, Detail::MAX_OCTAVES).unwrap();
     println!("### Detail: octaves synthesized below the data against the truth's own finer octaves");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!(
         "data: a fractal surface down to {:.2} m samples; noise fitted: {:.3} m RMS in the first octave, ratio {:.3}",
         data.surface.step(DATA_LEVEL),
-        fit.sigma_m,
+        fit.sigma_at(DATA_LEVEL + 1),
         fit.ratio
     );
     println!("| octave | sample spacing m | truth adds (RMS m) | noise adds (RMS m) | log2 noise / truth |");
@@ -69,7 +68,7 @@ fn main() -> anyhow::Result<()> {
     let mut errors = Vec::new();
     for k in 1..=Detail::MAX_OCTAVES {
         let level = DATA_LEVEL + k as u8;
-        let (truth_rms, noise) = (true_residual(&truth, level), fit.sigma_at(k));
+        let (truth_rms, noise) = (true_residual(&truth, level), fit.sigma_at(level));
         let error = (noise / truth_rms).log2();
         errors.push(error.abs());
         println!("| {k} | {:.3} | {truth_rms:.4} | {noise:.4} | {error:+.2} |", data.surface.step(level));

@@ -658,12 +658,12 @@ mod tests {
             ("[scene]\nname='a'\n[effects]\nlighting={}\n", "needs a 'height' layer"),
             // Names relief knows but cannot honour yet are refused, not ignored.
             (
-                "[scene]\nname='a'\n[effects]\nshadows={}\n",
-                "field 'effects.shadows': not drawn yet (drawn: lighting, atmosphere, fog)",
+                "[scene]\nname='a'\n[effects]\nvegetation={}\n",
+                "field 'effects.vegetation': not drawn yet (drawn: lighting, atmosphere, fog, shadows, water, detail)",
             ),
             (
                 "[scene]\nname='a'\n[effects]\nsparkle={}\n",
-                "field 'effects.sparkle': unknown effect (drawn: lighting, atmosphere, fog)",
+                "field 'effects.sparkle': unknown effect (drawn: lighting, atmosphere, fog, shadows, water, detail)",
             ),
             ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': needs a 'height' layer"),
             // An effect's option it would ignore is refused too.
@@ -675,7 +675,7 @@ mod tests {
             ("[scene]\nname='a'\n[sun]\nhour = 15\n", "unknown field `hour`"),
             (
                 "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nvegetation='t'\n",
-                "field 'layers.vegetation': not drawn yet (drawn: height, color, buildings, instances)",
+                "field 'layers.vegetation': not drawn yet (drawn: height, color, buildings, instances, water)",
             ),
             ("[scene]\nname = \n", "invalid manifest"),
         ];

@@ -227,8 +227,11 @@ impl Viewer {
         // a generation, over the middle of the layer's data.
         let detail = effects.detail_octaves.and_then(|octaves| {
             if r.detail_fit.is_none_or(|(g, _)| g != snap.generation) {
-                let at = terrain.data_centre(terrain.max_level());
-                r.detail_fit = at.and_then(|at| Detail::fit(&terrain, at, octaves)).map(|d| (snap.generation, d));
+                // The terrain refines one level past the data's own spacing.
+                let data_level = terrain.max_level().saturating_sub(1);
+                let at = terrain.data_centre(data_level);
+                r.detail_fit =
+                    at.and_then(|at| Detail::fit(&terrain, at, data_level, octaves)).map(|d| (snap.generation, d));
             }
             r.detail_fit.map(|(_, d)| Detail { octaves, ..d })
         });

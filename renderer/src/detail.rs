@@ -12,33 +12,37 @@ use std::ops::Range;
 use crate::clipmap::TerrainSamples;
 use crate::surface::Surface;
 
-/// Synthesized detail: octaves below the data, and the noise's RMS in the
-/// first of them and its ratio from one octave to the next.
+/// Synthesized detail: octaves below the terrain's finest level, and the
+/// noise: what the four-point prediction misses at the data's own level
+/// (RMS, metres) and its ratio from one octave to the next.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Detail {
-    /// Levels synthesized below the data's finest (`detail_octaves`): an
-    /// accuracy knob, each octave halving the drawn sample spacing.
+    /// Levels synthesized below the terrain's finest (`detail_octaves`):
+    /// an accuracy knob, each octave halving the drawn sample spacing.
     pub octaves: u32,
     pub sigma_m: f64,
     pub ratio: f64,
+    /// The tile level whose samples are the data's own.
+    pub data_level: u8,
 }
 
 impl Detail {
     pub const DEFAULT_OCTAVES: u32 = 2;
     pub const MAX_OCTAVES: u32 = 6;
 
-    /// The noise's RMS at synthesized octave `k` (1 is the first).
-    pub fn sigma_at(&self, k: u32) -> f64 {
-        self.sigma_m * self.ratio.powi(k as i32 - 1)
+    /// The noise's RMS at tile level `level`, below the data's.
+    pub fn sigma_at(&self, level: u8) -> f64 {
+        self.sigma_m * self.ratio.powi(i32::from(level) - i32::from(self.data_level))
     }
 
     /// Fits the noise to `terrain`'s spectrum round corner sample `at` of
-    /// its finest level: the four-point prediction's residual RMS at the
-    /// finest level and the one above (blocks of 64 x 64), the ratio
-    /// between them (bounded to 0.25-0.75, a fractal's range), the next
-    /// octave's RMS carried on by it. None while the data is not ready.
-    pub fn fit(terrain: &dyn TerrainSamples, at: (i64, i64), octaves: u32) -> Option<Self> {
-        let finest = terrain.max_level();
+    /// `data_level`, the level whose samples are the data's own: the
+    /// four-point prediction's residual RMS there and at the level above
+    /// (blocks of 64 x 64), and the ratio between them (bounded to
+    /// 0.25-0.75, a fractal's range) that carries it on to finer octaves.
+    /// None while the data is not ready.
+    pub fn fit(terrain: &dyn TerrainSamples, at: (i64, i64), data_level: u8, octaves: u32) -> Option<Self> {
+        let finest = data_level;
         if finest < 2 {
             return None;
         }
@@ -59,7 +63,7 @@ impl Detail {
         let fine = residual(finest, at)?;
         let above = residual(finest - 1, (at.0.div_euclid(2), at.1.div_euclid(2)))?;
         let ratio = if above > 1e-9 { (fine / above).clamp(0.25, 0.75) } else { 0.5 };
-        Some(Self { octaves, sigma_m: fine * ratio, ratio })
+        Some(Self { octaves, sigma_m: fine, ratio, data_level })
     }
 }
 
@@ -151,7 +155,7 @@ impl TerrainSamples for Detailed<'_> {
         let (cx1, cy1) = ((xs.end - 1).div_euclid(2) + 3, (ys.end - 1).div_euclid(2) + 3);
         let coarse = Block { xs: cx..cx1, ys: cy..cy1, values: self.heights(level - 1, cx..cx1, cy..cy1)? };
         let mut out = coarse.subdivide(xs.clone(), ys.clone());
-        let sigma = self.detail.sigma_at(u32::from(level - self.finest));
+        let sigma = self.detail.sigma_at(level);
         // Noise keyed by the sample's place round the planet, so a wrapped
         // index draws the same.
         let turn = self.surface.is_planet().then(|| self.surface.revolution(level));
@@ -204,7 +208,7 @@ mod tests {
     #[test]
     fn without_noise_the_subdivision_reproduces_a_cubic() {
         let surface = Surface::new(TileGrid::geodetic(256).unwrap());
-        let detail = Detail { octaves: 2, sigma_m: 0.0, ratio: 0.5 };
+        let detail = Detail { octaves: 2, sigma_m: 0.0, ratio: 0.5, data_level: 3 };
         let d = Detailed::new(&Cubic, &surface, detail);
         assert_eq!(d.max_level(), 5);
         for level in [4u8, 5] {
@@ -219,7 +223,7 @@ mod tests {
     #[test]
     fn the_noise_is_the_same_every_time_and_has_its_rms() {
         let surface = Surface::new(TileGrid::geodetic(256).unwrap());
-        let detail = Detail { octaves: 1, sigma_m: 2.0, ratio: 0.5 };
+        let detail = Detail { octaves: 1, sigma_m: 4.0, ratio: 0.5, data_level: 3 };
         let d = Detailed::new(&Cubic, &surface, detail);
         let a = d.heights(4, 0..100, 0..100).unwrap();
         assert_eq!(a, d.heights(4, 0..100, 0..100).unwrap());
@@ -234,7 +238,7 @@ mod tests {
 
     #[test]
     fn the_fit_of_a_smooth_cubic_is_no_noise() {
-        let fit = Detail::fit(&Cubic, (40, 20), 2).unwrap();
+        let fit = Detail::fit(&Cubic, (40, 20), 3, 2).unwrap();
         assert!(fit.sigma_m < 1e-3, "{fit:?}");
     }
 }
