@@ -22,16 +22,6 @@ pub struct EffectSettings {
     pub detail_octaves: Option<u32>,
 }
 
-/// The effects' quality knobs (`[quality]`, and a request's overrides),
-/// and the effect each belongs to.
-pub const QUALITY_KNOBS: &[(&str, &str)] = &[
-    ("atmosphere_steps", "atmosphere"),
-    ("atmosphere_downsample", "atmosphere"),
-    ("shadow_cascades", "shadows"),
-    ("shadow_map_size", "shadows"),
-    ("detail_octaves", "detail"),
-];
-
 impl EffectSettings {
     /// The declared effects' quality knobs and their values, for the
     /// scene's state (a knob of an undeclared effect is not there).
@@ -52,7 +42,7 @@ impl EffectSettings {
         out
     }
 
-    /// Sets quality knob `name` (one of `QUALITY_KNOBS`) to `value`:
+    /// Sets an effect's quality knob `name` to `value`:
     /// Err(knob, message) when the scene does not declare its effect or
     /// the value is out of range.
     pub fn set_quality(&mut self, name: &str, value: u32) -> Result<(), (String, String)> {

@@ -50,7 +50,7 @@ struct Renderers {
     by_config: HashMap<(ClipmapConfig, u32), (Renderer, u64)>,
     /// The detail's noise fitted to the height layer, and the generation
     /// it was fitted at.
-    detail_fit: Option<(u64, Detail)>,
+    detail_fit: Option<(u64, Option<Detail>)>,
     /// (generation, extents it dirtied), oldest first.
     dirt: VecDeque<(u64, Vec<Extent>)>,
     /// Each pass's runs and time since start, over every renderer; built
@@ -225,15 +225,16 @@ impl Viewer {
         let r = &mut *guard;
         // Detail below the data: its noise fitted to the height layer once
         // a generation, over the middle of the layer's data.
+        // (A fit that fails, for nodata there, is kept too: no detail this
+        // generation, and the state says it did not run.)
         let detail = effects.detail_octaves.and_then(|octaves| {
             if r.detail_fit.is_none_or(|(g, _)| g != snap.generation) {
-                // The terrain refines one level past the data's own spacing.
-                let data_level = terrain.max_level().saturating_sub(1);
-                let at = terrain.data_centre(data_level);
-                r.detail_fit =
-                    at.and_then(|at| Detail::fit(&terrain, at, data_level, octaves)).map(|d| (snap.generation, d));
+                let level = terrain.height_level();
+                let at = level.and_then(|l| terrain.data_centre(l)).zip(level);
+                let fit = at.and_then(|(at, level)| Detail::fit(&terrain, at, level, octaves));
+                r.detail_fit = Some((snap.generation, fit));
             }
-            r.detail_fit.map(|(_, d)| Detail { octaves, ..d })
+            r.detail_fit.and_then(|(_, d)| d).map(|d| Detail { octaves, ..d })
         });
         let detail_surface = Surface::new(snap.grid.clone());
         let detailed = detail.map(|d| Detailed::new(&terrain, &detail_surface, d));

@@ -125,8 +125,10 @@ pub struct Detailed<'a> {
 }
 
 impl<'a> Detailed<'a> {
+    /// `inner` with every level below the data's own (`detail.data_level`)
+    /// synthesized, down to `detail.octaves` below it.
     pub fn new(inner: &'a dyn TerrainSamples, surface: &'a Surface, detail: Detail) -> Self {
-        Self { inner, surface, detail, finest: inner.max_level() }
+        Self { inner, surface, detail, finest: detail.data_level }
     }
 }
 
@@ -173,7 +175,8 @@ impl TerrainSamples for Detailed<'_> {
     }
 
     fn max_level(&self) -> u8 {
-        (u32::from(self.finest) + self.detail.octaves).min(u32::from(relief_source::MAX_LEVEL - 1)) as u8
+        let synthesized = (u32::from(self.finest) + self.detail.octaves).min(u32::from(relief_source::MAX_LEVEL - 1));
+        (synthesized as u8).max(self.inner.max_level())
     }
 }
 

@@ -362,6 +362,7 @@ impl Renderer {
                 view_proj: view.view_projection(aspect),
                 eye_world: view.eye,
                 under: (pose.position[0], pose.position[1]),
+                eye_height_m: pose.position[2],
                 above_ground_m: (pose.position[2] - ground_m).abs(),
                 ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
                 surface: &self.surface,

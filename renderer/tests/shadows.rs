@@ -84,6 +84,8 @@ fn shadows_without_lighting_and_bad_knobs_are_refused() {
         (Shadows { cascades: 0, ..Shadows::DEFAULT }, "shadow_cascades"),
         (Shadows { cascades: 5, ..Shadows::DEFAULT }, "shadow_cascades"),
         (Shadows { map_size: 1000, ..Shadows::DEFAULT }, "shadow_map_size"),
+        // A gibibyte of maps.
+        (Shadows { cascades: 4, map_size: 8192, ..Shadows::DEFAULT }, "shadow_map_size"),
         (Shadows { distance_m: f64::NAN, ..Shadows::DEFAULT }, "distance_m"),
     ] {
         let e = renderer.render(&source, &at, &RenderSettings { shadows: Some(shadows), ..LIT }).unwrap_err();

@@ -46,6 +46,17 @@ impl<'a> SceneTerrain<'a> {
 }
 
 impl SceneTerrain<'_> {
+    /// The tile level whose samples are the height layer's own (its data's
+    /// spacing), or None without one.
+    pub fn height_level(&self) -> Option<u8> {
+        let r = self.snap.slots[self.height?].source.as_ref()?.info().resolution?;
+        let mut level = 0u8;
+        while level < relief_source::MAX_LEVEL - 1 && self.snap.grid.sample_step(level) > r {
+            level += 1;
+        }
+        Some(level)
+    }
+
     /// The corner sample of `level` nearest the middle of the height
     /// layer's data; None without one.
     pub fn data_centre(&self, level: u8) -> Option<(i64, i64)> {

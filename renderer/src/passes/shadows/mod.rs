@@ -52,6 +52,13 @@ impl Shadows {
         if !(256..=8192).contains(&self.map_size) || !self.map_size.is_power_of_two() {
             return Err(("shadow_map_size", format!("{} is not a power of two from 256 to 8192", self.map_size)));
         }
+        // At most a quarter of a gibibyte of maps (4 x 4,096^2 x 4 bytes).
+        if u64::from(self.cascades) * u64::from(self.map_size).pow(2) > 4 * 4096 * 4096 {
+            return Err((
+                "shadow_map_size",
+                format!("{} maps of {} texels are more than 4 of 4,096", self.cascades, self.map_size),
+            ));
+        }
         if !(self.distance_m.is_finite() && (100.0..=1_000_000.0).contains(&self.distance_m)) {
             return Err(("distance_m", format!("{} is not from 100 to 1,000,000 m", self.distance_m)));
         }
@@ -236,7 +243,9 @@ impl ShadowsPass {
             Vec::new()
         } else {
             let near = (at.above_ground_m * 0.5).max(1.0);
-            let far = shadows.distance_m.max(near * 2.0);
+            // Far enough past the ground under a high eye to take in the
+            // ground round it.
+            let far = shadows.distance_m.max(near * 4.0);
             cascades::fit(at.view, at.aspect, at.sun, at.sin_elevation, (near, far), shadows.cascades, shadows.map_size)
         };
         let Casters { terrain, surface, draw, mut buildings, mut instances } = casters;

@@ -64,7 +64,8 @@ pub struct WaterView<'a> {
     /// The eye, world axes, and the grid point under it.
     pub eye_world: DVec3,
     pub under: (f64, f64),
-    /// The eye's height above the drawn ground.
+    /// The eye's height above the datum, and above the drawn ground.
+    pub eye_height_m: f64,
     pub above_ground_m: f64,
     /// The ground's radius under the eye (None over flat ground).
     pub ground_radius_m: Option<f64>,
@@ -184,7 +185,9 @@ impl WaterPass {
         // No water round the camera: nothing to draw. Else only the part
         // of the screen the water's box can cover.
         let Some(wet) = window.wet else { return Ok(()) };
-        let heights = water.level_m.map_or([-500.0, 9000.0], |l| [l - 1.0, l + 1.0]);
+        // On the planet the surface falls away below the window's plane.
+        let sag = at.ground_radius_m.map_or(0.0, |r| window.half_m * window.half_m / r);
+        let heights = water.level_m.map_or([-500.0, 9000.0], |l| [l - 1.0 - sag, l + 1.0]);
         let scissor = screen_box(at, window, wet, heights, (target.width, target.height));
         if scissor.is_some_and(|[_, _, w, h]| w == 0 || h == 0) {
             return Ok(());
@@ -199,7 +202,7 @@ impl WaterPass {
             place: [
                 from_centre.dot(window.east) as f32,
                 from_centre.dot(window.north) as f32,
-                water.level_m.unwrap_or(0.0) as f32,
+                (at.eye_height_m - water.level_m.unwrap_or(0.0)) as f32,
                 at.ground_radius_m.unwrap_or(0.0) as f32,
             ],
             body: [water.color[0] as f32, water.color[1] as f32, water.color[2] as f32, water.clarity_m as f32],

@@ -19,7 +19,8 @@ struct Water {
     // Its north axis (xyz); w 1 when the water has a level.
     north: vec4<f32>,
     // The eye's east and north metres from the window's centre (xy), the
-    // level above the datum (z), the ground's radius under the eye (w; 0
+    // eye's height above the water's level (z, worked out in f64: below
+    // zero under the surface), the ground's radius under the eye (w; 0
     // over flat ground).
     place: vec4<f32>,
     // The water's colour (rgb), its clarity in metres (w).
@@ -50,26 +51,34 @@ fn mask_at(p: vec3<f32>) -> f32 {
     return textureSampleLevel(mask, clamped, uv, 0.0).r;
 }
 
-// Distance along a ray of cosine mu to the local up (from height h0) to
-// the surface `level` above the datum; negative when it never gets there.
-fn surface_t(h0: f32, level: f32, mu: f32) -> f32 {
+// Distance along a ray of cosine mu to the local up to the water's
+// surface, from an eye `dh` above it (below when negative); negative when
+// the ray never gets there. On the planet the roots are taken in the
+// stable form c / (-r mu +- sqrt(disc)), c = dh (r + R): no difference of
+// squares of planet radii in f32.
+fn surface_t(dh: f32, mu: f32) -> f32 {
     let r0 = water.place.w;
     if r0 <= 0.0 {
         if abs(mu) < 1e-6 {
             return -1.0;
         }
-        return (level - h0) / mu;
+        return -dh / mu;
     }
+    let h0 = water.eye.up.w;
     let r = r0 + h0;
-    let big = r0 + level;
-    let disc = r * r * mu * mu - (r * r - big * big);
+    let c = dh * (2.0 * r0 + 2.0 * h0 - dh);
+    let disc = r * r * mu * mu - c;
     if disc < 0.0 {
         return -1.0;
     }
-    if r > big {
-        return -r * mu - sqrt(disc);
+    if dh > 0.0 {
+        // From above: only rays going down meet it, the nearer root.
+        if mu >= 0.0 {
+            return -1.0;
+        }
+        return c / (-r * mu + sqrt(disc));
     }
-    return -r * mu + sqrt(disc);
+    return c / (-r * mu - sqrt(disc));
 }
 
 // The sky a reflected ray sees: horizon to zenith, by the daylight.
@@ -88,18 +97,17 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let dir = ray.xyz;
     let ground_t = ray.w;
     let up = water.eye.up.xyz;
-    let h0 = water.eye.up.w;
-    let level = water.place.z;
+    let dh = water.place.z;
     let has_level = water.north.w > 0.5;
     let mu = dot(dir, up);
     let lit = frame.light.x + frame.light.y * max(dot(frame.sun.xyz, up), 0.0);
     let body = water.body.rgb * lit;
     let clarity = water.body.w;
-    if has_level && h0 < level && mask_at(vec3<f32>(0.0)) > 0.5 {
+    if has_level && dh < 0.0 && mask_at(vec3<f32>(0.0)) > 0.5 {
         // Under the surface: everything through the water, up to the
         // surface or the ground.
         var through = ground_t;
-        let to_surface = surface_t(h0, level, mu);
+        let to_surface = surface_t(dh, mu);
         if to_surface > 0.0 {
             through = min(through, to_surface);
         }
@@ -108,7 +116,7 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     }
     var t_water = ground_t;
     if has_level {
-        t_water = surface_t(h0, level, mu);
+        t_water = surface_t(dh, mu);
         if t_water <= 0.0 || t_water >= ground_t {
             discard;
         }
