@@ -3,7 +3,7 @@
 //! four-point subdivision (weights -1/16, 9/16, 9/16, -1/16; it reproduces
 //! cubics) plus Gaussian noise whose amplitude per octave is fitted to the
 //! data's own spectrum: the RMS of what the four-point prediction misses
-//! at the data's two finest levels, carried on by their ratio. The noise
+//! at the data's own level and the one above, carried on by their ratio. The noise
 //! is a hash of the level and the sample: the same terrain every frame and
 //! every run. Only what is drawn changes; the tiles stay the data's.
 
@@ -121,14 +121,13 @@ pub struct Detailed<'a> {
     inner: &'a dyn TerrainSamples,
     surface: &'a Surface,
     detail: Detail,
-    finest: u8,
 }
 
 impl<'a> Detailed<'a> {
     /// `inner` with every level below the data's own (`detail.data_level`)
     /// synthesized, down to `detail.octaves` below it.
     pub fn new(inner: &'a dyn TerrainSamples, surface: &'a Surface, detail: Detail) -> Self {
-        Self { inner, surface, detail, finest: detail.data_level }
+        Self { inner, surface, detail }
     }
 }
 
@@ -149,7 +148,7 @@ fn gaussian(level: u8, x: i64, y: i64) -> f64 {
 
 impl TerrainSamples for Detailed<'_> {
     fn heights(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<f32>> {
-        if level <= self.finest {
+        if level <= self.detail.data_level {
             return self.inner.heights(level, xs, ys);
         }
         // The coarser level's samples two past each side, then refined.
@@ -175,7 +174,8 @@ impl TerrainSamples for Detailed<'_> {
     }
 
     fn max_level(&self) -> u8 {
-        let synthesized = (u32::from(self.finest) + self.detail.octaves).min(u32::from(relief_source::MAX_LEVEL - 1));
+        let synthesized =
+            (u32::from(self.detail.data_level) + self.detail.octaves).min(u32::from(relief_source::MAX_LEVEL - 1));
         (synthesized as u8).max(self.inner.max_level())
     }
 }

@@ -244,6 +244,15 @@ impl Renderer {
         target.run(&self.gpu, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
+        // Where the eye is over what this frame draws, and the sun: what
+        // the later passes ask of the frame, worked out once.
+        let ground_m =
+            self.terrain.drawn_height(&self.surface, &draw.update.active, pose, pose.position[0], pose.position[1]);
+        let up = self.surface.enu(pose.position[0], pose.position[1])[2];
+        let sun = self.sun(pose, settings.sun);
+        let ground_radius_m = self.surface.is_planet().then(|| view.eye.length() - pose.position[2]);
+        let above_ground_m = (pose.position[2] - ground_m.unwrap_or(0.0)).abs();
+
         let (terrain_blocks, terrain_blocks_drawn) = draw.blocks();
         let mut drawn = Drawn { terrain_blocks, terrain_blocks_drawn, ..Drawn::default() };
         if layers.buildings.is_none() && self.buildings.take().is_some() {
@@ -285,13 +294,7 @@ impl Renderer {
                 view: &view,
                 aspect,
                 camera: pose.position,
-                ground_m: self.terrain.drawn_height(
-                    &self.surface,
-                    &draw.update.active,
-                    pose,
-                    pose.position[0],
-                    pose.position[1],
-                ),
+                ground_m,
                 bands: &settings.bands,
             };
             let shown = instances.prepare(&self.gpu, &at, tiles)?;
@@ -307,10 +310,7 @@ impl Renderer {
         let water = settings.water.zip(layers.water);
         let overlaid =
             settings.atmosphere.is_some() || settings.fog.is_some() || settings.shadows.is_some() || water.is_some();
-        let eye = overlaid.then(|| {
-            let up = self.surface.enu(pose.position[0], pose.position[1])[2];
-            Eye::new(view.view_projection(aspect), up, pose.position[2])
-        });
+        let eye = overlaid.then(|| Eye::new(view.view_projection(aspect), up, pose.position[2]));
         if settings.shadows.is_none() && self.shadows.take().is_some() {
             self.counters.set_built(passes::SHADOWS, false);
             self.terrain.drop_casters();
@@ -319,12 +319,6 @@ impl Renderer {
         }
         if let Some(shadows) = &settings.shadows {
             let started = Instant::now();
-            let ground_m = self
-                .terrain
-                .drawn_height(&self.surface, &draw.update.active, pose, pose.position[0], pose.position[1])
-                .unwrap_or(0.0);
-            let sun = self.sun(pose, settings.sun);
-            let up = self.surface.enu(pose.position[0], pose.position[1])[2];
             let at = ShadowView {
                 view: &view,
                 pose,
@@ -333,7 +327,7 @@ impl Renderer {
                 eye: eye.unwrap_or_default(),
                 sun,
                 sin_elevation: sun.dot(up),
-                above_ground_m: (pose.position[2] - ground_m).abs(),
+                above_ground_m,
                 frame: frame_uniform,
             };
             let casters = Casters {
@@ -353,18 +347,14 @@ impl Renderer {
         }
         if let Some((knobs, samples)) = water {
             let started = Instant::now();
-            let ground_m = self
-                .terrain
-                .drawn_height(&self.surface, &draw.update.active, pose, pose.position[0], pose.position[1])
-                .unwrap_or(0.0);
             let at = WaterView {
                 eye: eye.unwrap_or_default(),
                 view_proj: view.view_projection(aspect),
                 eye_world: view.eye,
                 under: (pose.position[0], pose.position[1]),
                 eye_height_m: pose.position[2],
-                above_ground_m: (pose.position[2] - ground_m).abs(),
-                ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
+                above_ground_m,
+                ground_radius_m,
                 surface: &self.surface,
                 samples,
             };
@@ -381,7 +371,6 @@ impl Renderer {
         }
         if let Some(atmosphere) = &settings.atmosphere {
             let started = Instant::now();
-            let sun = self.sun(pose, settings.sun);
             let lookup = self.shadows.as_ref().map(ShadowsPass::lookup_layout);
             let pass = self
                 .atmosphere
@@ -389,7 +378,7 @@ impl Renderer {
             self.counters.set_built(passes::ATMOSPHERE, true);
             let at = AtmosphereView {
                 eye: eye.unwrap_or_default(),
-                ground_radius_m: self.surface.is_planet().then(|| view.eye.length() - pose.position[2]),
+                ground_radius_m,
                 sun,
                 shadows: self.shadows.as_ref().and_then(ShadowsPass::lookup),
             };
