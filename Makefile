@@ -1,7 +1,7 @@
 # The two commands the README starts with. Each installs what is missing
 # (Debian packages through apt-get, then the Rust build) and runs.
 
-.PHONY: demo test setup bench qgis-plugin
+.PHONY: demo test setup bench accuracy qgis-plugin
 
 setup:
 	bash scripts/setup.sh
@@ -12,6 +12,12 @@ demo: setup
 
 test: setup
 	bash scripts/test.sh
+
+# What accuracy costs in time: every knob swept against its reference into
+# docs/accuracy.md and docs/accuracy/*.svg (under 30 minutes; CI builds it,
+# never runs it).
+accuracy: setup
+	cargo run --release -p relief-accuracy -- --out docs
 
 # The QGIS plugin's installable zip (QGIS: Plugins > Manage and Install
 # Plugins > Install from ZIP): target/qgis/relief_qgis.zip.
@@ -27,4 +33,6 @@ bench: setup
 	cargo bench -p relief-daemon --bench frames
 	cargo bench -p relief-daemon --bench geopackage
 	cargo bench -p relief-daemon --bench bigdem
+	cargo bench -p relief-daemon --bench warm
+	cargo bench -p relief-daemon --bench soak
 	bash clients/qgis/scripts/bench.sh

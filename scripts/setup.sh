@@ -2,7 +2,8 @@
 # Installs the Debian packages relief needs, once (Chromium and curl are for
 # the tests of the browser viewer and the HTTP transport; python3-venv for the
 # Python client's tests; qgis and python3-qgis for the QGIS plugin's tests,
-# which run PyQGIS headless). Safe to run again: it only
+# which run PyQGIS headless; redis-server for the replicas' shared tile
+# cache, which the tests start on a private socket). Safe to run again: it only
 # calls apt-get when something is missing. Retries once, because an install on
 # this kind of machine has been seen to fail half way (STACK.md).
 set -euo pipefail
@@ -13,6 +14,7 @@ packages=(
   chromium curl
   python3-venv
   qgis python3-qgis
+  redis-server
 )
 
 missing=()

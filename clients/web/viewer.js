@@ -9,6 +9,13 @@
 // Each tab opens a view of its own (POST /api/views); the server renders its
 // frames and pushes them whenever the generation or the view's camera
 // changes. The page never polls.
+//
+// A reliefd serving with --token-file wants a bearer token on every call but
+// serves this page to anyone. The page takes the token from its own address,
+// `#token=TOKEN` (never sent to the server) or `?access_token=TOKEN`, and
+// sends it as `authorization: Bearer TOKEN` on every fetch and as
+// `access_token=TOKEN` in the URLs of its event streams (EventSource cannot
+// set headers).
 
 "use strict";
 
@@ -24,6 +31,7 @@
     lastFrame: null, // the last RenderResponse, image included
     state: null, // the last SceneState
     lastError: null, // the last error shown, as text
+    refused: null, // the HTTP status (401, 403) of the last refusal, if any
     // The last 200 frames: generation, and wall-clock ms when the frame
     // arrived and when its image was decoded and shown (benchmarks).
     frameLog: [],
@@ -44,6 +52,39 @@
   const RESIZE_DEBOUNCE_MS = 200;
   const RETRY_MIN_MS = 1000;
   const RETRY_MAX_MS = 15000;
+
+  // ------------------------------------------------------------ the token
+
+  /** The bearer token from the page's address: `#token=` or `?access_token=`. */
+  const token = (param(location.hash.replace(/^#/, ""), "token") || param(location.search.replace(/^\?/, ""), "access_token")).trim();
+
+  /** A parameter of `a=1&b=2`, percent-decoded; "+" stays "+" (tokens hold it). */
+  function param(text, name) {
+    for (const pair of text.split("&")) {
+      const at = pair.indexOf("=");
+      if (at < 0 || pair.slice(0, at) !== name) continue;
+      try {
+        return decodeURIComponent(pair.slice(at + 1));
+      } catch {
+        return pair.slice(at + 1);
+      }
+    }
+    return "";
+  }
+
+  /** `headers` with the token's authorization header, when there is a token. */
+  function authorized(headers) {
+    if (token) headers.authorization = `Bearer ${token}`;
+    return headers;
+  }
+
+  /** `url` with the token as its `access_token` parameter, for EventSource. */
+  function withToken(url) {
+    if (!token) return url;
+    // reliefd compares the parameter as sent: escape only what would end it.
+    const value = token.replace(/[%&#\s]/g, (c) => encodeURIComponent(c));
+    return `${url}${url.includes("?") ? "&" : "?"}access_token=${value}`;
+  }
 
   // ------------------------------------------------------------ elements
 
@@ -132,7 +173,10 @@
     const states = Object.values(conn);
     let text = "live";
     let cls = "live";
-    if (states.includes("reconnecting")) {
+    if (states.includes("refused")) {
+      text = token ? "refused" : "needs a token";
+      cls = "refused";
+    } else if (states.includes("reconnecting")) {
       text = "reconnecting…";
       cls = "reconnecting";
     } else if (states.includes("connecting")) {
@@ -148,9 +192,22 @@
     ui.msg.className = "msg";
   }
 
+  /** What a refusal (HTTP 401 or 403) means for this page, in words. */
+  function refusalText(error) {
+    if (error.status === 401 || error.code === "UNAUTHENTICATED") {
+      relief.refused = 401;
+      return token
+        ? `reliefd does not accept this page's token (${error.message}); open the page as /#token=TOKEN with a token of its token file`
+        : `this reliefd wants a token (${error.message}); open the page as /#token=TOKEN`;
+    }
+    relief.refused = 403;
+    return `this page's token may not do that: ${error.message}`;
+  }
+
   /** Shows an error on the status line; never throws. */
   function report(error, context) {
-    const text = String(error?.message ?? error ?? "unknown error");
+    let text = String(error?.message ?? error ?? "unknown error");
+    if (error instanceof ApiError && error.refused) text = refusalText(error);
     const message = context ? `${context}: ${text}` : text;
     relief.lastError = message;
     ui.msg.textContent = message;
@@ -170,6 +227,11 @@
     get notFound() {
       return this.code === "NOT_FOUND" || this.status === 404;
     }
+
+    /** reliefd refused the token (401: none or unknown; 403: it may only read). */
+    get refused() {
+      return this.status === 401 || this.status === 403 || this.code === "UNAUTHENTICATED" || this.code === "PERMISSION_DENIED";
+    }
   }
 
   /** Reads an error answer ({code, message}) into an ApiError. */
@@ -186,7 +248,7 @@
 
   /** A JSON request to reliefd; rejects with an ApiError. */
   async function api(method, path, body) {
-    const init = { method, headers: { accept: "application/json" } };
+    const init = { method, headers: authorized({ accept: "application/json" }) };
     if (body !== undefined) {
       init.headers["content-type"] = "application/json";
       init.body = JSON.stringify(body);
@@ -389,10 +451,12 @@
     events?.close();
     setConn("events", "connecting");
     // from=0 on every (re)connection: the stream starts with a snapshot.
-    const source = new EventSource("api/events?from=0");
+    const url = withToken("api/events?from=0");
+    const source = new EventSource(url);
     events = source;
     source.addEventListener("open", () => {
       eventsAttempt = 0;
+      relief.refused = null;
       setConn("events", "open");
     });
     source.addEventListener("scene", (message) => {
@@ -412,13 +476,39 @@
         report(parseStreamError(message.data), "scene events");
       } else if (source.readyState === EventSource.CLOSED) {
         // Refused (not a dropped connection): EventSource gives up, we do not.
-        setConn("events", "reconnecting");
-        const delay = backoff(eventsAttempt++);
-        setTimeout(() => source === events && openEvents(), delay);
+        eventsRefused(source, url);
       } else {
         setConn("events", "reconnecting");
       }
     });
+  }
+
+  /** The events stream was refused: ask again to learn why, then retry. */
+  async function eventsRefused(source, url) {
+    setConn("events", "reconnecting");
+    const delay = backoff(eventsAttempt++);
+    const error = await whyRefused(url);
+    if (source !== events) return;
+    if (error) {
+      report(error, "scene events");
+      if (error.refused) setConn("events", "refused");
+    }
+    await sleep(delay);
+    if (source === events) openEvents();
+  }
+
+  /** Why reliefd refused a stream's URL (an ApiError), or null when it
+   * cannot be reached now or serves it after all. */
+  async function whyRefused(url) {
+    const abort = new AbortController();
+    try {
+      const response = await fetch(url, { signal: abort.signal, headers: authorized({ accept: "text/event-stream" }) });
+      return response.ok ? null : await apiError(response);
+    } catch {
+      return null; // Unreachable now: try again after the delay, as EventSource would.
+    } finally {
+      abort.abort();
+    }
   }
 
   function parseStreamError(data) {
@@ -476,7 +566,7 @@
           return;
         } catch (error) {
           report(error, "cannot open a view");
-          setConn("frames", "reconnecting");
+          setConn("frames", error.refused ? "refused" : "reconnecting");
           await sleep(backoff(attempt));
         }
       }
@@ -524,7 +614,7 @@
       height: String(size.height),
       max_fps: String(MAX_FPS),
     });
-    return `api/frames?${query}`;
+    return withToken(`api/frames?${query}`);
   }
 
   function openFrames() {
@@ -539,6 +629,7 @@
     frames = source;
     source.addEventListener("open", () => {
       framesAttempt = 0;
+      relief.refused = null;
       setConn("frames", "open");
     });
     source.addEventListener("frame", (message) => {
@@ -570,18 +661,12 @@
   async function framesRefused(source, url) {
     setConn("frames", "reconnecting");
     const delay = backoff(framesAttempt++);
-    const abort = new AbortController();
-    let error = null;
-    try {
-      const response = await fetch(url, { signal: abort.signal, headers: { accept: "text/event-stream" } });
-      if (!response.ok) error = await apiError(response);
-    } catch {
-      // Unreachable now: try again after the delay, as EventSource would.
-    } finally {
-      abort.abort();
-    }
+    const error = await whyRefused(url);
     if (source !== frames) return;
-    if (error) report(error, "frames");
+    if (error) {
+      report(error, "frames");
+      if (error.refused) setConn("frames", "refused");
+    }
     await sleep(delay);
     if (source !== frames) return;
     if (error?.notFound) reopenView(source);
@@ -933,7 +1018,7 @@
       });
       if (c.verticalFovDeg) query.set("fov", String(c.verticalFovDeg));
       say(`rendering ${width}×${height}…`);
-      const response = await fetch(`api/render?${query}`, { headers: { accept: "image/png" } });
+      const response = await fetch(`api/render?${query}`, { headers: authorized({ accept: "image/png" }) });
       if (!response.ok) throw await apiError(response);
       const blob = await response.blob();
       const url = URL.createObjectURL(blob);

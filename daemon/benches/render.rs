@@ -95,7 +95,7 @@ fn main() -> anyhow::Result<()> {
     let mut default_still = 0.0;
     for n in [63usize, 127, 255] {
         for levels in [4usize, 6, 8] {
-            let config = ClipmapConfig { n, levels };
+            let config = ClipmapConfig::new(n, levels);
             let mut renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), config)?;
             // The first frame fills every level and builds tiles: not timed.
             renderer.render(&terrain, &pose(0), &SETTINGS)?;

@@ -53,6 +53,9 @@ pub struct Slot {
     pub inputs: Vec<usize>,
     /// Needed by a layer or a declared effect.
     pub active: bool,
+    /// This version's content address, for tile stores outside the process
+    /// (`content.rs`); new whenever the effective version changes.
+    pub content: crate::content::ContentKey,
 }
 
 impl Slot {
@@ -87,6 +90,9 @@ impl SceneSnapshot {
             let mut h = mix_hash(self.slots[i].spec.id.as_bytes(), self.slots[i].version);
             for &input in &self.slots[i].inputs {
                 h = mix_hash(&h.to_le_bytes(), self.slots[input].effective_version);
+            }
+            if self.slots[i].effective_version != h {
+                self.slots[i].content = crate::content::ContentKey::default();
             }
             self.slots[i].effective_version = h;
         }
@@ -305,7 +311,16 @@ pub fn build(
                 Some(old) => (old.version, old.error.clone()),
                 None => (generation, error.clone()),
             };
-            Slot { spec, source, error, version, effective_version: 0, inputs, active: false }
+            Slot {
+                spec,
+                source,
+                error,
+                version,
+                effective_version: 0,
+                inputs,
+                active: false,
+                content: crate::content::ContentKey::default(),
+            }
         })
         .collect();
 

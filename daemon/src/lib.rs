@@ -5,7 +5,9 @@
 //! relief-proto at the gRPC edge only (`service`). Frames are drawn by
 //! relief-renderer; `view` feeds it the scene's tiles and owns the camera.
 
+pub mod backing;
 pub mod camera;
+pub mod content;
 pub mod effects;
 pub mod frames;
 pub mod graph;

@@ -9,6 +9,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use relief_daemon::scene::Scene;
+use relief_daemon::service::{Guard, GuardOptions};
 use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
@@ -38,6 +39,24 @@ enum Command {
         /// Tile worker threads (default: one per core).
         #[arg(long)]
         threads: Option<usize>,
+        /// Bearer tokens callers must send, one `read|control TOKEN` per
+        /// line (read: state, tiles, renders, frames; control: also the
+        /// scene camera, reloads, source parameters).
+        #[arg(long)]
+        token_file: Option<PathBuf>,
+        /// TLS certificate chain (PEM), with --tls-key.
+        #[arg(long, requires = "tls_key")]
+        tls_cert: Option<PathBuf>,
+        /// TLS private key (PEM), with --tls-cert.
+        #[arg(long, requires = "tls_cert")]
+        tls_key: Option<PathBuf>,
+        /// Serve an address other machines reach without tokens or TLS.
+        #[arg(long)]
+        insecure: bool,
+        /// Serve Prometheus metrics at http://ADDR/metrics (a loopback
+        /// address; port 0 picks a free one).
+        #[arg(long)]
+        metrics_listen: Option<SocketAddr>,
     },
     /// Load a scene, report every problem, and exit.
     Check { manifest: PathBuf },
@@ -94,7 +113,26 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Serve { manifest, listen, keep_going, threads: asked } => {
+        Command::Serve {
+            manifest,
+            listen,
+            keep_going,
+            threads: asked,
+            token_file,
+            tls_cert,
+            tls_key,
+            insecure,
+            metrics_listen,
+        } => {
+            let options = GuardOptions { token_file, tls_cert, tls_key, insecure };
+            // Refused before the scene loads: a bind that would be unsafe fails at once.
+            let guard = Guard::for_listen(listen, &options)?;
+            if let Some(m) = metrics_listen {
+                anyhow::ensure!(
+                    m.ip().is_loopback(),
+                    "--metrics-listen {m}: metrics are served on a loopback address only (they name sources and files)"
+                );
+            }
             let Some(scene) = load(&manifest, keep_going, threads(asked)) else {
                 return Ok(ExitCode::from(2));
             };
@@ -103,15 +141,30 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .thread_name("relief-rt")
                 .build()
                 .context("cannot start the async runtime")?;
-            runtime.block_on(serve(Arc::new(scene), listen))?;
+            runtime.block_on(serve(Arc::new(scene), listen, guard, metrics_listen))?;
             Ok(ExitCode::SUCCESS)
         }
     }
 }
 
-async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
+async fn serve(
+    scene: Arc<Scene>,
+    listen: SocketAddr,
+    guard: Guard,
+    metrics_listen: Option<SocketAddr>,
+) -> anyhow::Result<()> {
+    let scheme = if guard.tls.is_some() { "https" } else { "http" };
     let listener = tokio::net::TcpListener::bind(listen).await.with_context(|| format!("cannot listen on {listen}"))?;
     let addr = listener.local_addr().context("cannot read the bound address")?;
+    let metrics = match metrics_listen {
+        Some(m) => {
+            let l =
+                tokio::net::TcpListener::bind(m).await.with_context(|| format!("cannot listen on {m} for metrics"))?;
+            Some(l)
+        }
+        None => None,
+    };
+    let metrics_addr = metrics.as_ref().map(tokio::net::TcpListener::local_addr).transpose()?;
     let shutdown = CancellationToken::new();
     let tasks = TaskTracker::new();
     let settings = scene.snapshot().manifest.watch;
@@ -123,12 +176,16 @@ async fn serve(scene: Arc<Scene>, listen: SocketAddr) -> anyhow::Result<()> {
             tracing::error!("file watching stopped: {e:#}; use `relief reload` to pick up changes");
         }
     });
-    let server = tasks.spawn(relief_daemon::service::serve(Arc::clone(&scene), listener, shutdown.clone()));
+    let server =
+        tasks.spawn(relief_daemon::service::serve(Arc::clone(&scene), listener, guard, metrics, shutdown.clone()));
     tasks.close();
     #[expect(clippy::print_stdout, reason = "the one line clients and tests read the address from")]
     {
         println!("listening on {addr}");
-        println!("viewer: http://{addr}/");
+        println!("viewer: {scheme}://{addr}/");
+        if let Some(m) = metrics_addr {
+            println!("metrics: http://{m}/metrics");
+        }
     }
     use std::io::Write as _;
     let _ = std::io::stdout().flush();

@@ -160,6 +160,7 @@ struct RawQuality {
     reprojection_error_px: Option<f64>,
     clipmap_grid_size: Option<usize>,
     clipmap_levels: Option<usize>,
+    color_detail: Option<usize>,
     interactive_scale: Option<f64>,
     instance_bands_m: Option<Vec<f64>>,
     instance_band_densities: Option<Vec<f64>>,
@@ -176,6 +177,9 @@ struct RawQuality {
 struct RawCache {
     memory_mb: Option<u64>,
     raster_mb: Option<u64>,
+    disk_mb: Option<u64>,
+    disk_dir: Option<String>,
+    redis: Option<String>,
 }
 
 #[derive(Debug, Default, Deserialize)]
@@ -250,7 +254,34 @@ pub struct Manifest {
     /// The budget of decoded raster blocks (`[cache] raster_mb`), for the
     /// process: the first scene loaded sets it.
     pub raster_budget_bytes: u64,
+    /// The tiles kept on disk for warm restarts (`[cache] disk_mb`,
+    /// `disk_dir`); `None` when `disk_mb = 0`.
+    pub disk: Option<DiskCache>,
+    /// A Redis shared by replicas of the scene (`[cache] redis`).
+    pub redis: Option<String>,
     pub watch: WatchSettings,
+}
+
+/// Where the disk tile cache is, and how large it may grow.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct DiskCache {
+    pub dir: PathBuf,
+    pub budget_bytes: u64,
+}
+
+/// The disk cache's default size.
+pub const DEFAULT_DISK_MB: u64 = 2048;
+
+/// The user's cache folder for relief's tiles: `$XDG_CACHE_HOME/relief/tiles`,
+/// else `~/.cache/relief/tiles`, else beside the scene. Tiles are keyed by
+/// content, so every scene can share it.
+fn default_disk_dir(manifest_dir: &Path) -> PathBuf {
+    let home_cache = || std::env::var_os("HOME").filter(|h| !h.is_empty()).map(|h| PathBuf::from(h).join(".cache"));
+    std::env::var_os("XDG_CACHE_HOME")
+        .filter(|x| !x.is_empty())
+        .map(PathBuf::from)
+        .or_else(home_cache)
+        .map_or_else(|| manifest_dir.join(".relief-cache"), |c| c.join("relief").join("tiles"))
 }
 
 impl Manifest {
@@ -282,7 +313,11 @@ impl Manifest {
                 if let Some(e) = p.extent
                     && !(e.iter().all(|v| v.is_finite()) && e[2] > e[0] && e[3] > e[1])
                 {
-                    return Err(field("scene.grid.extent", format!("{e:?} is not [min_x, min_y, max_x, max_y]")));
+                    let [a, b, c, d] = e;
+                    return Err(field(
+                        "scene.grid.extent",
+                        format!("[{a}, {b}, {c}, {d}] is not [min_x, min_y, max_x, max_y]"),
+                    ));
                 }
                 GridSpec::Projected { crs: p.crs, extent: p.extent }
             }
@@ -410,8 +445,10 @@ impl Manifest {
         let clipmap = ClipmapConfig {
             n: raw.quality.clipmap_grid_size.unwrap_or(defaults.n),
             levels: raw.quality.clipmap_levels.unwrap_or(defaults.levels),
+            color_detail: raw.quality.color_detail.unwrap_or(defaults.color_detail),
         };
-        clipmap.validate().map_err(|e| field("quality.clipmap_grid_size", e))?;
+        let knob = if [1, 2, 4].contains(&clipmap.color_detail) { "clipmap_grid_size" } else { "color_detail" };
+        clipmap.validate().map_err(|e| field(&format!("quality.{knob}"), e))?;
         let three = |name: &str, values: &Option<Vec<f64>>| -> Result<Option<[f64; 3]>, ManifestError> {
             match values.as_deref() {
                 None => Ok(None),
@@ -444,6 +481,17 @@ impl Manifest {
         let raster_mb = raw.cache.raster_mb.unwrap_or(relief_source_gdal::DEFAULT_BLOCK_BUDGET >> 20);
         if raster_mb == 0 {
             return Err(field("cache.raster_mb", "must be at least 1".into()));
+        }
+        let disk_mb = raw.cache.disk_mb.unwrap_or(DEFAULT_DISK_MB);
+        let disk = (disk_mb > 0).then(|| DiskCache {
+            dir: raw.cache.disk_dir.as_deref().map_or_else(|| default_disk_dir(&base), |d| base.join(d)),
+            budget_bytes: disk_mb * 1024 * 1024,
+        });
+        let redis = raw.cache.redis.clone();
+        if let Some(url) = &redis
+            && !(url.starts_with("redis://") || url.starts_with("unix://") || url.starts_with("rediss://"))
+        {
+            return Err(field("cache.redis", format!("'{url}' is not a redis://HOST:PORT or unix:///PATH address")));
         }
         let time = match &raw.sun.time {
             None => None,
@@ -497,6 +545,8 @@ impl Manifest {
             sun,
             cache_budget_bytes: memory_mb * 1024 * 1024,
             raster_budget_bytes: raster_mb * 1024 * 1024,
+            disk,
+            redis,
             watch,
         })
     }

@@ -11,6 +11,10 @@ use std::time::Instant;
 use relief_source::{DirtySet, Extent, Quality, Refresh, TileKey};
 use tokio::sync::{broadcast, watch};
 
+use crate::backing::disk::DiskTiles;
+use crate::backing::redis::RedisTiles;
+use crate::backing::{Backing, Backings};
+use crate::content::ContentKeys;
 use crate::graph::{self, LoadError, SceneSnapshot};
 use crate::manifest::Manifest;
 use crate::registry::Registry;
@@ -85,6 +89,8 @@ pub struct Scene {
     effects_ran: RwLock<BTreeMap<String, f64>>,
     /// The renderer's passes as of the last frame.
     passes: RwLock<Vec<relief_renderer::PassStats>>,
+    /// Works out each new version's content address in the background.
+    content: ContentKeys,
 }
 
 /// How many events a slow Watch subscriber may fall behind before it is
@@ -110,19 +116,26 @@ impl Scene {
         }
         let (generation, _) = watch::channel(snapshot.generation);
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
+        let backings = outer_stores(&snapshot.manifest);
+        let snapshot = Arc::new(snapshot);
+        let content = ContentKeys::start();
+        if !backings.is_empty() {
+            content.fill(Arc::clone(&snapshot));
+        }
         Ok((
             Self {
                 manifest_path: snapshot.manifest.path.clone(),
-                current: RwLock::new(Arc::new(snapshot)),
+                current: RwLock::new(snapshot),
                 manifest_error: RwLock::new(None),
                 registry,
-                store: Arc::new(TileStore::new(budget, threads)),
+                store: Arc::new(TileStore::new(budget, threads).with_backings(backings)),
                 generation,
                 events,
                 refresh_lock: Mutex::new(()),
                 reads_retried: AtomicU64::new(0),
                 effects_ran: RwLock::new(BTreeMap::new()),
                 passes: RwLock::new(Vec::new()),
+                content,
             },
             open_errors,
         ))
@@ -175,7 +188,19 @@ impl Scene {
         self.events.subscribe()
     }
 
+    /// Serves `new` from now on (its content addresses worked out behind).
+    fn swap(&self, new: SceneSnapshot) {
+        let new = Arc::new(new);
+        *self.current.write().expect("scene lock is never poisoned") = Arc::clone(&new);
+        if self.store.has_backings() {
+            self.content.fill(new);
+        }
+    }
+
     fn send(&self, generation: u64, kind: EventKind) {
+        if let EventKind::SourceError { source_id, .. } = &kind {
+            metrics::counter!("relief_source_errors_total", "source" => source_id.clone()).increment(1);
+        }
         let _no_subscribers = self.events.send(SceneEvent { generation, kind });
     }
 
@@ -264,7 +289,7 @@ impl Scene {
         tracing::debug!(read_ms = started.elapsed().as_secs_f64() * 1e3, "sources read");
         if changed_sources.is_empty() && !status_changed {
             // Quiet swaps (new fingerprints, same data) still take effect.
-            *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);
+            self.swap(new);
             return RefreshOutcome { generation: old.generation, retry };
         }
         let generation = self.publish(&old, new, dirt, changed_sources, error_events, reason, started);
@@ -366,8 +391,9 @@ impl Scene {
             })
             .collect();
         let generation = new.generation;
-        *self.current.write().expect("scene lock is never poisoned") = Arc::new(new);
+        self.swap(new);
         let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
+        record(&self.snapshot(), &changed_sources, &stats, elapsed_ms);
         tracing::info!(generation, changed = ?changed_sources, rebuilt = stats.rebuilt, carried = stats.carried, cut_off = stats.cut_off, elapsed_ms, "{reason}: new generation");
         for kind in error_events {
             self.send(generation, kind);
@@ -453,4 +479,45 @@ impl Scene {
         let read: HashSet<TileKey> = new.grid.keys_overlapping(key.level, &reach).into_iter().collect();
         read.iter().all(|k| !d.touches_tile(&new.grid, *k) || outcome[input].get(&(quality, *k)) == Some(&false))
     }
+}
+
+/// The tile stores behind memory the manifest asks for: the disk cache,
+/// then Redis. One that cannot be opened is left out, with a warning: the
+/// scene is served, only colder.
+fn outer_stores(manifest: &crate::manifest::Manifest) -> Backings {
+    let mut stores: Vec<Arc<dyn Backing>> = Vec::new();
+    if let Some(disk) = &manifest.disk {
+        match DiskTiles::open(disk.dir.clone(), disk.budget_bytes) {
+            Ok(d) => stores.push(Arc::new(d)),
+            Err(e) => tracing::warn!(
+                "cannot use the disk tile cache ({e}): {}; tiles are kept in memory only",
+                disk.dir.display()
+            ),
+        }
+    }
+    if let Some(url) = &manifest.redis {
+        match RedisTiles::open(url) {
+            Ok(r) => stores.push(Arc::new(r)),
+            Err(e) => tracing::warn!("{e}; this replica generates its own tiles"),
+        }
+    }
+    Backings::new(stores)
+}
+
+/// A generation in the metrics: its latency under each changed source's
+/// kind, and what happened to the cached tiles.
+fn record(snap: &SceneSnapshot, changed_sources: &[String], stats: &RebuildStats, elapsed_ms: f64) {
+    metrics::counter!("relief_generations_total").increment(1);
+    let mut kinds: Vec<&str> = changed_sources
+        .iter()
+        .filter_map(|id| snap.slots.iter().find(|s| &s.spec.id == id).map(|s| s.spec.kind.as_str()))
+        .collect();
+    kinds.sort_unstable();
+    kinds.dedup();
+    for kind in kinds {
+        metrics::histogram!("relief_reload_seconds", "kind" => kind.to_owned()).record(elapsed_ms / 1e3);
+    }
+    metrics::counter!("relief_tiles_rebuilt_total").increment(stats.rebuilt);
+    metrics::counter!("relief_tiles_carried_total").increment(stats.carried);
+    metrics::counter!("relief_tiles_cut_off_total").increment(stats.cut_off);
 }

@@ -10,6 +10,7 @@ use moka::sync::Cache;
 use rayon::prelude::*;
 use relief_source::{GenerateContext, InputTiles, Payload, Quality, SourceError, TileKey};
 
+use crate::backing::Backings;
 use crate::graph::SceneSnapshot;
 
 /// A generated tile and the hash of its content.
@@ -80,6 +81,9 @@ pub struct TileStore {
     generated: Mutex<HashMap<String, u64>>,
     hits: AtomicU64,
     misses: AtomicU64,
+    /// Stores outside the process (disk, Redis), asked on a miss before
+    /// generating; each generated tile is handed to them.
+    backings: Backings,
 }
 
 impl TileStore {
@@ -100,7 +104,24 @@ impl TileStore {
             generated: Mutex::new(HashMap::new()),
             hits: AtomicU64::new(0),
             misses: AtomicU64::new(0),
+            backings: Backings::default(),
         }
+    }
+
+    /// The store with `backings` behind its memory cache.
+    #[must_use]
+    pub fn with_backings(mut self, backings: Backings) -> Self {
+        self.backings = backings;
+        self
+    }
+
+    pub fn has_backings(&self) -> bool {
+        !self.backings.is_empty()
+    }
+
+    /// What each outer store did.
+    pub fn backing_counters(&self) -> Vec<crate::backing::BackingCounters> {
+        self.backings.counters()
     }
 
     /// The tile `key` of source number `index` in `snap`, from the cache or
@@ -130,6 +151,7 @@ impl TileStore {
             quality: QualityKey::from(quality),
             key,
         };
+        let quality_key = cache_key.quality;
         if let Some(t) = self.cache.get(&cache_key) {
             self.hits.fetch_add(1, Ordering::Relaxed);
             return Ok(t);
@@ -137,6 +159,11 @@ impl TileStore {
         self.cache
             .try_get_with(cache_key, || {
                 self.misses.fetch_add(1, Ordering::Relaxed);
+                // Known once the content thread has hashed this version's files.
+                let address = slot.content.get().map(|c| crate::content::tile_address(c, &quality_key, key));
+                if let Some(tile) = address.and_then(|a| self.backings.get(a)) {
+                    return Ok(Arc::new(tile));
+                }
                 let started = std::time::Instant::now();
                 let inputs = Inputs { store: self, snap, index, quality };
                 let ctx = GenerateContext { grid: &snap.grid, quality, inputs: &inputs };
@@ -155,7 +182,11 @@ impl TileStore {
                     "tile generated"
                 );
                 let content_hash = payload.content_hash();
-                Ok(Arc::new(Tile { payload: Arc::new(payload), content_hash }))
+                let tile = Tile { payload: Arc::new(payload), content_hash };
+                if let Some(a) = address {
+                    self.backings.put(a, &tile);
+                }
+                Ok(Arc::new(tile))
             })
             .map_err(|e: Arc<TileError>| (*e).clone())
     }
@@ -201,6 +232,11 @@ impl TileStore {
 
     pub fn generated_for(&self, id: &str) -> u64 {
         self.generated.lock().expect("counter lock is never poisoned").get(id).copied().unwrap_or(0)
+    }
+
+    /// Tiles generated per source since start.
+    pub fn generated(&self) -> Vec<(String, u64)> {
+        self.generated.lock().expect("counter lock is never poisoned").iter().map(|(k, n)| (k.clone(), *n)).collect()
     }
 
     /// Every cached tile of `source` at `version`, coarse levels first.
@@ -309,6 +345,7 @@ mod tests {
             effective_version: 7,
             inputs: vec![],
             active: true,
+            content: crate::content::ContentKey::default(),
         };
         SceneSnapshot {
             generation: 1,

@@ -308,6 +308,9 @@ impl Viewer {
             }
         }
         self.scene.set_effects_ran(ran);
+        for (pass, ms) in &frame.passes {
+            metrics::histogram!("relief_render_pass_seconds", "pass" => *pass).record(ms / 1e3);
+        }
         let passes = r.count_passes(&frame);
         self.scene.set_passes(passes.clone());
         self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

@@ -18,6 +18,15 @@ use crate::surface::Surface;
 /// (interpolation reaches 0.5 within a millionth of the cell).
 pub const OFF_GRID: f32 = -1.0e6;
 
+/// A colour as the GPU keeps it: premultiplied by its alpha, so that
+/// filtering a texel with a transparent neighbour (nodata beside data, a
+/// polygon's edge) blends coverage, never the neighbour's black, and the
+/// shader lays it over the grey of ground without colour.
+pub(crate) fn premultiplied([r, g, b, a]: [u8; 4]) -> [u8; 4] {
+    let times_a = |c: u8| ((u32::from(c) * u32::from(a) + 127) / 255) as u8;
+    [times_a(r), times_a(g), times_a(b), a]
+}
+
 /// Where the renderer gets terrain: the daemon answers from its tile store.
 /// Blocks are corner samples at a tile level, columns `xs` and rows `ys` of
 /// the level's global lattice, row-major. Indices may run past the grid: the
@@ -27,35 +36,52 @@ pub trait TerrainSamples: Sync {
     /// Heights in metres, NaN for nodata.
     fn heights(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<f32>>;
 
-    /// Colours (RGBA8; alpha 0 where the scene has no colour).
+    /// Colours (RGBA8, not premultiplied; alpha 0 where the scene has no
+    /// colour).
     fn colors(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<[u8; 4]>>;
 
     /// The finest tile level worth drawing (the data's resolution).
     fn max_level(&self) -> u8;
 }
 
-/// Colour samples per geometry sample along a side: each level's colour is
-/// read from the tile level below it, so imagery is twice as sharp as the
-/// mesh (a texture clipmap over the geometry clipmap).
-pub const COLOR_DETAIL: i64 = 2;
+/// The default colour samples per geometry sample along a side: each
+/// level's colour is read from the tile level below it, so imagery is twice
+/// as sharp as the mesh (a texture clipmap over the geometry clipmap).
+pub const COLOR_DETAIL: usize = 2;
 
-/// The clipmap's two knobs, from the manifest's `[quality]`.
+/// The clipmap's knobs, from the manifest's `[quality]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ClipmapConfig {
     /// Samples per level side: 2^k - 1 (63, 127, 255).
     pub n: usize,
     /// How many nested levels.
     pub levels: usize,
+    /// Colour samples per geometry sample along a side (1, 2 or 4): each
+    /// level's colour comes from the tile level log2 of this finer.
+    pub color_detail: usize,
 }
 
 impl Default for ClipmapConfig {
     fn default() -> Self {
-        Self { n: 127, levels: 8 }
+        Self::new(127, 8)
     }
 }
 
 impl ClipmapConfig {
+    /// `n` samples a side, `levels` levels, the default colour detail.
+    pub const fn new(n: usize, levels: usize) -> Self {
+        Self { n, levels, color_detail: COLOR_DETAIL }
+    }
+
+    /// How many tile levels finer than its geometry a level's colour is read.
+    pub fn color_levels(&self) -> u8 {
+        self.color_detail.trailing_zeros() as u8
+    }
+
     pub fn validate(&self) -> Result<(), String> {
+        if ![1, 2, 4].contains(&self.color_detail) {
+            return Err(format!("color_detail {} is not 1, 2 or 4", self.color_detail));
+        }
         if !(self.n + 1).is_power_of_two() || !(15..=511).contains(&self.n) {
             return Err(format!("clipmap_n {} is not 2^k - 1 from 15 to 511", self.n));
         }
@@ -149,7 +175,10 @@ pub struct ClipLevel {
     /// Toroidal n x n: xyz relative to the anchor; w is 1 where there is
     /// terrain and `OFF_GRID` off a flat grid.
     pub positions: Vec<[f32; 4]>,
-    /// Toroidal (COLOR_DETAIL n) squared: colour samples of tile level + 1.
+    /// Colour samples per geometry sample along a side (`ClipmapConfig::color_detail`).
+    pub color_detail: usize,
+    /// Toroidal (color_detail n) squared: colour samples of tile level
+    /// + log2 color_detail, premultiplied.
     pub colors: Vec<[u8; 4]>,
     dirty: Vec<StorageRect>,
     color_dirty: Vec<StorageRect>,
@@ -175,12 +204,14 @@ impl ClipLevel {
         source: &dyn TerrainSamples,
         tile_level: u8,
         n: usize,
+        color_detail: usize,
         origin: (i64, i64),
     ) -> Option<Self> {
-        let side = COLOR_DETAIL as usize * n;
+        let side = color_detail * n;
         let mut level = Self {
             tile_level,
             n,
+            color_detail,
             origin,
             anchor: DVec3::ZERO,
             anchor_sample: (0, 0),
@@ -202,15 +233,22 @@ impl ClipLevel {
         Rect { x: self.origin.0..self.origin.0 + n, y: self.origin.1..self.origin.1 + n }
     }
 
-    /// The colour window: samples of tile level + 1 over the same ground.
+    /// The tile level the colour is read from.
+    pub fn color_level(&self) -> u8 {
+        self.tile_level + self.color_detail.trailing_zeros() as u8
+    }
+
+    /// The colour window: samples of the colour level over the same ground.
     pub fn color_window(&self) -> Rect {
-        let (r, side) = (COLOR_DETAIL, COLOR_DETAIL * (self.n as i64 - 1) + 1);
+        let r = self.color_detail as i64;
+        let side = r * (self.n as i64 - 1) + 1;
         Rect { x: r * self.origin.0..r * self.origin.0 + side, y: r * self.origin.1..r * self.origin.1 + side }
     }
 
-    /// The stored colour of colour sample (cx, cy), global at tile level + 1.
+    /// The stored colour of colour sample (cx, cy), global at the colour
+    /// level (premultiplied).
     pub fn color_at(&self, cx: i64, cy: i64) -> [u8; 4] {
-        let side = COLOR_DETAIL * self.n as i64;
+        let side = (self.color_detail * self.n) as i64;
         self.colors[(cy.rem_euclid(side) * side + cx.rem_euclid(side)) as usize]
     }
 
@@ -220,7 +258,7 @@ impl ClipLevel {
             out.heights.push((r.clone(), source.heights(self.tile_level, r.x.clone(), r.y.clone())?));
         }
         for r in colors {
-            out.colors.push((r.clone(), source.colors(self.tile_level + 1, r.x.clone(), r.y.clone())?));
+            out.colors.push((r.clone(), source.colors(self.color_level(), r.x.clone(), r.y.clone())?));
         }
         Some(out)
     }
@@ -257,7 +295,7 @@ impl ClipLevel {
         if dx.abs() >= n || dy.abs() >= n || far_from_anchor || self.stale {
             return self.refill(surface, source, origin).is_some();
         }
-        let r = COLOR_DETAIL;
+        let r = self.color_detail as i64;
         let heights = entering(self.origin, origin, n);
         let colors = entering((r * self.origin.0, r * self.origin.1), (r * origin.0, r * origin.1), r * (n - 1) + 1);
         let Some(fetched) = self.fetch(source, &heights, &colors) else { return false };
@@ -271,7 +309,7 @@ impl ClipLevel {
     /// level is marked stale (refilled on its next move) and false returned.
     pub fn refresh(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> bool {
         let heights = area_in(surface, self.tile_level, area, &self.window());
-        let colors = area_in(surface, self.tile_level + 1, area, &self.color_window());
+        let colors = area_in(surface, self.color_level(), area, &self.color_window());
         let heights: Vec<Rect> = [heights].into_iter().filter(|r| !r.is_empty()).collect();
         let colors: Vec<Rect> = [colors].into_iter().filter(|r| !r.is_empty()).collect();
         match self.fetch(source, &heights, &colors) {
@@ -308,13 +346,13 @@ impl ClipLevel {
                 }
             }
         }
-        let side = COLOR_DETAIL as usize * n;
+        let side = self.color_detail * n;
         for (rect, colors) in fetched.colors {
             let width = (rect.x.end - rect.x.start) as usize;
             for (k, cy) in rect.y.clone().enumerate() {
                 let row = cy.rem_euclid(side as i64) as usize * side;
                 for (m, cx) in rect.x.clone().enumerate() {
-                    self.colors[row + cx.rem_euclid(side as i64) as usize] = colors[k * width + m];
+                    self.colors[row + cx.rem_euclid(side as i64) as usize] = premultiplied(colors[k * width + m]);
                 }
             }
             for (y, height) in spans(&rect.y, side) {
@@ -435,13 +473,15 @@ impl Clipmap {
             coarser = Some(origin);
             let ready = match self.levels.get_mut(&level) {
                 Some(l) => l.move_to(surface, source, origin),
-                None => match ClipLevel::filled(surface, source, level, self.config.n, origin) {
-                    Some(l) => {
-                        self.levels.insert(level, l);
-                        true
+                None => {
+                    match ClipLevel::filled(surface, source, level, self.config.n, self.config.color_detail, origin) {
+                        Some(l) => {
+                            self.levels.insert(level, l);
+                            true
+                        }
+                        None => false,
                     }
-                    None => false,
-                },
+                }
             };
             if !ready {
                 stats.not_ready.push(level);
@@ -477,8 +517,10 @@ mod tests {
 
     #[test]
     fn config_is_checked() {
-        assert!(ClipmapConfig { n: 127, levels: 8 }.validate().is_ok());
-        assert!(ClipmapConfig { n: 128, levels: 8 }.validate().is_err());
-        assert!(ClipmapConfig { n: 63, levels: 0 }.validate().is_err());
+        assert!(ClipmapConfig::new(127, 8).validate().is_ok());
+        assert!(ClipmapConfig::new(128, 8).validate().is_err());
+        assert!(ClipmapConfig::new(63, 0).validate().is_err());
+        assert!(ClipmapConfig { color_detail: 4, ..ClipmapConfig::new(63, 4) }.validate().is_ok());
+        assert!(ClipmapConfig { color_detail: 3, ..ClipmapConfig::new(63, 4) }.validate().is_err());
     }
 }

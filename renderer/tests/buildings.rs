@@ -17,7 +17,7 @@ use common::{Analytic, gpu, hill_scene, pose, project, save};
 const SETTINGS: RenderSettings = RenderSettings::new(480, 320, true);
 /// Two clipmap configurations: coarse levels (the drawn terrain far from
 /// the data) and the default.
-const CONFIGS: [ClipmapConfig; 2] = [ClipmapConfig { n: 31, levels: 10 }, ClipmapConfig { n: 127, levels: 8 }];
+const CONFIGS: [ClipmapConfig; 2] = [ClipmapConfig::new(31, 10), ClipmapConfig::new(127, 8)];
 /// Buildings 40 m square and 25 m high.
 const SIDE_M: f64 = 40.0;
 const HEIGHT_M: f64 = 25.0;

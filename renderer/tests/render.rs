@@ -4,7 +4,7 @@
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
 use glam::DVec3;
-use relief_renderer::{COLOR_DETAIL, ClipLevel, ClipmapConfig, Frame, RenderSettings, Renderer, Surface};
+use relief_renderer::{ClipLevel, ClipmapConfig, Frame, RenderSettings, Renderer, Surface};
 use relief_source::{TileGrid, geodesy};
 
 mod common;
@@ -102,7 +102,8 @@ fn a_flat_projected_scene_reconstructs_its_surface() {
 fn assert_matches_scratch(renderer: &Renderer, source: &Analytic) {
     for &t in renderer.clipmap().active() {
         let level = renderer.clipmap().level(t).unwrap();
-        let scratch = ClipLevel::filled(renderer.surface(), source, t, level.n, level.origin).unwrap();
+        let scratch =
+            ClipLevel::filled(renderer.surface(), source, t, level.n, level.color_detail, level.origin).unwrap();
         for k in 0..level.positions.len() {
             let (a, b) = (level.positions[k], scratch.positions[k]);
             let pa = level.anchor + DVec3::new(f64::from(a[0]), f64::from(a[1]), f64::from(a[2]));
@@ -120,13 +121,13 @@ fn assert_matches_scratch(renderer: &Renderer, source: &Analytic) {
                 assert_eq!(level.color_at(cx, cy), scratch.color_at(cx, cy), "level {t} colour sample ({cx}, {cy})");
             }
         }
-        assert_eq!(window.x.end - window.x.start, COLOR_DETAIL * (level.n as i64 - 1) + 1);
+        assert_eq!(window.x.end - window.x.start, (level.color_detail * (level.n - 1) + 1) as i64);
     }
 }
 
 #[test]
 fn incremental_updates_equal_a_fill_from_scratch_across_the_antimeridian() {
-    let (mut renderer, source) = hill_scene(&gpu(), ClipmapConfig { n: 63, levels: 5 });
+    let (mut renderer, source) = hill_scene(&gpu(), ClipmapConfig::new(63, 5));
     // East across the antimeridian in small steps, then a jump back.
     let mut lon = 179.990;
     let mut written_moving = 0;
@@ -151,9 +152,39 @@ fn incremental_updates_equal_a_fill_from_scratch_across_the_antimeridian() {
     assert_matches_scratch(&renderer, &source);
 }
 
+/// The colour detail knob: levels read their colour 0 or 2 tile levels
+/// finer than their mesh, move incrementally as at the default, and a
+/// frame's colours stay those of the default within a few levels of grey
+/// (the tint is smooth, so finer imagery changes it little).
+#[test]
+fn every_colour_detail_moves_like_a_fill_from_scratch_and_agrees_with_the_default() {
+    let at = pose(10.2, 45.2, 3000.0, 0.0, -40.0);
+    let (mut reference, source) = hill_scene(&gpu(), ClipmapConfig::new(63, 5));
+    let default = reference.render(&source, &at, &SETTINGS).unwrap();
+    for color_detail in [1, 4] {
+        let config = ClipmapConfig { color_detail, ..ClipmapConfig::new(63, 5) };
+        let (mut renderer, source) = hill_scene(&gpu(), config);
+        for step in 0..4 {
+            let moved = pose(10.2 + f64::from(step) * 0.002, 45.2, 3000.0, 0.0, -40.0);
+            renderer.render(&source, &moved, &SETTINGS).unwrap();
+            assert_matches_scratch(&renderer, &source);
+        }
+        let frame = renderer.render(&source, &at, &SETTINGS).unwrap();
+        let (mut sum, mut n) = (0.0, 0usize);
+        for (a, b) in frame.rgba.chunks(4).zip(default.rgba.chunks(4)) {
+            for k in 0..3 {
+                sum += (f64::from(a[k]) - f64::from(b[k])).powi(2);
+                n += 1;
+            }
+        }
+        let rms = (sum / n as f64).sqrt();
+        assert!(rms < 6.0, "colour detail {color_detail}: RMS {rms:.2} from the default's colours");
+    }
+}
+
 #[test]
 fn incremental_updates_cover_negative_indices_off_a_flat_grid() {
-    let (mut renderer, source) = utm_scene(ClipmapConfig { n: 63, levels: 4 });
+    let (mut renderer, source) = utm_scene(ClipmapConfig::new(63, 4));
     // Along the grid's north-west corner, so windows start at negative indices.
     let (mut negative_x, mut negative_y) = (false, false);
     for k in 0..10 {
@@ -300,7 +331,7 @@ fn hill_with_block(lon: f64, lat: f64) -> f64 {
 
 #[test]
 fn a_rebuilt_area_refreshes_only_its_samples() {
-    let (mut renderer, before) = hill_scene(&gpu(), ClipmapConfig { n: 63, levels: 6 });
+    let (mut renderer, before) = hill_scene(&gpu(), ClipmapConfig::new(63, 6));
     let view = pose(10.2, 45.2, 3000.0, 0.0, -60.0);
     renderer.render(&before, &view, &SETTINGS).unwrap();
     let after =
@@ -342,7 +373,7 @@ fn flight(height: fn(f64, f64) -> f64) -> (Vec<u8>, usize) {
     let gpu = gpu();
     let surface = Surface::new(TileGrid::geodetic(256).unwrap());
     let source = Analytic { surface: surface.clone(), height, max_level: 16, ready_up_to: u8::MAX };
-    let mut renderer = Renderer::new(gpu, surface, ClipmapConfig { n: 63, levels: 6 }).unwrap();
+    let mut renderer = Renderer::new(gpu, surface, ClipmapConfig::new(63, 6)).unwrap();
     let (mut previous, mut changes, mut shifts): (Option<Frame>, Vec<u8>, usize) = (None, Vec::new(), 0);
     let mut origins: Vec<(u8, (i64, i64))> = Vec::new();
     for k in 0..24 {
@@ -395,7 +426,7 @@ fn levels_meet_without_cracks_where_they_differ() {
     let gpu = gpu();
     let surface = Surface::new(TileGrid::geodetic(256).unwrap());
     let source = Analytic { surface: surface.clone(), height: bumps, max_level: 16, ready_up_to: u8::MAX };
-    let mut renderer = Renderer::new(gpu, surface, ClipmapConfig { n: 63, levels: 6 }).unwrap();
+    let mut renderer = Renderer::new(gpu, surface, ClipmapConfig::new(63, 6)).unwrap();
     // Views the clipmap covers whole (no horizon: beyond the coarsest level
     // a coarse base takes over, which may sit hundreds of metres low).
     for (k, p) in [

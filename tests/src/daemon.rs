@@ -15,13 +15,20 @@ pub struct Reliefd {
     child: Child,
     pub addr: String,
     log: Arc<Mutex<Vec<String>>>,
+    /// Every line it printed on stdout.
+    printed: Arc<Mutex<Vec<String>>>,
+    /// Its user cache folder (the disk tile cache's default home): one per
+    /// daemon, so no test reads tiles another test left.
+    _cache: tempfile::TempDir,
 }
 
 impl Reliefd {
     /// Starts `reliefd serve MANIFEST --listen 127.0.0.1:0` and waits for
     /// its `listening on ADDR` line.
     pub fn start(manifest: &Path, extra: &[&str]) -> anyhow::Result<Self> {
+        let cache = tempfile::tempdir()?;
         let mut child = Command::new(crate::bin("reliefd"))
+            .env("XDG_CACHE_HOME", cache.path())
             .arg("serve")
             .arg(manifest)
             .args(["--listen", "127.0.0.1:0"])
@@ -41,21 +48,37 @@ impl Reliefd {
         })?;
         let stdout = child.stdout.take().context("reliefd has no stdout")?;
         let (tx, rx) = mpsc::sync_channel(1);
+        let printed = Arc::new(Mutex::new(Vec::new()));
+        let out_log = Arc::clone(&printed);
         std::thread::Builder::new().name("reliefd-stdout".into()).spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
                 if let Some(addr) = line.strip_prefix("listening on ") {
                     let _ = tx.send(addr.to_owned());
                 }
+                out_log.lock().expect("log lock").push(line);
             }
         })?;
         match rx.recv_timeout(Duration::from_secs(60)) {
-            Ok(addr) => Ok(Self { child, addr, log }),
+            Ok(addr) => Ok(Self { child, addr, log, printed, _cache: cache }),
             Err(_) => {
                 let _ = child.kill();
                 let _ = child.wait();
                 bail!("reliefd did not start: {}", log.lock().expect("log lock").join("\n"))
             }
         }
+    }
+
+    /// The rest of the first stdout line that starts with `prefix`
+    /// (`"metrics: "`, say), waiting up to 5 s for it.
+    pub fn printed(&self, prefix: &str) -> Option<String> {
+        for _ in 0..100 {
+            let lines = self.printed.lock().expect("log lock").clone();
+            if let Some(rest) = lines.iter().find_map(|l| l.strip_prefix(prefix)) {
+                return Some(rest.to_owned());
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        None
     }
 
     pub fn url(&self) -> String {
@@ -120,7 +143,9 @@ impl Drop for Reliefd {
 
 /// Runs `reliefd check MANIFEST`: (exit code, stderr).
 pub fn check(manifest: &Path) -> anyhow::Result<(i32, String)> {
-    let out = Command::new(crate::bin("reliefd")).arg("check").arg(manifest).output()?;
+    let cache = tempfile::tempdir()?;
+    let out =
+        Command::new(crate::bin("reliefd")).env("XDG_CACHE_HOME", cache.path()).arg("check").arg(manifest).output()?;
     Ok((out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned()))
 }
 

@@ -30,14 +30,31 @@ fn agent() -> ureq::Agent {
 
 /// `method` `url` with an optional JSON body; any status is an answer.
 pub fn request(method: &str, url: &str, body: Option<&str>) -> anyhow::Result<Reply> {
+    request_with(method, url, body, &[])
+}
+
+/// `request` with extra headers (`authorization`, say).
+pub fn request_with(method: &str, url: &str, body: Option<&str>, headers: &[(&str, &str)]) -> anyhow::Result<Reply> {
     let agent = agent();
-    let response = match (method, body) {
-        ("GET", _) => agent.get(url).call(),
-        ("DELETE", _) => agent.delete(url).call(),
-        ("POST", b) => agent.post(url).content_type("application/json").send(b.unwrap_or("")),
-        ("PUT", b) => agent.put(url).content_type("application/json").send(b.unwrap_or("")),
-        ("PATCH", b) => agent.patch(url).content_type("application/json").send(b.unwrap_or("")),
-        (m, _) => anyhow::bail!("no such method in this client: {m}"),
+    let with = |mut r: ureq::RequestBuilder<ureq::typestate::WithoutBody>| {
+        for (n, v) in headers {
+            r = r.header(*n, *v);
+        }
+        r
+    };
+    let with_body = |mut r: ureq::RequestBuilder<ureq::typestate::WithBody>| {
+        for (n, v) in headers {
+            r = r.header(*n, *v);
+        }
+        r.content_type("application/json").send(body.unwrap_or(""))
+    };
+    let response = match method {
+        "GET" => with(agent.get(url)).call(),
+        "DELETE" => with(agent.delete(url)).call(),
+        "POST" => with_body(agent.post(url)),
+        "PUT" => with_body(agent.put(url)),
+        "PATCH" => with_body(agent.patch(url)),
+        m => anyhow::bail!("no such method in this client: {m}"),
     }
     .with_context(|| format!("{method} {url}"))?;
     let status = response.status().as_u16();

@@ -7,6 +7,7 @@ pub mod daemon;
 pub mod edit;
 pub mod http;
 pub mod qgis;
+pub mod redis;
 pub mod reference;
 pub mod scenes;
 pub mod tiles;

@@ -12,16 +12,24 @@ use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_proto::v1::view_service_client::ViewServiceClient;
 use serde_json::{Value, json};
 use tokio_stream::StreamExt;
-use tonic::transport::Channel;
 
+mod connect;
 mod output;
 
 #[derive(Parser)]
 #[command(name = "relief", version, about = "Talk to a running reliefd")]
 struct Args {
-    /// reliefd's gRPC address.
+    /// reliefd's gRPC address: http://HOST:PORT, or https://HOST:PORT for TLS.
     #[arg(long, global = true, default_value = "http://127.0.0.1:50051", env = "RELIEF_SERVER")]
     server: String,
+    /// Bearer token sent with every call, for a reliefd serving with
+    /// --token-file (RELIEF_TOKEN keeps it out of the process list).
+    #[arg(long, global = true, env = "RELIEF_TOKEN", hide_env_values = true, value_name = "TOKEN")]
+    token: Option<String>,
+    /// CA certificate (PEM) that signed an https:// server's certificate
+    /// (else RELIEF_CA; else the system's CA bundle).
+    #[arg(long, global = true, value_name = "PEM")]
+    ca: Option<PathBuf>,
     /// Print JSON for scripts instead of text.
     #[arg(long, global = true)]
     json: bool,
@@ -153,20 +161,9 @@ fn main() -> ExitCode {
     }
 }
 
-async fn connect(server: &str) -> anyhow::Result<Channel> {
-    Channel::from_shared(server.to_owned())
-        .with_context(|| format!("invalid server address '{server}'"))?
-        // Wide HTTP/2 windows: a height tile (264 kB) arrives in one flight.
-        .initial_stream_window_size(8 * 1024 * 1024)
-        .initial_connection_window_size(16 * 1024 * 1024)
-        .connect()
-        .await
-        .with_context(|| format!("cannot reach reliefd at {server}"))
-}
-
 /// Turns a gRPC status into a plain error with its message.
-fn rpc<T>(result: Result<tonic::Response<T>, tonic::Status>) -> anyhow::Result<T> {
-    result.map(tonic::Response::into_inner).map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))
+fn rpc<T>(sent: connect::Sent, result: Result<tonic::Response<T>, tonic::Status>) -> anyhow::Result<T> {
+    result.map(tonic::Response::into_inner).map_err(|s| connect::status_error(&s, sent))
 }
 
 fn parse_point(text: &str) -> anyhow::Result<pb::GeodeticPoint> {
@@ -179,19 +176,27 @@ fn parse_point(text: &str) -> anyhow::Result<pb::GeodeticPoint> {
 }
 
 async fn run(args: Args) -> anyhow::Result<()> {
-    let channel = connect(&args.server).await?;
-    let mut scene = SceneServiceClient::new(channel.clone());
-    let mut views = ViewServiceClient::new(channel.clone()).max_decoding_message_size(256 * 1024 * 1024);
-    let mut tiles = TileServiceClient::new(channel).max_decoding_message_size(256 * 1024 * 1024);
+    let bearer = connect::Bearer::new(args.token.as_deref())?;
+    let options = connect::Options {
+        server: &args.server,
+        ca: args.ca.as_deref(),
+        ca_env: std::env::var_os(connect::CA_ENV).filter(|v| !v.is_empty()).map(PathBuf::from),
+    };
+    let channel = connect::channel(&options).await?;
+    let sent = connect::Sent { token: bearer.is_set(), tls: options.is_tls() };
+    let mut scene = SceneServiceClient::with_interceptor(channel.clone(), bearer.clone());
+    let mut views = ViewServiceClient::with_interceptor(channel.clone(), bearer.clone())
+        .max_decoding_message_size(256 * 1024 * 1024);
+    let mut tiles = TileServiceClient::with_interceptor(channel, bearer).max_decoding_message_size(256 * 1024 * 1024);
     match args.command {
         Command::State => {
-            let state = rpc(scene.get_state(pb::GetStateRequest {}).await)?;
+            let state = rpc(sent, scene.get_state(pb::GetStateRequest {}).await)?;
             output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
         }
         Command::Watch { from } => {
-            let mut stream = rpc(scene.watch(pb::WatchRequest { from_generation: from }).await)?;
+            let mut stream = rpc(sent, scene.watch(pb::WatchRequest { from_generation: from }).await)?;
             while let Some(event) = stream.next().await {
-                let event = event.map_err(|s| anyhow::anyhow!("{} ({:?})", s.message(), s.code()))?;
+                let event = event.map_err(|s| connect::status_error(&s, sent))?;
                 output::emit(args.json, &output::event_json(&event), || output::event_text(&event));
             }
         }
@@ -199,24 +204,30 @@ async fn run(args: Args) -> anyhow::Result<()> {
             if !(timeout.is_finite() && timeout >= 0.0) {
                 bail!("--timeout {timeout} is not a number of seconds");
             }
-            let state = rpc(scene
-                .wait_for_generation(pb::WaitForGenerationRequest {
-                    min_generation: generation,
-                    timeout_ms: (timeout * 1000.0).min(f64::from(u32::MAX)) as u32,
-                })
-                .await)?;
+            let state = rpc(
+                sent,
+                scene
+                    .wait_for_generation(pb::WaitForGenerationRequest {
+                        min_generation: generation,
+                        timeout_ms: (timeout * 1000.0).min(f64::from(u32::MAX)) as u32,
+                    })
+                    .await,
+            )?;
             output::emit(args.json, &json!({"generation": state.generation}), || {
                 format!("generation {}", state.generation)
             });
         }
         Command::Tile { source, level, x, y, output: path, resampling } => {
-            let tile = rpc(tiles
-                .get_tile(pb::GetTileRequest {
-                    source_id: source,
-                    key: Some(pb::TileKey { level, x, y }),
-                    quality: Some(pb::QualityOverrides { resampling, ..Default::default() }),
-                })
-                .await)?;
+            let tile = rpc(
+                sent,
+                tiles
+                    .get_tile(pb::GetTileRequest {
+                        source_id: source,
+                        key: Some(pb::TileKey { level, x, y }),
+                        quality: Some(pb::QualityOverrides { resampling, ..Default::default() }),
+                    })
+                    .await,
+            )?;
             write_tile(&tile, &path)?;
             let summary = json!({
                 "source": tile.source_id, "level": level, "x": x, "y": y,
@@ -237,12 +248,15 @@ async fn run(args: Args) -> anyhow::Result<()> {
         }
         Command::Elevation { points, source } => {
             let points = points.iter().map(|p| parse_point(p)).collect::<anyhow::Result<Vec<_>>>()?;
-            let answer = rpc(tiles
-                .sample_elevation(pb::SampleElevationRequest {
-                    points: points.clone(),
-                    source_id: source.unwrap_or_default(),
-                })
-                .await)?;
+            let answer = rpc(
+                sent,
+                tiles
+                    .sample_elevation(pb::SampleElevationRequest {
+                        points: points.clone(),
+                        source_id: source.unwrap_or_default(),
+                    })
+                    .await,
+            )?;
             let heights: Vec<Value> =
                 answer.samples.iter().map(|s| s.height_m.map_or(Value::Null, |h| json!(h))).collect();
             output::emit(
@@ -275,23 +289,24 @@ async fn run(args: Args) -> anyhow::Result<()> {
                 elevation_deg: sun_elevation,
             });
             let format = pb::ImageFormat::Png as i32;
-            let frame = rpc(views.render(pb::RenderRequest { camera, width, height, format, quality, sun }).await)?;
+            let frame =
+                rpc(sent, views.render(pb::RenderRequest { camera, width, height, format, quality, sun }).await)?;
             std::fs::write(&output, &frame.image).with_context(|| format!("cannot write {}", output.display()))?;
             let value = output::frame_json(&frame, &output);
             output::emit(args.json, &value, || output::frame_text(&frame, &output));
         }
         Command::Camera(CameraCommand::Get) => {
-            let camera = rpc(views.get_camera(pb::GetCameraRequest {}).await)?;
+            let camera = rpc(sent, views.get_camera(pb::GetCameraRequest {}).await)?;
             output::emit(args.json, &output::camera_json(&camera), || output::camera_text(&camera));
         }
         Command::Camera(CameraCommand::Set { camera, fov }) => {
-            let current = rpc(views.get_camera(pb::GetCameraRequest {}).await)?;
+            let current = rpc(sent, views.get_camera(pb::GetCameraRequest {}).await)?;
             let camera = parse_camera(&camera, fov.unwrap_or(current.vertical_fov_deg))?;
-            let set = rpc(views.set_camera(pb::SetCameraRequest { camera: Some(camera) }).await)?;
+            let set = rpc(sent, views.set_camera(pb::SetCameraRequest { camera: Some(camera) }).await)?;
             output::emit(args.json, &output::camera_json(&set), || output::camera_text(&set));
         }
         Command::Reload { sources } => {
-            let state = rpc(scene.reload(pb::ReloadRequest { source_ids: sources }).await)?;
+            let state = rpc(sent, scene.reload(pb::ReloadRequest { source_ids: sources }).await)?;
             output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
         }
     }

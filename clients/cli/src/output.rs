@@ -66,7 +66,7 @@ pub fn state_json(s: &pb::SceneState) -> Value {
         .iter()
         .map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran, "last_cost_ms": e.last_cost_ms}))
         .collect();
-    let c = s.counters.unwrap_or_default();
+    let c = s.counters.clone().unwrap_or_default();
     json!({
         "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
         "sources": sources, "layers": s.layers, "effects": effects, "quality": s.quality,
@@ -129,7 +129,7 @@ pub fn state_text(s: &pb::SceneState) -> String {
     quality.sort();
     let _ =
         writeln!(out, "  quality: {}", quality.iter().map(|(k, v)| format!("{k}={v}")).collect::<Vec<_>>().join(" "));
-    if let Some(c) = s.counters {
+    if let Some(c) = &s.counters {
         let _ = write!(
             out,
             "  cache: {} tiles, {:.1} of {:.0} MiB; {} hits, {} misses; {} tiles generated",

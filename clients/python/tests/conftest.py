@@ -16,6 +16,14 @@ from relief.testing import HillScene, Reliefd, write_hill_scene
 REPO = Path(__file__).resolve().parents[3]
 
 
+@pytest.fixture(autouse=True)
+def no_relief_env(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The caller's RELIEF_TOKEN and RELIEF_CA would change how every
+    client here connects: the tests that want them set them."""
+    monkeypatch.delenv("RELIEF_TOKEN", raising=False)
+    monkeypatch.delenv("RELIEF_CA", raising=False)
+
+
 @pytest.fixture(scope="module")
 def shared_scene(tmp_path_factory: pytest.TempPathFactory) -> HillScene:
     return write_hill_scene(tmp_path_factory.mktemp("shared") / "scene", extra_manifest="[effects]\nlighting = {}\n")

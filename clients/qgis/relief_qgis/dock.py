@@ -1,6 +1,7 @@
 """The dock: the live frame, the scene's generation and sources, and the
-controls (daemon address, Follow map, Reload now, pitch and heading). It
-only shows and asks: the plugin wires it to the daemon link."""
+controls (daemon address, its token and CA file, Follow map, Reload now,
+pitch and heading). It only shows and asks: the plugin wires it to the
+daemon link."""
 
 from __future__ import annotations
 
@@ -68,6 +69,8 @@ class ReliefDock(QDockWidget):
     """The relief dock. Signals say what the user asked for."""
 
     address_changed = pyqtSignal(str)
+    #: The bearer token and the CA file, as entered.
+    credentials_changed = pyqtSignal(str, str)
     follow_toggled = pyqtSignal(bool)
     reload_clicked = pyqtSignal()
     #: Pitch (degrees, negative: below the horizon) and heading, as set.
@@ -77,7 +80,9 @@ class ReliefDock(QDockWidget):
     #: A slider is held (True) or let go (False).
     dragging = pyqtSignal(bool)
 
-    def __init__(self, address: str, parent: Optional[QWidget] = None) -> None:
+    def __init__(
+        self, address: str, parent: Optional[QWidget] = None, *, token: str = "", ca_file: str = ""
+    ) -> None:
         super().__init__("relief 3D view", parent)
         self.setObjectName("ReliefDock")
         #: The generation of the frame shown, and frames shown so far.
@@ -143,13 +148,31 @@ class ReliefDock(QDockWidget):
         row.addWidget(self.reload_button)
         layout.addLayout(row)
 
-        address_row = QHBoxLayout()
-        address_row.addWidget(QLabel("reliefd"))
+        connection = QFormLayout()
         self.address = QLineEdit(address)
-        self.address.setToolTip("host:port of reliefd (its gRPC port also speaks HTTP)")
+        self.address.setToolTip(
+            "host:port of reliefd (its gRPC port also speaks HTTP), or https://host:port when it serves TLS"
+        )
         self.address.editingFinished.connect(lambda: self.address_changed.emit(self.address.text().strip()))
-        address_row.addWidget(self.address)
-        layout.addLayout(address_row)
+        connection.addRow("reliefd", self.address)
+        self.token = QLineEdit(token)
+        self.token.setEchoMode(QLineEdit.PasswordEchoOnEdit)
+        self.token.setPlaceholderText("none")
+        self.token.setToolTip(
+            "The bearer token a reliefd serving with --token-file wants: a read token shows the scene, "
+            "a control token also lets Follow map and the sliders steer its camera and Reload now reload"
+        )
+        self.token.editingFinished.connect(self._credentials_edited)
+        connection.addRow("Token", self.token)
+        self.ca_file = QLineEdit(ca_file)
+        self.ca_file.setPlaceholderText("the system's CAs")
+        self.ca_file.setToolTip(
+            "For https://: a PEM file with the CA certificate that signed reliefd's certificate "
+            "(trusted besides the system's)"
+        )
+        self.ca_file.editingFinished.connect(self._credentials_edited)
+        connection.addRow("CA file", self.ca_file)
+        layout.addLayout(connection)
 
         self.setWidget(body)
 
@@ -224,6 +247,9 @@ class ReliefDock(QDockWidget):
         self._label_sliders()
         if not self._quiet:
             self.heading_changed.emit(float(value))
+
+    def _credentials_edited(self) -> None:
+        self.credentials_changed.emit(self.token.text().strip(), self.ca_file.text().strip())
 
     def _follow_toggled(self, on: bool) -> None:
         # Following, the map's rotation sets the heading.

@@ -7,7 +7,13 @@ Two streams run while the daemon is up: /api/frames (a view opened to
 follow the scene camera, pushed, PNG) and /api/events (the scene's generations and source
 errors; each is followed by one GET /api/state). When either ends or
 fails, the link reports the daemon down, stops both and retries
-GET /api/state with a growing delay until it answers."""
+GET /api/state with a growing delay until it answers.
+
+A reliefd serving with --token-file wants `Authorization: Bearer TOKEN` on
+every request, the streams included (Qt sets headers on them, so the token
+never goes in a URL); one refused (HTTP 401) is reported as such, with what
+to do. An https:// address speaks TLS through Qt's own TLS, trusting the
+system's CA certificates and, when given, those of a PEM file."""
 
 from __future__ import annotations
 
@@ -18,7 +24,13 @@ from urllib.parse import urlencode
 
 from qgis.PyQt.QtCore import QByteArray, QObject, QTimer, QUrl, pyqtSignal
 from qgis.PyQt.QtGui import QImage
-from qgis.PyQt.QtNetwork import QNetworkAccessManager, QNetworkReply, QNetworkRequest
+from qgis.PyQt.QtNetwork import (
+    QNetworkAccessManager,
+    QNetworkReply,
+    QNetworkRequest,
+    QSslCertificate,
+    QSslConfiguration,
+)
 
 from .sse import SseParser
 
@@ -26,6 +38,8 @@ from .sse import SseParser
 DEFAULT_ADDRESS = "127.0.0.1:50051"
 #: How long a single request may take before it counts as unanswered.
 REQUEST_TIMEOUT_MS = 5000
+#: The reply property holding why Qt did not trust the daemon's certificate.
+TLS_ERRORS = "relief_tls_errors"
 
 
 class Backoff:
@@ -57,10 +71,48 @@ def error_text(reply: QNetworkReply) -> str:
     body = bytes(reply.readAll())
     if status:
         try:
-            return f"HTTP {status}: {json.loads(body.decode('utf-8'))['message']}"
+            message = str(json.loads(body.decode("utf-8"))["message"])
         except (ValueError, KeyError, TypeError, UnicodeDecodeError):
-            return f"HTTP {status}: {body[:200].decode('utf-8', errors='replace')}"
+            message = body[:200].decode("utf-8", errors="replace").strip()
+        if status in (401, 403):
+            return f"refused (HTTP {status}): {message}"
+        return f"HTTP {status}: {message}"
+    tls = reply.property(TLS_ERRORS)
+    if tls:
+        return f"{reply.errorString()}: {tls}"
     return reply.errorString()
+
+
+def is_refusal(reply: QNetworkReply) -> int:
+    """401 or 403 when the daemon refused the request's token, else 0."""
+    status = reply.attribute(QNetworkRequest.HttpStatusCodeAttribute)
+    return int(status) if status in (401, 403) else 0
+
+
+class Credentials:
+    """What every request carries: the bearer token (empty: none) and, for
+    https://, the TLS settings with the CA certificates to trust."""
+
+    def __init__(self, token: str = "", ca_file: str = "") -> None:
+        self.token = token.strip()
+        self.ca_file = ca_file.strip()
+        #: Why the CA file cannot be used ("" when it can, or none is set).
+        self.ca_error = ""
+        self._ssl: Optional[QSslConfiguration] = None
+        if self.ca_file:
+            certificates = QSslCertificate.fromPath(self.ca_file)
+            if not certificates:
+                self.ca_error = f"the CA file holds no PEM certificate or cannot be read: {self.ca_file}"
+            else:
+                self._ssl = QSslConfiguration.defaultConfiguration()
+                self._ssl.setCaCertificates(self._ssl.caCertificates() + certificates)
+
+    def apply(self, request: QNetworkRequest) -> QNetworkRequest:
+        if self.token:
+            request.setRawHeader(b"Authorization", b"Bearer " + self.token.encode("utf-8"))
+        if self._ssl is not None and request.url().scheme() == "https":
+            request.setSslConfiguration(self._ssl)
+        return request
 
 
 class _Stream(QObject):
@@ -70,15 +122,17 @@ class _Stream(QObject):
     received = pyqtSignal(str, str)
     ended = pyqtSignal(str)
 
-    def __init__(self, manager: QNetworkAccessManager, url: str, parent: QObject) -> None:
+    def __init__(self, manager: QNetworkAccessManager, url: str, credentials: Credentials, parent: QObject) -> None:
         super().__init__(parent)
-        request = QNetworkRequest(QUrl(url))
+        request = credentials.apply(QNetworkRequest(QUrl(url)))
         request.setRawHeader(b"Accept", b"text/event-stream")
         request.setAttribute(QNetworkRequest.CacheLoadControlAttribute, QNetworkRequest.AlwaysNetwork)
         self._parser = SseParser()
         self._closing = False
         #: The message of an `error` event the daemon sent before ending.
         self.error = ""
+        #: 401 or 403 when the daemon refused the stream's token.
+        self.refused = 0
         self._reply = manager.get(request)
         self._reply.readyRead.connect(self._read)
         self._reply.finished.connect(self._finished)
@@ -96,6 +150,7 @@ class _Stream(QObject):
             return
         self._closing = True
         failed = self._reply.error() != QNetworkReply.NoError
+        self.refused = is_refusal(self._reply)
         if self.error:
             self.ended.emit(f"it answered: {self.error}")
         else:
@@ -123,10 +178,21 @@ class DaemonLink(QObject):
     #: A request the daemon answered with an error, its message.
     failed = pyqtSignal(str)
 
-    def __init__(self, address: str = DEFAULT_ADDRESS, parent: Optional[QObject] = None) -> None:
+    def __init__(
+        self,
+        address: str = DEFAULT_ADDRESS,
+        parent: Optional[QObject] = None,
+        *,
+        token: str = "",
+        ca_file: str = "",
+    ) -> None:
         super().__init__(parent)
         self._manager = QNetworkAccessManager(self)
+        self._manager.sslErrors.connect(_keep_tls_errors)
         self._address = address
+        self._credentials = Credentials(token, ca_file)
+        #: 401 or 403 while the daemon refuses the token, else 0.
+        self.refused = 0
         self._size = (640, 360)
         self._max_fps = 10.0
         self._streams: dict[str, _Stream] = {}
@@ -157,6 +223,28 @@ class DaemonLink(QObject):
         if address.strip() == self._address:
             return
         self._address = address.strip()
+        if self._running:
+            self._restart()
+
+    @property
+    def token(self) -> str:
+        return self._credentials.token
+
+    @property
+    def ca_file(self) -> str:
+        return self._credentials.ca_file
+
+    def set_credentials(self, token: str, ca_file: str) -> None:
+        """The bearer token (empty: none) and a PEM file of CA certificates
+        to trust for https:// (empty: the system's only); reconnects."""
+        if (token.strip(), ca_file.strip()) == (self._credentials.token, self._credentials.ca_file):
+            return
+        self._credentials = Credentials(token, ca_file)
+        # Qt keeps connections (and what it made of their certificates) per
+        # host: new trust must start from new ones.
+        self._forget_requests()
+        self._close_streams()
+        self._manager.clearConnectionCache()
         if self._running:
             self._restart()
 
@@ -205,11 +293,16 @@ class DaemonLink(QObject):
         """GET /api/state; the streams open once it answers."""
         if not self._running:
             return
+        self.refused = 0
+        if self._credentials.ca_error:
+            self._down(self._credentials.ca_error)
+            return
         self._get("/api/state", self._probed, on_error=self._down)
 
     def _probed(self, state: dict) -> None:
         if not self._running:
             return
+        self.refused = 0
         self._set_up(True, "")
         self.state.emit(state)
         # The dock's own view of the scene camera: its frames carry depth, so
@@ -227,7 +320,15 @@ class DaemonLink(QObject):
         if not self._running or (self._up is False and self._retry.isActive()):
             return  # Already waiting to try again.
         delay = self.backoff.take()
-        self._set_up(False, f"reliefd at {self._address}: not reachable or not drawing ({why}); trying again in {delay:g} s")
+        if self.refused == 401:
+            what = "the token is wrong" if self._credentials.token else "it wants a token"
+            message = (
+                f"reliefd at {self._address}: {why}; {what}: enter one of its token file in the dock's "
+                f"Token field; trying again in {delay:g} s"
+            )
+        else:
+            message = f"reliefd at {self._address}: not reachable or not drawing ({why}); trying again in {delay:g} s"
+        self._set_up(False, message)
         self._retry.start(int(delay * 1000))
 
     def _set_up(self, up: bool, message: str) -> None:
@@ -243,13 +344,15 @@ class DaemonLink(QObject):
         old = self._streams.pop(name, None)
         if old is not None:
             old.close()
-        stream = _Stream(self._manager, base_url(self._address) + path, self)
+        stream = _Stream(self._manager, base_url(self._address) + path, self._credentials, self)
         stream.received.connect(on_event)
         stream.ended.connect(lambda why, s=stream: self._ended(s, why))
         self._streams[name] = stream
 
     def _ended(self, stream: _Stream, why: str) -> None:
         if stream in self._streams.values():
+            if stream.refused == 401:
+                self.refused = 401
             self._down(why)
 
     def _open_frames(self) -> None:
@@ -332,7 +435,7 @@ class DaemonLink(QObject):
     # ------------------------------------------------------------ plumbing
 
     def _request(self, path: str) -> QNetworkRequest:
-        request = QNetworkRequest(QUrl(base_url(self._address) + path))
+        request = self._credentials.apply(QNetworkRequest(QUrl(base_url(self._address) + path)))
         # An unreachable host fails in seconds, not the system's minutes.
         request.setTransferTimeout(REQUEST_TIMEOUT_MS)
         return request
@@ -364,6 +467,8 @@ class DaemonLink(QObject):
                 return  # Asked before a restart: no longer ours.
             status = reply.attribute(QNetworkRequest.HttpStatusCodeAttribute)
             if reply.error() != QNetworkReply.NoError:
+                if is_refusal(reply) == 401:
+                    self.refused = 401
                 why = error_text(reply)
                 if on_error is not None:
                     on_error(why)
@@ -381,6 +486,12 @@ class DaemonLink(QObject):
                 callback(answer)
 
         reply.finished.connect(finished)
+
+
+def _keep_tls_errors(reply: QNetworkReply, errors: list) -> None:
+    """Keeps Qt's reasons on the reply (the reply itself only says "SSL
+    handshake failed"); the certificate stays refused."""
+    reply.setProperty(TLS_ERRORS, "; ".join(e.errorString() for e in errors))
 
 
 def _message(data: str) -> str:

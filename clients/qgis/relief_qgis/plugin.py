@@ -17,6 +17,12 @@ from .link import DEFAULT_ADDRESS, DaemonLink
 
 #: Where the daemon's address is kept between sessions.
 ADDRESS_KEY = "relief_qgis/address"
+#: The bearer token a reliefd serving with --token-file wants (empty: none),
+#: kept in QGIS's settings file like the address.
+TOKEN_KEY = "relief_qgis/token"
+#: A PEM file of CA certificates to trust for an https:// address, beside
+#: the system's (empty: the system's only).
+CA_FILE_KEY = "relief_qgis/ca_file"
 #: How long the map must rest before the camera follows it (ms).
 FOLLOW_DEBOUNCE_MS = 150
 #: How long a slider must rest before the camera turns (ms).
@@ -58,10 +64,13 @@ class ReliefPlugin:
     # ------------------------------------------------------------ QGIS hooks
 
     def initGui(self) -> None:  # noqa: N802 (QGIS's name)
-        address = str(QgsSettings().value(ADDRESS_KEY, DEFAULT_ADDRESS))
+        settings = QgsSettings()
+        address = str(settings.value(ADDRESS_KEY, DEFAULT_ADDRESS))
+        token = str(settings.value(TOKEN_KEY, "") or "")
+        ca_file = str(settings.value(CA_FILE_KEY, "") or "")
         window = self.iface.mainWindow()
-        self.link = DaemonLink(address)
-        self.dock = ReliefDock(address, window)
+        self.link = DaemonLink(address, token=token, ca_file=ca_file)
+        self.dock = ReliefDock(address, window, token=token, ca_file=ca_file)
         self.iface.addDockWidget(Qt.RightDockWidgetArea, self.dock)
 
         # The dock's own show/hide action: it stays right when the dock is
@@ -76,6 +85,7 @@ class ReliefPlugin:
         link.reachable.connect(dock.show_reachable)
         link.failed.connect(dock.show_message)
         dock.address_changed.connect(self._address_changed)
+        dock.credentials_changed.connect(self._credentials_changed)
         dock.reload_clicked.connect(lambda: link.reload([], self._state))
         dock.frame_size_changed.connect(link.set_frame_size)
         dock.follow_toggled.connect(self._follow_toggled)
@@ -143,6 +153,13 @@ class ReliefPlugin:
         QgsSettings().setValue(ADDRESS_KEY, address)
         if self.link is not None:
             self.link.set_address(address)
+
+    def _credentials_changed(self, token: str, ca_file: str) -> None:
+        settings = QgsSettings()
+        settings.setValue(TOKEN_KEY, token)
+        settings.setValue(CA_FILE_KEY, ca_file)
+        if self.link is not None:
+            self.link.set_credentials(token, ca_file)
 
     # ------------------------------------------------------------ edits
 

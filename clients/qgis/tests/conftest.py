@@ -70,13 +70,13 @@ def host() -> Iterator[Host]:
 
 
 @pytest.fixture
-def start_plugin(host: Host) -> Iterator[Callable[[str], Any]]:
-    """Starts the plugin as QGIS does, talking to the given address;
-    unloads it afterwards."""
+def start_plugin(host: Host) -> Iterator[Callable[..., Any]]:
+    """Starts the plugin as QGIS does, talking to the given address (with
+    a token and a CA file when given); unloads it afterwards."""
     started = []
 
-    def start(address: str) -> Any:
-        plugin = _start(host, address)
+    def start(address: str, token: str = "", ca_file: str = "") -> Any:
+        plugin = _start(host, address, token, ca_file)
         started.append(plugin)
         return plugin
 

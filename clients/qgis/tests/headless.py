@@ -103,13 +103,17 @@ class Host:
         self.window.deleteLater()
 
 
-def start_plugin(host: Host, address: str) -> Any:
+def start_plugin(host: Host, address: str, token: str = "", ca_file: str = "") -> Any:
     """Starts the installed plugin with qgis.utils, as QGIS does, talking
-    to reliefd at `address`; returns the plugin object."""
+    to reliefd at `address` with `token` (none when empty) and trusting the
+    CA certificates in `ca_file` too; returns the plugin object."""
     import qgis.utils
 
     qgis.utils.iface = host
-    QgsSettings().setValue(f"{PLUGIN}/address", address)
+    settings = QgsSettings()
+    settings.setValue(f"{PLUGIN}/address", address)
+    settings.setValue(f"{PLUGIN}/token", token)
+    settings.setValue(f"{PLUGIN}/ca_file", ca_file)
     qgis.utils.plugin_paths = [str(PLUGINS_DIR)]
     qgis.utils.updateAvailablePlugins()
     if PLUGIN not in qgis.utils.available_plugins:

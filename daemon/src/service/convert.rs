@@ -127,7 +127,12 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
                 vertical_datum: info.vertical_datum,
                 vertical_units: info.vertical_units,
                 tiles_generated: store.generated_for(&slot.spec.id),
-                details: info.details.into_iter().collect(),
+                details: info
+                    .details
+                    .into_iter()
+                    .chain(slot.content.get().map(|a| ("content_address".to_owned(), format!("{a:032x}"))))
+                    .collect(),
+                warnings: info.warnings,
                 instance_classes: info
                     .classes
                     .iter()
@@ -172,6 +177,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             ("tile_size".to_string(), snap.grid.tile_size().to_string()),
             ("clipmap_grid_size".to_string(), m.clipmap.n.to_string()),
             ("clipmap_levels".to_string(), m.clipmap.levels.to_string()),
+            ("color_detail".to_string(), m.clipmap.color_detail.to_string()),
             ("interactive_scale".to_string(), m.interactive_scale.to_string()),
             ("instance_bands_m".to_string(), join(&m.bands.edges_m)),
             ("instance_band_densities".to_string(), join(&m.bands.densities)),
@@ -193,6 +199,11 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             frame_streams: frames.streams as u64,
             open_views: frames.open_views as u64,
             stream_frames_rendered: frames.frames_rendered,
+            outer_stores: store
+                .backing_counters()
+                .into_iter()
+                .map(|b| pb::OuterStore { name: b.name.into(), hits: b.hits, misses: b.misses, writes: b.writes })
+                .collect(),
         }),
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),

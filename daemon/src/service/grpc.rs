@@ -11,6 +11,7 @@ use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status};
 
 use super::Calls;
+use super::auth::Scope;
 use super::view::Frames;
 
 /// The calls behind the three relief.v1 services.
@@ -18,6 +19,11 @@ use super::view::Frames;
 pub struct Grpc(pub Arc<Calls>);
 
 type Answer<T> = Result<Response<T>, Status>;
+
+/// The scope the token check gave the call (read, when none is there).
+fn scope<T>(r: &Request<T>) -> Scope {
+    r.extensions().get::<Scope>().copied().unwrap_or(Scope::Read)
+}
 
 #[tonic::async_trait]
 impl SceneService for Grpc {
@@ -36,11 +42,11 @@ impl SceneService for Grpc {
     }
 
     async fn set_source_parameter(&self, r: Request<pb::SetSourceParameterRequest>) -> Answer<pb::SceneState> {
-        self.0.scene.set_source_parameter(r.get_ref()).map(Response::new)
+        self.0.scene.set_source_parameter(scope(&r), r.get_ref()).map(Response::new)
     }
 
     async fn reload(&self, r: Request<pb::ReloadRequest>) -> Answer<pb::SceneState> {
-        self.0.scene.reload(r.into_inner()).await.map(Response::new)
+        self.0.scene.reload(scope(&r), r.into_inner()).await.map(Response::new)
     }
 }
 
@@ -58,7 +64,7 @@ impl TileService for Grpc {
 #[tonic::async_trait]
 impl ViewService for Grpc {
     async fn set_camera(&self, r: Request<pb::SetCameraRequest>) -> Answer<pb::Camera> {
-        self.0.view.set_camera(r.get_ref()).map(Response::new)
+        self.0.view.set_camera(scope(&r), r.get_ref()).map(Response::new)
     }
 
     async fn get_camera(&self, _r: Request<pb::GetCameraRequest>) -> Answer<pb::Camera> {
@@ -84,7 +90,7 @@ impl ViewService for Grpc {
     }
 
     async fn navigate(&self, r: Request<pb::NavigateRequest>) -> Answer<pb::Camera> {
-        self.0.view.navigate(r.into_inner()).await.map(Response::new)
+        self.0.view.navigate(scope(&r), r.into_inner()).await.map(Response::new)
     }
 
     async fn pick(&self, r: Request<pb::PickRequest>) -> Answer<pb::PickResponse> {

@@ -10,7 +10,7 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::body::Bytes;
-use axum::extract::{Path, Query, State};
+use axum::extract::{Extension, Path, Query, State};
 use axum::http::{HeaderValue, Method, StatusCode, Uri, header};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
@@ -23,6 +23,7 @@ use tonic::{Code, Status};
 use tower::ServiceExt as _;
 
 use super::Calls;
+use super::auth::Scope;
 
 type Shared = State<Arc<Calls>>;
 
@@ -179,17 +180,17 @@ async fn wait(State(c): Shared, Query(q): Params) -> Reply<pb::SceneState> {
     reply(c.scene.wait_for_generation(pb::WaitForGenerationRequest { min_generation, timeout_ms }).await)
 }
 
-async fn reload(State(c): Shared, bytes: Bytes) -> Reply<pb::SceneState> {
-    reply(c.scene.reload(body(&bytes, "ReloadRequest")?).await)
+async fn reload(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::SceneState> {
+    reply(c.scene.reload(scope, body(&bytes, "ReloadRequest")?).await)
 }
 
 async fn get_camera(State(c): Shared) -> Reply<pb::Camera> {
     Ok(axum::Json(c.view.camera()))
 }
 
-async fn set_camera(State(c): Shared, bytes: Bytes) -> Reply<pb::Camera> {
+async fn set_camera(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::Camera> {
     let camera: pb::Camera = body(&bytes, "Camera")?;
-    reply(c.view.set_camera(&pb::SetCameraRequest { camera: Some(camera) }))
+    reply(c.view.set_camera(scope, &pb::SetCameraRequest { camera: Some(camera) }))
 }
 
 /// The image itself (PNG, or raw RGBA with its size in headers), with the
@@ -267,14 +268,19 @@ async fn update_view(State(c): Shared, Path(id): Path<String>, bytes: Bytes) -> 
     reply(c.view.update_view(&request))
 }
 
-async fn navigate_view(State(c): Shared, Path(id): Path<String>, bytes: Bytes) -> Reply<pb::Camera> {
+async fn navigate_view(
+    State(c): Shared,
+    Extension(scope): Extension<Scope>,
+    Path(id): Path<String>,
+    bytes: Bytes,
+) -> Reply<pb::Camera> {
     let request = pb::NavigateRequest { view_id: id, ..body(&bytes, "NavigateRequest")? };
-    reply(c.view.navigate(request).await)
+    reply(c.view.navigate(scope, request).await)
 }
 
-async fn navigate_scene(State(c): Shared, bytes: Bytes) -> Reply<pb::Camera> {
+async fn navigate_scene(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::Camera> {
     let request = pb::NavigateRequest { view_id: String::new(), ..body(&bytes, "NavigateRequest")? };
-    reply(c.view.navigate(request).await)
+    reply(c.view.navigate(scope, request).await)
 }
 
 async fn pick(State(c): Shared, Path(id): Path<String>, Query(q): Params) -> Reply<pb::PickResponse> {

@@ -16,7 +16,9 @@ use tonic::Status;
 
 use crate::frames::FrameHub;
 use crate::scene::Scene;
+use crate::service::auth::Scope;
 use crate::service::convert;
+use crate::service::metrics::StreamGauge;
 
 /// The longest a WaitForGeneration call may wait.
 const MAX_WAIT: Duration = Duration::from_secs(600);
@@ -45,6 +47,7 @@ impl SceneCalls {
         let (scene, hub) = (Arc::clone(&self.scene), Arc::clone(&self.hub));
         let shutdown = self.shutdown.clone();
         tokio::spawn(async move {
+            let _open = StreamGauge::open("events");
             let snapshot = |scene: &Scene| {
                 let state = convert::scene_state(scene, &hub);
                 SceneEvent { generation: state.generation, event: Some(scene_event::Event::Snapshot(state)) }
@@ -91,14 +94,16 @@ impl SceneCalls {
     }
 
     #[expect(clippy::unused_self, reason = "a call like the others; sources with parameters will need the scene")]
-    pub fn set_source_parameter(&self, r: &SetSourceParameterRequest) -> Result<SceneState, Status> {
+    pub fn set_source_parameter(&self, scope: Scope, r: &SetSourceParameterRequest) -> Result<SceneState, Status> {
+        scope.require_control("set a source parameter")?;
         Err(Status::unimplemented(format!(
             "SetSourceParameter: source '{}' has no runtime parameters in this reliefd",
             r.source_id
         )))
     }
 
-    pub async fn reload(&self, r: ReloadRequest) -> Result<SceneState, Status> {
+    pub async fn reload(&self, scope: Scope, r: ReloadRequest) -> Result<SceneState, Status> {
+        scope.require_control("reload sources")?;
         let ids = r.source_ids;
         let snap = self.scene.snapshot();
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {

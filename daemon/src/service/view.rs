@@ -20,6 +20,7 @@ use crate::effects::EffectSettings;
 use crate::frames::{CameraSource, FrameHub, HubFrame, OpenView, StreamSpec, ViewSettings};
 use crate::navigate::{Gesture, navigate, pick};
 use crate::scene::Scene;
+use crate::service::auth::Scope;
 use crate::service::convert;
 use crate::service::status::{from_view_error as status, invalid_field};
 use crate::view::{MAX_IMAGE_SIDE, Overrides, Viewer};
@@ -72,9 +73,12 @@ fn frame_request(
     }
     let effects = overrides.map(|o| effect_overrides(&snap.manifest.effect_settings, o)).transpose()?;
     let clipmap = overrides.and_then(|o| {
-        (o.clipmap_grid_size.is_some() || o.clipmap_levels.is_some()).then(|| ClipmapConfig {
-            n: o.clipmap_grid_size.map_or(snap.manifest.clipmap.n, |n| n as usize),
-            levels: o.clipmap_levels.map_or(snap.manifest.clipmap.levels, |l| l as usize),
+        (o.clipmap_grid_size.is_some() || o.clipmap_levels.is_some() || o.color_detail.is_some()).then(|| {
+            ClipmapConfig {
+                n: o.clipmap_grid_size.map_or(snap.manifest.clipmap.n, |n| n as usize),
+                levels: o.clipmap_levels.map_or(snap.manifest.clipmap.levels, |l| l as usize),
+                color_detail: o.color_detail.map_or(snap.manifest.clipmap.color_detail, |d| d as usize),
+            }
         })
     });
     if let Some(c) = clipmap {
@@ -178,7 +182,8 @@ impl ViewCalls {
         self.hub.viewer()
     }
 
-    pub fn set_camera(&self, r: &SetCameraRequest) -> Result<Camera, Status> {
+    pub fn set_camera(&self, scope: Scope, r: &SetCameraRequest) -> Result<Camera, Status> {
+        scope.require_control("move the scene camera")?;
         let camera = r.camera.as_ref().ok_or_else(|| invalid_field("camera", "missing"))?;
         let set = self.viewer().set_camera(convert::camera_from(camera)).map_err(|e| status(&e))?;
         Ok(convert::camera_to(&set))
@@ -276,7 +281,12 @@ impl ViewCalls {
 
     /// Moves the view's camera, or the scene camera (with no view, or a
     /// view that follows it), by a gesture.
-    pub async fn navigate(&self, r: NavigateRequest) -> Result<Camera, Status> {
+    /// A gesture on a view of the caller's own (read scope), or on the
+    /// scene's camera, which every viewer follows (control scope).
+    pub async fn navigate(&self, scope: Scope, r: NavigateRequest) -> Result<Camera, Status> {
+        if r.view_id.is_empty() {
+            scope.require_control("move the scene camera")?;
+        }
         let gesture = match r.gesture {
             Some(navigate_request::Gesture::Orbit(o)) => {
                 Gesture::Orbit { heading_deg: o.heading_deg, pitch_deg: o.pitch_deg }

@@ -18,6 +18,9 @@ use std::fmt;
 /// arithmetic of the geodetic grid's 2^(l+1) columns.
 pub const MAX_LEVEL: u8 = 24;
 
+/// How far from its CRS's origin a projected grid may reach, in CRS units.
+const FARTHEST: f64 = 1.0e9;
+
 /// A tile: its level and its column and row, counted from the north-west.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct TileKey {
@@ -202,10 +205,34 @@ impl TileGrid {
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
             return Err(format!("tile size {tile_size} must be a power of two from 16 to 4096"));
         }
-        if let GridKind::Projected(p) = &kind
-            && !(p.size.is_finite() && p.size > 0.0 && p.min_x.is_finite() && p.min_y.is_finite())
-        {
-            return Err(format!("projected grid extent is not finite and positive: {p:?}"));
+        if let GridKind::Projected(p) = &kind {
+            if !(p.size.is_finite() && p.size > 0.0 && p.min_x.is_finite() && p.min_y.is_finite()) {
+                return Err(format!("projected grid extent is not finite and positive: {p:?}"));
+            }
+            // Positions are f64 in CRS units: far enough from the CRS's
+            // origin they no longer resolve the grid's own samples (at 1e15
+            // they hold to 0.125 units). No map of this planet reaches 1e9
+            // units (it is some 4e7 m round, 1.3e8 feet); refuse such
+            // coordinates, and any where a small grid's samples would blur,
+            // rather than serve collapsed tiles.
+            let largest =
+                [p.min_x, p.min_y, p.min_x + p.size, p.min_y + p.size].into_iter().fold(0.0, |m, v| v.abs().max(m));
+            let resolution = largest * f64::EPSILON;
+            let spacing = p.size / f64::from(tile_size);
+            if largest > FARTHEST {
+                return Err(format!(
+                    "projected grid coordinates reach {largest:e} CRS units, farther from the CRS's origin than \
+                     any map of this planet ({FARTHEST:e}), where f64 holds positions only to {resolution:.1e} \
+                     units: refused"
+                ));
+            }
+            if resolution > spacing / 1000.0 {
+                return Err(format!(
+                    "projected grid coordinates reach {largest:e} CRS units, where f64 holds positions only to \
+                     {resolution:.1e} units, coarser than a thousandth of the grid's sample spacing \
+                     ({spacing:e}): refused"
+                ));
+            }
         }
         Ok(Self { kind, tile_size })
     }
@@ -230,11 +257,26 @@ impl TileGrid {
         }
     }
 
-    /// The whole area the grid covers.
+    /// The whole area the grid covers. Samples are counted from its
+    /// north-west corner, so a projected grid's south edge is where they
+    /// end, `size` south of its north edge (within a rounding of `min_y`).
     pub fn extent(&self) -> Extent {
         match &self.kind {
             GridKind::Geodetic => Extent::new(-180.0, -90.0, 180.0, 90.0),
-            GridKind::Projected(p) => Extent::new(p.min_x, p.min_y, p.min_x + p.size, p.min_y + p.size),
+            GridKind::Projected(p) => {
+                let max_y = p.min_y + p.size;
+                Extent::new(p.min_x, max_y - p.size, p.min_x + p.size, max_y)
+            }
+        }
+    }
+
+    /// The grid's sides in CRS units, east and south: the lengths every
+    /// span and step divides (never `max - min` of the extent, which
+    /// rounds differently east and south far from the CRS's origin).
+    fn sides(&self) -> (f64, f64) {
+        match &self.kind {
+            GridKind::Geodetic => (360.0, 180.0),
+            GridKind::Projected(p) => (p.size, p.size),
         }
     }
 
@@ -250,8 +292,8 @@ impl TileGrid {
     /// Size of one tile at `level`, in CRS units: (width, height).
     pub fn tile_span(&self, level: u8) -> (f64, f64) {
         let (cols, rows) = self.tiles_at(level);
-        let e = self.extent();
-        (e.width() / f64::from(cols), e.height() / f64::from(rows))
+        let (width, height) = self.sides();
+        (width / f64::from(cols), height / f64::from(rows))
     }
 
     /// Cells of the global corner-sample lattice at `level` across and down
@@ -348,8 +390,22 @@ impl TileGrid {
         }
         let (cols, rows) = self.tiles_at(level);
         let (w, h) = self.tile_span(level);
-        let col = (((x - e.min_x) / w).floor() as u32).min(cols - 1);
-        let row = (((e.max_y - y) / h).floor() as u32).min(rows - 1);
+        let mut col = (((x - e.min_x) / w).floor() as u32).min(cols - 1);
+        let mut row = (((e.max_y - y) / h).floor() as u32).min(rows - 1);
+        // The quotient may round across an edge that `tile_extent` puts
+        // on the other side: the tile whose extent holds the point wins.
+        let west = |col: u32| e.min_x + f64::from(col) * w;
+        let north = |row: u32| e.max_y - f64::from(row) * h;
+        if col > 0 && x < west(col) {
+            col -= 1;
+        } else if col + 1 < cols && x >= west(col + 1) {
+            col += 1;
+        }
+        if row > 0 && y > north(row) {
+            row -= 1;
+        } else if row + 1 < rows && y <= north(row + 1) {
+            row += 1;
+        }
         Some(TileKey::new(level, col, row))
     }
 
@@ -362,10 +418,12 @@ impl TileGrid {
         let e = self.extent();
         let (cols, rows) = self.tiles_at(level);
         let (w, h) = self.tile_span(level);
-        let first_col = ((a.min_x - e.min_x) / w).floor().max(0.0) as u32;
-        let last_col = (((a.max_x - e.min_x) / w).ceil() as u32).clamp(1, cols) - 1;
-        let first_row = ((e.max_y - a.max_y) / h).floor().max(0.0) as u32;
-        let last_row = (((e.max_y - a.min_y) / h).ceil() as u32).clamp(1, rows) - 1;
+        // One tile more each side than the quotients say (they may round
+        // past an edge); the overlap test below keeps exactly the right ones.
+        let first_col = (((a.min_x - e.min_x) / w).floor().max(0.0) as u32).saturating_sub(1);
+        let last_col = (((a.max_x - e.min_x) / w).ceil() as u32).min(cols - 1);
+        let first_row = (((e.max_y - a.max_y) / h).floor().max(0.0) as u32).saturating_sub(1);
+        let last_row = (((e.max_y - a.min_y) / h).ceil() as u32).min(rows - 1);
         let mut keys = Vec::new();
         for y in first_row..=last_row {
             for x in first_col..=last_col {
@@ -384,10 +442,11 @@ impl TileGrid {
         let n = self.tile_size as usize;
         let e = self.extent();
         let (cols, rows) = self.tiles_at(key.level);
-        // Exact: extents are powers of two apart in the geodetic grid, and
-        // dividing by a power of two never rounds.
-        let step_x = e.width() / (f64::from(cols) * f64::from(self.tile_size));
-        let step_y = e.height() / (f64::from(rows) * f64::from(self.tile_size));
+        // The steps of `sample_point`, bit for bit: dividing by a power of
+        // two never rounds.
+        let (width, height) = self.sides();
+        let step_x = width / (f64::from(cols) * f64::from(self.tile_size));
+        let step_y = height / (f64::from(rows) * f64::from(self.tile_size));
         let (count, offset) = match kind {
             SampleKind::Corner => (n + 1, 0.0),
             SampleKind::TexelWithBorder => (n + 2, -0.5),

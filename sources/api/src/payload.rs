@@ -34,7 +34,7 @@ impl std::fmt::Display for PayloadKind {
 
 /// Heights in metres on the corner-aligned lattice, row-major from the
 /// north-west sample. NaN marks nodata.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct HeightTile {
     pub size: usize,
     pub heights: Vec<f32>,
@@ -48,21 +48,21 @@ impl HeightTile {
 }
 
 /// RGBA8 texels (not premultiplied) on the texel-centred lattice, border included.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ColorTile {
     pub size: usize,
     pub rgba: Vec<u8>,
 }
 
 /// One byte per texel (0 = outside, 255 = inside), border included.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MaskTile {
     pub size: usize,
     pub coverage: Vec<u8>,
 }
 
 /// Geometry in the grid's CRS: x, y and z (NaN when the source has none).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Geometry {
     Points(Vec<[f64; 3]>),
     Lines(Vec<Vec<[f64; 3]>>),
@@ -88,28 +88,28 @@ impl Geometry {
     }
 }
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Feature {
     pub id: u64,
     pub geometry: Geometry,
     pub properties: BTreeMap<String, String>,
 }
 
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct FeatureTile {
     pub features: Vec<Feature>,
 }
 
 /// A feature an op left out of its tile, and why (a bad attribute value,
 /// a degenerate footprint): the tile says so instead of failing whole.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Skipped {
     pub feature_id: u64,
     pub reason: String,
 }
 
 /// What an instance places: a 3D model or a camera-facing billboard.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum InstanceKind {
     Model,
     Billboard,
@@ -117,7 +117,7 @@ pub enum InstanceKind {
 
 /// A placed model or billboard. Position in the grid's CRS, height in
 /// metres; rotation clockwise from north about the vertical.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Instance {
     pub feature_id: u64,
     pub position: [f64; 3],
@@ -127,7 +127,7 @@ pub struct Instance {
     pub rotation_deg: f64,
 }
 
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct InstanceTile {
     pub instances: Vec<Instance>,
     pub skipped: Vec<Skipped>,
@@ -135,7 +135,7 @@ pub struct InstanceTile {
 
 /// The triangles of one feature in a mesh tile: `index_count` indices from
 /// `first_index`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct MeshPart {
     pub feature_id: u64,
     pub first_index: u32,
@@ -148,7 +148,7 @@ pub struct MeshPart {
 /// with the height in metres, kept in f64: a renderer subtracts its eye
 /// position before going to f32. Triangles wind counter-clockwise seen
 /// from outside.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct MeshTile {
     pub positions: Vec<[f64; 3]>,
     pub indices: Vec<u32>,
@@ -157,7 +157,7 @@ pub struct MeshTile {
 }
 
 /// What a source generated for one tile.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Payload {
     Height(HeightTile),
     Color(ColorTile),

@@ -57,7 +57,7 @@ impl SourceSpec {
         match self.options.get(field) {
             None => Ok(None),
             Some(OptionValue::Text(s)) => Ok(Some(s)),
-            Some(other) => Err(SourceError::option(field, format!("expected a string, found {other:?}"))),
+            Some(other) => Err(SourceError::option(field, format!("expected a string, found {}", other.kind_name()))),
         }
     }
 
@@ -65,7 +65,12 @@ impl SourceSpec {
         match self.options.get(field) {
             None => Ok(None),
             Some(OptionValue::Number(n)) if n.is_finite() => Ok(Some(*n)),
-            Some(other) => Err(SourceError::option(field, format!("expected a finite number, found {other:?}"))),
+            Some(OptionValue::Number(n)) => {
+                Err(SourceError::option(field, format!("expected a finite number, found {n}")))
+            }
+            Some(other) => {
+                Err(SourceError::option(field, format!("expected a finite number, found {}", other.kind_name())))
+            }
         }
     }
 
@@ -124,6 +129,9 @@ pub struct SourceInfo {
     /// stops refining there).
     pub resolution: Option<f64>,
     pub details: BTreeMap<String, String>,
+    /// What was read differently from how the file says it, or left out,
+    /// in sentences for the user (a rebuilt .shx, a missing .dbf...).
+    pub warnings: Vec<String>,
     /// Per class of a classified input (the `scatter` op): how many samples
     /// and instances the tiles built so far hold; empty for other sources.
     pub classes: Vec<ClassCount>,

@@ -31,6 +31,9 @@ pub struct VectorRead {
     pub vertical_datum: String,
     /// Counts and facts for the state: features, null shapes, links...
     pub details: BTreeMap<String, String>,
+    /// What the reader did that the user should know about: a rebuilt
+    /// index, a missing attribute table, a mode read as its nearest.
+    pub warnings: Vec<String>,
 }
 
 /// A vector file format.
@@ -79,6 +82,7 @@ impl<F: VectorFormat> VectorSource<F> {
             vertical_units: String::new(),
             resolution: None,
             details: read.details,
+            warnings: read.warnings,
             ..SourceInfo::default()
         };
         Ok(Self { spec: spec.clone(), path: path.clone(), crs, fingerprint, index, info, format: PhantomData })

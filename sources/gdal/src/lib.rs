@@ -5,6 +5,8 @@
 //! is small, else only the blocks tiles need, through one cache under a
 //! byte budget; coarse levels come from the file's overviews where it has
 //! them. It resamples them into the scene's tile grid with the named kernel.
+//! A raster georeferenced only by GCPs is read through GDAL's warp of it,
+//! north-up; a rotated geotransform is sampled through as it is.
 //! A reload reads only the blocks whose signatures changed. GDAL and PROJ
 //! (through GDAL's OSR, so one PROJ serves GDAL and relief) stay inside this
 //! crate.

@@ -439,6 +439,22 @@ impl GdalSource {
     }
 }
 
+impl Placed {
+    /// The raster's sample spacing in grid units: its extent's width over
+    /// its columns; for a rotated raster, its pixel's side (its extent's
+    /// width spans its columns and rows both).
+    fn resolution(&self) -> Option<f64> {
+        let e = self.extent_in_grid?;
+        let (r, g) = (&self.raster, &self.raster.geo);
+        if g[2] == 0.0 && g[4] == 0.0 {
+            return Some(e.width() / r.size.0 as f64);
+        }
+        let [min_x, _, max_x, _] = r.bounds();
+        let side = g[1].hypot(g[4]).min(g[2].hypot(g[5]));
+        Some(side * e.width() / (max_x - min_x))
+    }
+}
+
 fn place(raster: Raster, grid: &TileGrid, grid_srs: &gdal::spatial_ref::SpatialRef) -> Result<Placed, SourceError> {
     let srs = crs::spatial_ref(&raster.crs_wkt, Some(&raster.path))?;
     let same_crs = srs == *grid_srs;
@@ -492,7 +508,11 @@ impl Source for GdalSource {
                 n => format!("{n} of {} rasters windowed", self.rasters.len()),
             },
         );
-        details.insert("change_detection".into(), self.read.changes.name().into());
+        let mut changes = self.read.changes.name().to_owned();
+        if self.rasters.iter().any(|p| p.raster.warped) {
+            changes.push_str(" (a warped raster: hashes of its warped values)");
+        }
+        details.insert("change_detection".into(), changes);
         details.insert("bytes_read".into(), self.bytes_read().to_string());
         if let Some(r) = self.resampling {
             let how = if r == Resampling::Nearest { "; its mips keep the most common value, for classes" } else { "" };
@@ -508,12 +528,9 @@ impl Source for GdalSource {
             } else {
                 String::new()
             },
-            resolution: self
-                .rasters
-                .iter()
-                .filter_map(|p| p.extent_in_grid.map(|e| e.width() / p.raster.size.0 as f64))
-                .reduce(f64::min),
+            resolution: self.rasters.iter().filter_map(Placed::resolution).reduce(f64::min),
             details,
+            warnings: self.rasters.iter().flat_map(|p| p.raster.warnings.iter().cloned()).collect(),
             ..SourceInfo::default()
         }
     }

@@ -6,6 +6,7 @@ use std::path::Path;
 use relief_source::{SourceError, SourceSpec, VectorFormat, VectorRead, VectorSource};
 
 use crate::load::{Limits, parse, text};
+use crate::tidy::tidy;
 use crate::walk::walk;
 
 pub const KIND: &str = "kml";
@@ -22,7 +23,8 @@ impl VectorFormat for Kml {
     fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
         spec.only_options(&[])?;
         let text = text(path, &Limits::default())?;
-        let found = walk(&parse(&text, path)?, &text);
+        let tidied = tidy(&text, path)?;
+        let found = walk(&parse(&tidied.text, path)?, &tidied.text);
         let mut details = BTreeMap::new();
         details.insert("features".into(), found.counted.to_string());
         details.insert("without_geometry".into(), found.without_geometry.to_string());
@@ -38,6 +40,7 @@ impl VectorFormat for Kml {
             crs_name: "EPSG:4326 (KML)".into(),
             vertical_datum: "WGS84 ellipsoid or ground, per altitude mode".into(),
             details,
+            warnings: tidied.warnings,
         })
     }
 }

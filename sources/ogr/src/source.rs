@@ -153,5 +153,6 @@ fn read_dataset(
         files: relief_source::files::dataset_files(path),
         vertical_datum: String::new(),
         details,
+        warnings: Vec::new(),
     })
 }

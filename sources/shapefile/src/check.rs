@@ -1,91 +1,152 @@
 //! Consistency checks across a shapefile's files, from their headers and
-//! sizes alone.
-
-use std::path::{Path, PathBuf};
+//! sizes alone: the torn states EDITORS.md records (an index that does not
+//! match its shapes, a table whose record count disagrees).
 
 use relief_source::SourceError;
 
-fn bytes(path: &Path, what: &'static str) -> Result<Vec<u8>, SourceError> {
-    std::fs::read(path).map_err(|source| SourceError::Io { what, path: path.to_path_buf(), source })
+use crate::dataset::Part;
+
+/// The size of the .shp header, and of the .shx header (the same header).
+pub(crate) const HEADER_BYTES: usize = 100;
+
+/// The size of one .shx entry: a record's offset and content length.
+pub(crate) const ENTRY_BYTES: usize = 8;
+
+/// The file code every .shp and .shx header starts with.
+const FILE_CODE: i64 = 9994;
+
+/// The shape types of the specification: null, point, polyline, polygon,
+/// multipoint; each with z and with m; multipatch.
+const SHAPE_TYPES: [i32; 14] = [0, 1, 3, 5, 8, 11, 13, 15, 18, 21, 23, 25, 28, 31];
+
+/// The big-endian i32 at `at`, widened; None past the end.
+pub(crate) fn be_i32(bytes: &[u8], at: usize) -> Option<i64> {
+    let word: [u8; 4] = bytes.get(at..at.checked_add(4)?)?.try_into().ok()?;
+    Some(i64::from(i32::from_be_bytes(word)))
 }
 
-fn be_i32(b: &[u8], at: usize) -> i64 {
-    i64::from(i32::from_be_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]))
-}
-
-/// The sibling file with `ext`, matching the case of the .shp's extension.
-pub(crate) fn sibling(shp: &Path, ext: &str) -> PathBuf {
-    let upper = shp.extension().and_then(|e| e.to_str()).is_some_and(|e| e.chars().all(|c| c.is_ascii_uppercase()));
-    shp.with_extension(if upper { ext.to_ascii_uppercase() } else { ext.to_owned() })
-}
-
-/// The number of records, once .shp, .shx and .dbf agree on it.
-pub(crate) fn check(shp: &Path) -> Result<usize, SourceError> {
-    let (shx_path, dbf_path) = (sibling(shp, "shx"), sibling(shp, "dbf"));
-    let shp_len = std::fs::metadata(shp)
-        .map_err(|source| SourceError::Io { what: "shapefile", path: shp.to_path_buf(), source })?
-        .len();
-    if !shx_path.exists() {
-        return Err(SourceError::format("missing .shx index: the shapefile cannot be read without it", &shx_path));
+/// The header's file code is a shapefile's and its shape type is one of
+/// the specification's; `ext` names the file in the message.
+fn header_codes(part: &Part, ext: &str) -> Result<(), SourceError> {
+    if be_i32(&part.bytes, 0) != Some(FILE_CODE) {
+        return Err(SourceError::format(format!("not a shapefile: bad file code in the {ext} header"), &part.path));
     }
-    let shx = bytes(&shx_path, "shapefile index")?;
-    let dbf = bytes(&dbf_path, "shapefile attributes")?;
-    let shp_head = {
-        let mut head = vec![0u8; 100];
-        let mut f = std::fs::File::open(shp).map_err(|source| SourceError::Io {
-            what: "shapefile",
-            path: shp.to_path_buf(),
-            source,
-        })?;
-        std::io::Read::read_exact(&mut f, &mut head)
-            .map_err(|_| SourceError::format("truncated .shp: shorter than its 100-byte header", shp))?;
-        head
+    let shape_type = part.bytes.get(32..36).and_then(|b| b.try_into().ok()).map(i32::from_le_bytes);
+    match shape_type {
+        Some(t) if SHAPE_TYPES.contains(&t) => Ok(()),
+        Some(t) => Err(SourceError::format(format!("unknown shape type {t} in the {ext} header"), &part.path)),
+        None => Err(SourceError::format(format!("truncated {ext}: shorter than its 100-byte header"), &part.path)),
+    }
+}
+
+fn le_u32(bytes: &[u8], at: usize) -> Option<usize> {
+    let word: [u8; 4] = bytes.get(at..at + 4)?.try_into().ok()?;
+    Some(u32::from_le_bytes(word) as usize)
+}
+
+fn le_u16(bytes: &[u8], at: usize) -> Option<usize> {
+    let word: [u8; 2] = bytes.get(at..at + 2)?.try_into().ok()?;
+    Some(usize::from(u16::from_le_bytes(word)))
+}
+
+/// The .shp is a shapefile whose header gives its true length.
+pub(crate) fn shp(shp: &Part) -> Result<(), SourceError> {
+    let len = shp.bytes.len();
+    let header = (len >= HEADER_BYTES).then(|| be_i32(&shp.bytes, 24));
+    let Some(Some(words)) = header else {
+        return Err(SourceError::format("truncated .shp: shorter than its 100-byte header", &shp.path));
     };
-    if be_i32(&shp_head, 0) != 9994 {
-        return Err(SourceError::format("not a shapefile: bad file code in the .shp header", shp));
-    }
-    let declared = be_i32(&shp_head, 24) * 2;
-    if declared != shp_len as i64 {
+    header_codes(shp, ".shp")?;
+    let declared = words * 2;
+    if declared != len as i64 {
         return Err(SourceError::format(
-            format!("truncated or torn .shp: its header says {declared} bytes, the file has {shp_len}"),
-            shp,
+            format!("truncated or torn .shp: its header says {declared} bytes, the file has {len}"),
+            &shp.path,
         ));
     }
-    if shx.len() < 100 || be_i32(&shx, 24) * 2 != shx.len() as i64 || (shx.len() - 100) % 8 != 0 {
-        return Err(SourceError::format(
-            format!("torn .shx: its header length does not match its {} bytes", shx.len()),
-            &shx_path,
-        ));
+    Ok(())
+}
+
+/// Records are counted from 0 in messages, as their features' ids are.
+///
+/// The number of records the .shx indexes, once its header agrees with
+/// its size, every entry lies inside the .shp, and the record header
+/// there gives the same content length (as GDAL checks: "sizes do not match
+/// in .shx and .shp").
+pub(crate) fn shx(shx: &Part, shp: &Part) -> Result<usize, SourceError> {
+    let shp_len = shp.bytes.len();
+    let bytes = &shx.bytes;
+    let len = bytes.len();
+    let torn =
+        || SourceError::format(format!("torn .shx: its header length does not match its {len} bytes"), &shx.path);
+    let Some(words) = be_i32(bytes, 24) else { return Err(torn()) };
+    if len < HEADER_BYTES || words * 2 != len as i64 || !(len - HEADER_BYTES).is_multiple_of(ENTRY_BYTES) {
+        return Err(torn());
     }
-    let records = (shx.len() - 100) / 8;
-    if records > 0 {
-        let last = 100 + (records - 1) * 8;
-        let end = be_i32(&shx, last) * 2 + 8 + be_i32(&shx, last + 4) * 2;
+    header_codes(shx, ".shx")?;
+    let records = (len - HEADER_BYTES) / ENTRY_BYTES;
+    for record in 0..records {
+        let at = HEADER_BYTES + record * ENTRY_BYTES;
+        let (Some(offset_words), Some(content_words)) = (be_i32(bytes, at), be_i32(bytes, at + 4)) else {
+            return Err(torn());
+        };
+        let entry = if record + 1 == records {
+            "the last .shx entry".to_owned()
+        } else {
+            format!("the .shx entry for record {record}")
+        };
+        let (start, end) = (offset_words * 2, offset_words * 2 + 8 + content_words * 2);
+        if start < HEADER_BYTES as i64 {
+            return Err(SourceError::format(format!("{entry} points into the .shp header (byte {start})"), &shx.path));
+        }
+        // The content starts with the shape type: two 16-bit words at least.
+        if content_words < 2 {
+            return Err(SourceError::format(
+                format!("{entry} gives its record {content_words} words of content, too few for a shape"),
+                &shx.path,
+            ));
+        }
         if end > shp_len as i64 {
             return Err(SourceError::format(
-                format!("the last .shx entry points past the end of the .shp ({end} > {shp_len})"),
-                &shx_path,
+                format!("{entry} points past the end of the .shp ({end} > {shp_len})"),
+                &shx.path,
+            ));
+        }
+        let in_shp = be_i32(&shp.bytes, start as usize + 4);
+        if in_shp != Some(content_words) {
+            return Err(SourceError::format(
+                format!(
+                    "the .shp and its .shx disagree on the size of record {record}: {} words at byte {start} of the .shp, {content_words} in the .shx",
+                    in_shp.unwrap_or_default()
+                ),
+                &shp.path,
             ));
         }
     }
-    if dbf.len() < 32 {
-        return Err(SourceError::format("truncated .dbf: shorter than its header", &dbf_path));
-    }
-    let dbf_records = u32::from_le_bytes([dbf[4], dbf[5], dbf[6], dbf[7]]) as usize;
-    let (header_len, record_len) =
-        (usize::from(u16::from_le_bytes([dbf[8], dbf[9]])), usize::from(u16::from_le_bytes([dbf[10], dbf[11]])));
+    Ok(records)
+}
+
+/// The .dbf holds `records` records, as `counted_by` ("the .shx indexes")
+/// says, and is as long as its header promises.
+pub(crate) fn dbf(dbf: &Part, records: usize, counted_by: &str) -> Result<(), SourceError> {
+    let bytes = &dbf.bytes;
+    // The fixed part of a dBase header is 32 bytes; the counts are in it.
+    let header = (bytes.len() >= 32).then(|| (le_u32(bytes, 4), le_u16(bytes, 8), le_u16(bytes, 10)));
+    let Some((Some(dbf_records), Some(header_len), Some(record_len))) = header else {
+        return Err(SourceError::format("truncated .dbf: shorter than its header", &dbf.path));
+    };
     if dbf_records != records {
         return Err(SourceError::format(
-            format!("invalid record count {dbf_records} in the .dbf (the .shx indexes {records})"),
-            &dbf_path,
+            format!("invalid record count {dbf_records} in the .dbf ({counted_by} {records})"),
+            &dbf.path,
         ));
     }
     let expected = header_len + records * record_len;
-    if dbf.len() != expected && dbf.len() != expected + 1 {
+    if bytes.len() != expected && bytes.len() != expected + 1 {
         return Err(SourceError::format(
-            format!("torn .dbf: {} bytes where its header promises {expected}", dbf.len()),
-            &dbf_path,
+            format!("torn .dbf: {} bytes where its header promises {expected}", bytes.len()),
+            &dbf.path,
         ));
     }
-    Ok(records)
+    Ok(())
 }

@@ -1,15 +1,23 @@
-//! Shapes and records into relief features (in the file's own CRS).
+//! Shapes and records into relief features (in the file's own CRS), from
+//! a dataset's bytes, with or without its attribute table.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
+use std::io::Cursor;
 use std::path::Path;
 
 use relief_source::{Feature, Geometry, SourceError};
-use shapefile::{PolygonRing, Shape};
+use shapefile::{PolygonRing, Shape, dbase};
+
+use crate::dataset::{Dataset, Part};
+use crate::message;
 
 /// What a read found.
 pub(crate) struct Read {
     pub features: Vec<Feature>,
     pub null_shapes: usize,
+    /// Records marked deleted in the .dbf, left out.
+    pub deleted: usize,
     pub shape_types: BTreeMap<String, usize>,
 }
 
@@ -93,9 +101,13 @@ fn shape_type(shape: &Shape) -> &'static str {
     }
 }
 
+fn iso_date(d: &dbase::Date) -> String {
+    format!("{:04}-{:02}-{:02}", d.year(), d.month(), d.day())
+}
+
 /// A dBase value as text; None for an empty (null) value.
-fn text(value: shapefile::dbase::FieldValue) -> Option<String> {
-    use shapefile::dbase::FieldValue as V;
+fn text(value: dbase::FieldValue) -> Option<String> {
+    use dbase::FieldValue as V;
     match value {
         V::Character(s) => s.map(|s| s.trim().to_owned()),
         V::Memo(s) => Some(s),
@@ -104,21 +116,122 @@ fn text(value: shapefile::dbase::FieldValue) -> Option<String> {
         V::Integer(n) => Some(n.to_string()),
         V::Double(n) | V::Currency(n) => Some(n.to_string()),
         V::Logical(b) => b.map(|b| b.to_string()),
-        V::Date(d) => d.map(|d| format!("{:04}-{:02}-{:02}", d.year(), d.month(), d.day())),
-        V::DateTime(dt) => Some(format!("{dt:?}")),
+        V::Date(d) => d.map(|d| iso_date(&d)),
+        V::DateTime(dt) => {
+            let (date, time) = (dt.date(), dt.time());
+            Some(format!("{}T{:02}:{:02}:{:02}", iso_date(&date), time.hours(), time.minutes(), time.seconds()))
+        }
     }
 }
 
-/// Reads every shape and record. Attributes are decoded per the .cpg.
-pub(crate) fn read(shp: &Path) -> Result<Read, SourceError> {
-    let err = |e: shapefile::Error| SourceError::format(format!("cannot read shapefile: {e}"), shp);
-    let mut reader = shapefile::Reader::from_path(shp).map_err(err)?;
-    let mut features = Vec::new();
-    let mut null_shapes = 0;
-    let mut shape_types = BTreeMap::new();
-    for (index, item) in reader.iter_shapes_and_records().enumerate() {
-        let (shape, record) = item.map_err(|e| SourceError::format(format!("cannot read record {index}: {e}"), shp))?;
-        *shape_types.entry(shape_type(&shape).to_owned()).or_insert(0) += 1;
+type Table<'a> = dbase::Reader<Cursor<Cow<'a, [u8]>>>;
+
+/// The attribute table, its text decoded per the .cpg where there is one
+/// that names an encoding (and per the .dbf's code page mark otherwise),
+/// and its field names.
+fn table<'a>(dbf: &'a Part, cpg: Option<&Part>) -> Result<(Table<'a>, Vec<String>), SourceError> {
+    let encoding = cpg
+        .and_then(|cpg| std::str::from_utf8(&cpg.bytes).ok())
+        .and_then(|name| dbase::encoding::DynEncoding::from_name(name.trim()));
+    let builder = match encoding {
+        Some(encoding) => dbase::ReaderBuilder::new().with_encoding(encoding),
+        None => dbase::ReaderBuilder::new(),
+    };
+    let table = builder
+        .build(Cursor::new(with_valid_date(&dbf.bytes)))
+        .map_err(|e| SourceError::format(format!("cannot read the .dbf: {}", message::table(&e, &[])), &dbf.path))?;
+    let fields = table.fields().iter().map(|f| f.name().to_owned()).collect();
+    Ok((table, fields))
+}
+
+/// The .dbf with a last-update date the dBase crate accepts. Writers leave
+/// it zero or out of range (GDAL reads on regardless); the crate refuses
+/// the table for it, and nothing here reads it.
+fn with_valid_date(dbf: &[u8]) -> Cow<'_, [u8]> {
+    let valid = match dbf.get(1..4) {
+        Some(&[_, month, day]) => (1..=12).contains(&month) && (1..=31).contains(&day),
+        _ => true,
+    };
+    if valid {
+        return Cow::Borrowed(dbf);
+    }
+    let mut fixed = dbf.to_vec();
+    fixed[1..4].copy_from_slice(&[0, 1, 1]);
+    Cow::Owned(fixed)
+}
+
+/// Which of the first `records` records are marked deleted ('*'), found
+/// where the dBase reader reads them: from the header's offset to the first
+/// record, each one flag byte and its fields long. The reader skips them;
+/// their shapes are skipped with them, as OGR does, so that every shape
+/// keeps its own record.
+fn deleted(dbf: &[u8], table: &Table<'_>, records: usize) -> Vec<bool> {
+    let first = dbf.get(8..10).and_then(|b| b.try_into().ok()).map_or(0, |b| usize::from(u16::from_le_bytes(b)));
+    let record_len = 1 + table.fields().iter().map(|f| usize::from(f.length())).sum::<usize>();
+    (0..records).map(|index| dbf.get(first + index * record_len) == Some(&b'*')).collect()
+}
+
+/// Reads every shape, each from where `shx` (the dataset's own index or
+/// one rebuilt, of `records` entries) says it starts, and its record from
+/// the .dbf when there is one.
+pub(crate) fn read(dataset: &Dataset, shx: &[u8], records: usize) -> Result<Read, SourceError> {
+    let shp = &dataset.shp.path;
+    let mut shapes = shapefile::ShapeReader::with_shx(Cursor::new(dataset.shp.bytes.as_slice()), Cursor::new(shx))
+        .map_err(|e| SourceError::format(format!("cannot read shapefile: {}", message::shape(&e)), shp))?;
+    let (mut table, fields, deleted) = match &dataset.dbf {
+        Some(dbf) => {
+            let (table, fields) = table(dbf, dataset.cpg.as_ref())?;
+            let deleted = deleted(&dbf.bytes, &table, records);
+            (Some((dbf, table)), fields, deleted)
+        }
+        None => (None, Vec::new(), Vec::new()),
+    };
+    let mut rows = table.as_mut().map(|(dbf, table)| (*dbf, table.iter_records()));
+    let mut read = Read { features: Vec::new(), null_shapes: 0, deleted: 0, shape_types: BTreeMap::new() };
+    for index in 0..records {
+        if deleted.get(index) == Some(&true) {
+            read.deleted += 1;
+            continue;
+        }
+        // Each shape is read from its own offset: one that reads short or
+        // long leaves the next one where it is.
+        let shape = match shapes.read_nth_shape(index) {
+            Some(Ok(shape)) => shape,
+            Some(Err(e)) => {
+                return Err(SourceError::format(format!("cannot read record {index}: {}", message::shape(&e)), shp));
+            }
+            None => return Err(SourceError::format(format!("record {index} is missing from the index"), shp)),
+        };
+        let properties = match rows.as_mut() {
+            None => BTreeMap::new(),
+            Some((dbf, rows)) => match rows.next() {
+                Some(Ok(record)) => {
+                    record.into_iter().filter_map(|(name, value)| text(value).map(|v| (name, v))).collect()
+                }
+                Some(Err(e)) => {
+                    return Err(SourceError::format(
+                        format!("cannot read the .dbf: {}", message::table(&e, &fields)),
+                        &dbf.path,
+                    ));
+                }
+                None => return Err(SourceError::format(format!("the .dbf ends before record {index}"), &dbf.path)),
+            },
+        };
+        read.take(index, &shape, properties, shp)?;
+    }
+    Ok(read)
+}
+
+impl Read {
+    /// Counts `shape` and keeps it as feature `index`, unless it is null.
+    fn take(
+        &mut self,
+        index: usize,
+        shape: &Shape,
+        properties: BTreeMap<String, String>,
+        shp: &Path,
+    ) -> Result<(), SourceError> {
+        *self.shape_types.entry(shape_type(shape).to_owned()).or_insert(0) += 1;
         if let Shape::Multipatch(_) = shape {
             return Err(SourceError::format(
                 format!(
@@ -127,12 +240,10 @@ pub(crate) fn read(shp: &Path) -> Result<Read, SourceError> {
                 shp,
             ));
         }
-        let Some(geometry) = geometry(&shape) else {
-            null_shapes += 1;
-            continue;
-        };
-        let properties = record.into_iter().filter_map(|(name, value)| text(value).map(|v| (name, v))).collect();
-        features.push(Feature { id: index as u64, geometry, properties });
+        match geometry(shape) {
+            Some(geometry) => self.features.push(Feature { id: index as u64, geometry, properties }),
+            None => self.null_shapes += 1,
+        }
+        Ok(())
     }
-    Ok(Read { features, null_shapes, shape_types })
 }

@@ -2,7 +2,7 @@
 
     import relief
 
-    with relief.connect("127.0.0.1:50051") as client:
+    with relief.connect("127.0.0.1:50051") as client:   # or "https://host:50051", token=..., ca="ca.pem"
         print(client.state().generation)
         heights = client.elevation([(10.25, 45.25)])
         client.render(camera=relief.Camera(10.25, 45.1, 9000), size=(640, 360)).save("view.png")
@@ -22,8 +22,10 @@ from relief.errors import (
     Internal,
     InvalidArgument,
     NotFound,
+    PermissionDenied,
     ReliefError,
     ResourceExhausted,
+    Unauthenticated,
     Unavailable,
     Unimplemented,
 )
@@ -116,6 +118,7 @@ __all__ = [
     "Pan",
     "PassTiming",
     "PayloadKind",
+    "PermissionDenied",
     "Pick",
     "Quality",
     "ReliefError",
@@ -129,6 +132,7 @@ __all__ = [
     "Stream",
     "Tile",
     "TileBase",
+    "Unauthenticated",
     "Unavailable",
     "Unimplemented",
     "View",

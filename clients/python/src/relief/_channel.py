@@ -1,10 +1,11 @@
-"""What the sync and asyncio clients share: the address, channel options,
-default timeouts and request checks."""
+"""What the sync and asyncio clients share: the address, TLS and token,
+channel options, default timeouts and request checks."""
 
 from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 
 #: Where clients connect when given no address (as the `relief` CLI).
 DEFAULT_ADDRESS = "127.0.0.1:50051"
@@ -23,16 +24,122 @@ CHANNEL_OPTIONS: list[tuple[str, int]] = [
 ]
 
 
-def target(address: str | None) -> str:
-    """A gRPC target from an address as users write it: "HOST:PORT", or a
-    URL such as "http://127.0.0.1:50051" (RELIEF_SERVER, as the CLI reads it)."""
+#: The environment variables read when a client is given no token or CA.
+TOKEN_ENV = "RELIEF_TOKEN"
+CA_ENV = "RELIEF_CA"
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """Where a client connects and how: the gRPC target ("HOST:PORT"),
+    TLS or plaintext, the CA certificates to trust (None: the system's),
+    and the bearer token to send (None: none)."""
+
+    target: str
+    tls: bool
+    root_certificates: bytes | None
+    token: str | None
+
+    def __repr__(self) -> str:
+        # Never the token itself: reprs end up in logs.
+        token = "set" if self.token else "none"
+        return f"Endpoint(target={self.target!r}, tls={self.tls}, token={token})"
+
+
+def target(address: str | None) -> tuple[str, bool | None]:
+    """A gRPC target from an address as users write it, and what its
+    scheme says of TLS: "HOST:PORT" (None: not said), "http://HOST:PORT"
+    or "grpc://HOST:PORT" (False), "https://HOST:PORT" (True). None is
+    RELIEF_SERVER, as the CLI reads it, else 127.0.0.1:50051."""
     text = (address or os.environ.get("RELIEF_SERVER") or DEFAULT_ADDRESS).strip()
-    for scheme in ("http://", "grpc://"):
-        if text.startswith(scheme):
-            text = text[len(scheme) :]
-    if text.startswith("https://"):
-        raise ValueError(f"address {text!r}: reliefd speaks plaintext gRPC; give HOST:PORT")
-    return text.rstrip("/")
+    tls: bool | None = None
+    for scheme, secure in (("https://", True), ("http://", False), ("grpc://", False)):
+        if text.lower().startswith(scheme):
+            text, tls = text[len(scheme) :], secure
+            break
+    text = text.rstrip("/")
+    if not text or "/" in text:
+        raise ValueError(f"address {address!r} is not HOST:PORT or a URL of reliefd's port with no path")
+    return text, tls
+
+
+def read_ca(ca: str | os.PathLike[str] | bytes) -> bytes:
+    """PEM certificates to trust: `ca` itself when bytes, else the file it
+    names."""
+    if isinstance(ca, bytes):
+        pem, where = ca, "the CA certificate given"
+    else:
+        path = os.fspath(ca)
+        try:
+            with open(path, "rb") as f:
+                pem = f.read()
+        except OSError as e:
+            raise ValueError(f"cannot read the CA certificate: {e.strerror or e}: {path}") from None
+        where = f"the CA file {path}"
+    if b"-----BEGIN CERTIFICATE-----" not in pem:
+        raise ValueError(f"{where} holds no PEM certificate (-----BEGIN CERTIFICATE-----)")
+    return pem
+
+
+def check_token(token: str) -> str:
+    """The token as sent: surrounding white space dropped (a token read
+    from a file keeps its newline), anything else that cannot go in a
+    header refused."""
+    token = token.strip()
+    if not token.isprintable() or not token.isascii() or any(c.isspace() for c in token):
+        raise ValueError("the token holds white space or characters that cannot be sent in a header")
+    return token
+
+
+def endpoint(
+    address: str | None,
+    *,
+    token: str | None = None,
+    ca: str | os.PathLike[str] | bytes | None = None,
+    tls: bool | None = None,
+) -> Endpoint:
+    """How to reach reliefd at `address` (see `target`).
+
+    TLS when the address is https://, when `tls` is True, or when a CA is
+    given (`ca`, else the file RELIEF_CA names) to an address without a
+    scheme; plaintext for http:// or grpc://, or when `tls` is False (the
+    RELIEF_CA variable is then not read). `ca` is PEM bytes or a PEM file's
+    path; TLS without one trusts the system's certificates.
+
+    `token` is sent as `authorization: Bearer TOKEN` on every call; None
+    reads RELIEF_TOKEN, "" sends none."""
+    where, said = target(address)
+    if said is not None and tls is not None and said != tls:
+        raise ValueError(f"address {address!r} says {'TLS' if said else 'plaintext'} but tls={tls} was asked")
+    secure = said if said is not None else tls
+    if ca is not None and secure is False:
+        raise ValueError(f"a CA was given for the plaintext address {address!r}: use https://HOST:PORT")
+    if ca is None and secure is not False:
+        env_ca = os.environ.get(CA_ENV, "").strip()
+        ca = env_ca or None
+    if secure is None:
+        secure = ca is not None
+    if token is None:
+        token = os.environ.get(TOKEN_ENV, "")
+    token = check_token(token) if token.strip() else None
+    return Endpoint(where, secure, read_ca(ca) if ca is not None else None, token)
+
+
+def unreachable(endpoint: Endpoint, timeout: float) -> str:
+    """Why a connection did not come up within `timeout` seconds."""
+    text = f"cannot reach reliefd at {endpoint.target} within {timeout:g} s"
+    if endpoint.tls:
+        trusted = "the CA given" if endpoint.root_certificates is not None else "the system's certificates"
+        text += (
+            f" over TLS (is it serving TLS, and is its certificate signed by {trusted} "
+            f"for the host name '{endpoint.target.rsplit(':', 1)[0]}'?)"
+        )
+    return text
+
+
+def metadata(token: str) -> tuple[str, str]:
+    """The metadata entry that carries a bearer token."""
+    return ("authorization", f"Bearer {token}")
 
 
 def wait_request(generation: int, timeout: float) -> tuple[int, int]:

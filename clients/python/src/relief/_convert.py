@@ -116,7 +116,7 @@ def quality_to_pb(q: Quality | None) -> pb.QualityOverrides | None:
         out.clipmap_levels = q.clipmap_levels
     if q.precision is not None:
         out.precision = q.precision
-    for knob in ("atmosphere_steps", "shadow_cascades", "shadow_map_size", "detail_octaves"):
+    for knob in ("color_detail", "atmosphere_steps", "shadow_cascades", "shadow_map_size", "detail_octaves"):
         if getattr(q, knob) is not None:
             setattr(out, knob, getattr(q, knob))
     if q.instance_bands_m is not None:

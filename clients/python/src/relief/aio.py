@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import asyncio
+import os
 from collections.abc import AsyncIterator, Callable, Generator, Iterable, Sequence
 from types import TracebackType
 from typing import Any, Generic, TypeVar, overload
@@ -18,6 +19,7 @@ import grpc
 import grpc.aio
 
 from relief import _channel, _convert
+from relief._bearer import aio_interceptors
 from relief._proto.relief.v1 import relief_pb2 as pb
 from relief._proto.relief.v1 import relief_pb2_grpc as pb_grpc
 from relief.client import _expect
@@ -90,12 +92,33 @@ class AsyncStream(Generic[T]):
 
 class AsyncClient:
     """A connection to reliefd for asyncio code. Use `relief.aio.connect()`
-    as an async context manager (or await it, and `await client.close()`)."""
+    as an async context manager (or await it, and `await client.close()`).
+    `address`, `token`, `ca` and `tls` as for relief.Client: the token
+    (RELIEF_TOKEN when None) goes as `authorization: Bearer` on every call,
+    a CA (RELIEF_CA when None) or an https:// address means TLS."""
 
-    def __init__(self, address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S) -> None:
-        self.address = _channel.target(address)
+    def __init__(
+        self,
+        address: str | None = None,
+        *,
+        timeout: float = _channel.DEFAULT_TIMEOUT_S,
+        token: str | None = None,
+        ca: str | os.PathLike[str] | bytes | None = None,
+        tls: bool | None = None,
+    ) -> None:
+        self.endpoint = _channel.endpoint(address, token=token, ca=ca, tls=tls)
+        self.address = self.endpoint.target
         self.timeout = timeout
-        self._channel = grpc.aio.insecure_channel(self.address, options=_channel.CHANNEL_OPTIONS)
+        interceptors = aio_interceptors(self.endpoint.token)
+        if self.endpoint.tls:
+            credentials = grpc.ssl_channel_credentials(root_certificates=self.endpoint.root_certificates)
+            self._channel = grpc.aio.secure_channel(
+                self.address, credentials, options=_channel.CHANNEL_OPTIONS, interceptors=interceptors
+            )
+        else:
+            self._channel = grpc.aio.insecure_channel(
+                self.address, options=_channel.CHANNEL_OPTIONS, interceptors=interceptors
+            )
         self._scene = pb_grpc.SceneServiceStub(self._channel)
         self._view = pb_grpc.ViewServiceStub(self._channel)
         self._tiles = pb_grpc.TileServiceStub(self._channel)
@@ -107,7 +130,7 @@ class AsyncClient:
         try:
             await asyncio.wait_for(self._channel.channel_ready(), timeout)
         except asyncio.TimeoutError:
-            raise Unavailable(f"cannot reach reliefd at {self.address} within {timeout} s", method="connect") from None
+            raise Unavailable(_channel.unreachable(self.endpoint, timeout), method="connect") from None
 
     async def close(self) -> None:
         await self._channel.close()
@@ -121,7 +144,8 @@ class AsyncClient:
         await self.close()
 
     def __repr__(self) -> str:
-        return f"relief.aio.AsyncClient({self.address!r})"
+        scheme = "https://" if self.endpoint.tls else ""
+        return f"relief.aio.AsyncClient({scheme + self.address!r})"
 
     async def _unary(self, method: Any, name: str, request: Any, timeout: float | None) -> Any:
         try:
@@ -288,14 +312,13 @@ class AsyncClient:
 class Connecting:
     """What `connect()` answers: `async with` it, or await it."""
 
-    def __init__(self, address: str | None, timeout: float, connect_timeout: float) -> None:
-        self._address = address
-        self._timeout = timeout
+    def __init__(self, make: Callable[[], AsyncClient], connect_timeout: float) -> None:
+        self._make = make
         self._connect_timeout = connect_timeout
         self._client: AsyncClient | None = None
 
     async def _open(self) -> AsyncClient:
-        client = AsyncClient(self._address, timeout=self._timeout)
+        client = self._make()
         try:
             await client.wait_ready(self._connect_timeout)
         except BaseException:
@@ -319,9 +342,20 @@ class Connecting:
 
 
 def connect(
-    address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S, connect_timeout: float = 10.0
+    address: str | None = None,
+    *,
+    token: str | None = None,
+    ca: str | os.PathLike[str] | bytes | None = None,
+    tls: bool | None = None,
+    timeout: float = _channel.DEFAULT_TIMEOUT_S,
+    connect_timeout: float = 10.0,
 ) -> Connecting:
     """An asyncio client connected to reliefd at `address`:
     `async with relief.aio.connect(addr) as client:` or
-    `client = await relief.aio.connect(addr)`."""
-    return Connecting(address, timeout, connect_timeout)
+    `client = await relief.aio.connect(addr)`. The arguments are
+    relief.connect's: `token` (RELIEF_TOKEN when None) goes as
+    `authorization: Bearer` on every call; `ca` (RELIEF_CA when None) or an
+    https:// address means TLS."""
+    # Checked now: a bad address, CA or token fails at the call, not at await.
+    _channel.endpoint(address, token=token, ca=ca, tls=tls)
+    return Connecting(lambda: AsyncClient(address, timeout=timeout, token=token, ca=ca, tls=tls), connect_timeout)

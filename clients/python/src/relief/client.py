@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from types import TracebackType
 from typing import Any, Generic, TypeVar, overload
@@ -15,6 +16,7 @@ from typing import Any, Generic, TypeVar, overload
 import grpc
 
 from relief import _channel, _convert
+from relief._bearer import Bearer
 from relief._proto.relief.v1 import relief_pb2 as pb
 from relief._proto.relief.v1 import relief_pb2_grpc as pb_grpc
 from relief.errors import ReliefError, Unavailable, from_rpc_error
@@ -89,12 +91,35 @@ class Stream(Generic[T]):
 class Client:
     """A connection to reliefd. Use `relief.connect()`; close it (or use it
     as a context manager) when done. Every method raises a ReliefError
-    subclass when the call fails, with the server's message."""
+    subclass when the call fails, with the server's message.
 
-    def __init__(self, address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S) -> None:
-        self.address = _channel.target(address)
+    `address` is "HOST:PORT" or a URL ("https://HOST:PORT" for TLS);
+    RELIEF_SERVER or 127.0.0.1:50051 when None. `token` goes as
+    `authorization: Bearer TOKEN` on every call (RELIEF_TOKEN when None;
+    "" sends none). `ca` (a PEM file's path, or PEM bytes) is the CA to
+    trust and means TLS (RELIEF_CA names one when None); `tls=True` with no
+    CA trusts the system's certificates, `tls=False` forces plaintext."""
+
+    def __init__(
+        self,
+        address: str | None = None,
+        *,
+        timeout: float = _channel.DEFAULT_TIMEOUT_S,
+        token: str | None = None,
+        ca: str | os.PathLike[str] | bytes | None = None,
+        tls: bool | None = None,
+    ) -> None:
+        self.endpoint = _channel.endpoint(address, token=token, ca=ca, tls=tls)
+        self.address = self.endpoint.target
         self.timeout = timeout
-        self._channel = grpc.insecure_channel(self.address, options=_channel.CHANNEL_OPTIONS)
+        if self.endpoint.tls:
+            credentials = grpc.ssl_channel_credentials(root_certificates=self.endpoint.root_certificates)
+            self._raw = grpc.secure_channel(self.address, credentials, options=_channel.CHANNEL_OPTIONS)
+        else:
+            self._raw = grpc.insecure_channel(self.address, options=_channel.CHANNEL_OPTIONS)
+        self._channel = self._raw
+        if self.endpoint.token is not None:
+            self._channel = grpc.intercept_channel(self._raw, Bearer(self.endpoint.token))
         self._scene = pb_grpc.SceneServiceStub(self._channel)
         self._view = pb_grpc.ViewServiceStub(self._channel)
         self._tiles = pb_grpc.TileServiceStub(self._channel)
@@ -104,12 +129,13 @@ class Client:
     def wait_ready(self, timeout: float = 10.0) -> None:
         """Waits until the channel is connected (Unavailable after `timeout`)."""
         try:
-            grpc.channel_ready_future(self._channel).result(timeout=timeout)
+            grpc.channel_ready_future(self._raw).result(timeout=timeout)
         except grpc.FutureTimeoutError:
-            raise Unavailable(f"cannot reach reliefd at {self.address} within {timeout} s", method="connect") from None
+            raise Unavailable(_channel.unreachable(self.endpoint, timeout), method="connect") from None
 
     def close(self) -> None:
-        self._channel.close()
+        # (The intercepted channel, when there is one, only wraps this one.)
+        self._raw.close()
 
     def __enter__(self) -> Client:
         return self
@@ -120,7 +146,8 @@ class Client:
         self.close()
 
     def __repr__(self) -> str:
-        return f"relief.Client({self.address!r})"
+        scheme = "https://" if self.endpoint.tls else ""
+        return f"relief.Client({scheme + self.address!r})"
 
     def _unary(self, method: Any, name: str, request: Any, timeout: float | None) -> Any:
         try:
@@ -317,12 +344,29 @@ def _expect(tile: Tile, expect: type[TileBase] | None) -> Tile:
 
 
 def connect(
-    address: str | None = None, *, timeout: float = _channel.DEFAULT_TIMEOUT_S, connect_timeout: float = 10.0
+    address: str | None = None,
+    *,
+    token: str | None = None,
+    ca: str | os.PathLike[str] | bytes | None = None,
+    tls: bool | None = None,
+    timeout: float = _channel.DEFAULT_TIMEOUT_S,
+    connect_timeout: float = 10.0,
 ) -> Client:
-    """A client connected to reliefd at `address` ("HOST:PORT"; RELIEF_SERVER
-    or 127.0.0.1:50051 when None). `timeout` is the default deadline of each
-    call; Unavailable when reliefd is not reachable within `connect_timeout`."""
-    client = Client(address, timeout=timeout)
+    """A client connected to reliefd at `address` ("HOST:PORT", or
+    "https://HOST:PORT" for TLS; RELIEF_SERVER or 127.0.0.1:50051 when None).
+
+    `token`: sent as `authorization: Bearer TOKEN` on every call; read from
+    RELIEF_TOKEN when None ("" sends none). `ca`: the CA certificate to
+    trust (a PEM file's path, or PEM bytes), which means TLS; read from the
+    file RELIEF_CA names when None. `tls`: True for TLS with the system's
+    certificates, False for plaintext whatever RELIEF_CA says.
+
+    `timeout` is the default deadline of each call; Unavailable when reliefd
+    is not reachable within `connect_timeout` (with TLS, also when its
+    certificate is not one the CA signed). A missing or wrong token is
+    Unauthenticated at the first call; a read token steering the scene is
+    PermissionDenied."""
+    client = Client(address, timeout=timeout, token=token, ca=ca, tls=tls)
     try:
         client.wait_ready(connect_timeout)
     except BaseException:

@@ -69,6 +69,20 @@ class Internal(ReliefError):
     code = "INTERNAL"
 
 
+class Unauthenticated(ReliefError):
+    """reliefd wants a bearer token and got none, or one it does not accept
+    (give `token=`, or set RELIEF_TOKEN)."""
+
+    code = "UNAUTHENTICATED"
+
+
+class PermissionDenied(ReliefError):
+    """The token may only read: moving the scene camera, reloading and
+    setting source parameters need a control token."""
+
+    code = "PERMISSION_DENIED"
+
+
 class Unavailable(ReliefError):
     """reliefd cannot be reached, is shutting down, or has no render device."""
 
@@ -85,6 +99,8 @@ _BY_CODE: dict[grpc.StatusCode, type[ReliefError]] = {
     grpc.StatusCode.UNIMPLEMENTED: Unimplemented,
     grpc.StatusCode.INTERNAL: Internal,
     grpc.StatusCode.UNAVAILABLE: Unavailable,
+    grpc.StatusCode.UNAUTHENTICATED: Unauthenticated,
+    grpc.StatusCode.PERMISSION_DENIED: PermissionDenied,
 }
 
 

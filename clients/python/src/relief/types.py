@@ -71,6 +71,8 @@ class Quality:
     reprojection_error_px: float | None = None
     clipmap_grid_size: int | None = None
     clipmap_levels: int | None = None
+    #: Colour samples per terrain sample along a side (1, 2 or 4).
+    color_detail: int | None = None
     #: Not drawn yet: reliefd refuses them (INVALID_ARGUMENT) rather than ignore them.
     precision: str | None = None
     #: Effects' knobs, refused for a scene that does not declare the effect.

@@ -63,7 +63,7 @@ impl Base {
                 high: [high[0], high[1], high[2], valid],
                 low: [low[0], low[1], low[2], 0.0],
                 normal: [up.x, up.y, up.z, 0.0],
-                color: color.map(|v| f32::from(v) / 255.0),
+                color: crate::clipmap::premultiplied(color).map(|v| f32::from(v) / 255.0),
             });
             world.push(p);
         }

@@ -10,7 +10,7 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 use crate::camera::{Pose, Sees, View};
-use crate::clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, StorageRect};
+use crate::clipmap::{ClipLevel, Clipmap, StorageRect};
 use crate::surface::Surface;
 
 /// Most clipmap levels a frame draws (the shader's uniform array).
@@ -88,7 +88,7 @@ impl Levels {
         for &t in active {
             let layer = usize::from(t) % layers;
             let Some(level) = clipmap.level_mut(t) else { continue };
-            let (n, side) = (level.n, COLOR_DETAIL as usize * level.n);
+            let (n, side) = (level.n, level.color_detail * level.n);
             let (mut positions, mut colors) = level.take_dirty();
             if self.layer_holds[layer] != Some(t) {
                 self.layer_holds[layer] = Some(t);

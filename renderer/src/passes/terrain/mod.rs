@@ -13,7 +13,7 @@ use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
 use self::levels::{LevelDraw, LevelUniform, Levels};
 use crate::camera::{Frustum, Pose, Sees, View};
-use crate::clipmap::{COLOR_DETAIL, Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
+use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
@@ -69,7 +69,9 @@ impl TerrainPass {
         if config.levels > MAX_LEVELS {
             return Err(RenderError::Request { field: "quality", message: format!("at most {MAX_LEVELS} levels") });
         }
-        let shader = super::shader(device, "terrain", include_str!("terrain.wgsl"));
+        // The colour detail is a constant of the shader: a renderer serves one configuration.
+        let source = format!("const COLOR_DETAIL: i32 = {};\n{}", config.color_detail, include_str!("terrain.wgsl"));
+        let shader = super::shader(device, "terrain", &source);
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let uniform = wgpu::BindingType::Buffer {
@@ -105,7 +107,7 @@ impl TerrainPass {
         let layers = config.levels as u32;
         let array = |label, side: usize, format| super::sampled_texture(device, label, side as u32, layers, format);
         let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
-        let colors = array("level colours", COLOR_DETAIL as usize * config.n, wgpu::TextureFormat::Rgba8Unorm);
+        let colors = array("level colours", config.color_detail * config.n, wgpu::TextureFormat::Rgba8Unorm);
         let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("levels"),
             size: (size_of::<LevelUniform>() * MAX_LEVELS) as u64,
@@ -343,7 +345,7 @@ impl TerrainPass {
                     high: [p.x, p.y, p.z, 1.0],
                     low: [0.0; 4],
                     normal: [n.x, n.y, n.z, 0.0],
-                    color: colors[k].map(|v| f32::from(v) / 255.0),
+                    color: crate::clipmap::premultiplied(colors[k]).map(|v| f32::from(v) / 255.0),
                 }
             })
             .collect();

@@ -146,16 +146,18 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
     var out: Out;
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.normal = upward(normal, p);
-    // Colour windows hold COLOR_DETAIL (2) samples per geometry sample,
-    // from origin 2 x the window's, in textures 2n a side (toroidal too).
-    let cn = 2 * n;
-    let u = f32(wrap(2 * lv.window.x, cn) + 2 * i) + 0.5;
-    let v = f32(wrap(2 * lv.window.y, cn) + 2 * j) + 0.5;
+    // Colour windows hold COLOR_DETAIL (d) samples per geometry sample,
+    // from origin d x the window's, in textures dn a side (toroidal too).
+    let d = COLOR_DETAIL;
+    let cn = d * n;
+    let u = f32(wrap(d * lv.window.x, cn) + d * i) + 0.5;
+    let v = f32(wrap(d * lv.window.y, cn) + d * j) + 0.5;
     out.uv = vec2<f32>(u, v) / f32(cn);
-    // This vertex in the coarser level's colour samples: the same tile
-    // level as this one's geometry, so index (gx, gy) itself.
-    let cu = f32(wrap(2 * lv.coarse.x, cn)) + f32(gx - 2 * lv.coarse.x) + 0.5;
-    let cv = f32(wrap(2 * lv.coarse.y, cn)) + f32(gy - 2 * lv.coarse.y) + 0.5;
+    // This vertex in the coarser level's colour samples, which are d / 2
+    // to each of this level's geometry samples: index (gx, gy) d / 2.
+    let half = f32(d) * 0.5;
+    let cu = f32(wrap(d * lv.coarse.x, cn)) + f32(gx) * half - f32(d * lv.coarse.x) + 0.5;
+    let cv = f32(wrap(d * lv.coarse.y, cn)) + f32(gy) * half - f32(d * lv.coarse.y) + 0.5;
     out.uv_coarse = vec2<f32>(cu, cv) / f32(cn);
     out.alpha = alpha;
     out.valid = here.w;
@@ -164,8 +166,10 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
 }
 
 fn shade(base: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
-    // Samples without colour are drawn light grey.
-    let albedo = select(vec3<f32>(0.78, 0.78, 0.76), base.rgb, base.a > 0.0);
+    // Colour (premultiplied) over the light grey of samples without any:
+    // a texel partly covered, beside nodata or at a polygon's edge, is
+    // drawn partly grey, never darkened towards its neighbour's black.
+    let albedo = base.rgb + (1.0 - base.a) * vec3<f32>(0.78, 0.78, 0.76);
     var light = 1.0;
     if frame.light.z > 0.5 {
         light = sunlight(normal);

@@ -93,9 +93,11 @@ impl Signatures {
         previous: Option<&Self>,
         held: bool,
     ) -> Result<Self, SourceError> {
-        if raster.members.is_empty() {
+        if raster.members.is_empty() || raster.warped {
             let stamp = FileStamp::of(&raster.path);
-            let levels = match tiff::images(&raster.path) {
+            // A warp's blocks are not the file's: only their values tell.
+            let images = if raster.warped { None } else { tiff::images(&raster.path) };
+            let levels = match images {
                 Some(images) => tiff_levels(&raster.path, &images, mode)?,
                 None => vec![decoded(raster, held)?],
             };
@@ -123,11 +125,19 @@ impl Signatures {
                 let ds = open_dataset(path)?;
                 let gt = ds.geo_transform().map_err(|_| format_err("mosaic member has no geotransform", path))?;
                 let rg = raster.geo;
+                // The member's origin in the mosaic's pixels, and its pixel
+                // sides in the mosaic's (both along the same axes).
+                let (offset, scale) = if rg[2] == 0.0 && rg[4] == 0.0 {
+                    (((gt[0] - rg[0]) / rg[1], (gt[3] - rg[3]) / rg[5]), (gt[1] / rg[1], gt[5] / rg[5]))
+                } else {
+                    let sides = (gt[1].hypot(gt[4]) / rg[1].hypot(rg[4]), gt[2].hypot(gt[5]) / rg[2].hypot(rg[5]));
+                    (raster.pixel_of(gt[0], gt[3]), sides)
+                };
                 Ok(Part {
                     path: path.clone(),
                     stamp,
-                    offset: ((gt[0] - rg[0]) / rg[1], (gt[3] - rg[3]) / rg[5]),
-                    scale: (gt[1] / rg[1], gt[5] / rg[5]),
+                    offset,
+                    scale,
                     size: ds.raster_size(),
                     levels: levels(path, mode)?,
                 })

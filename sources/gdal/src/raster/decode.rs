@@ -156,10 +156,14 @@ impl Decoder {
                 Ok(vec![heights])
             }
             Self::Palette { nodata, entries } => {
-                let index = read_window(&band(1)?, rect, path)?;
+                let band = band(1)?;
+                let index = read_window(&band, rect, path)?;
+                // A mask (a warp's alpha, outside the file) hides pixels too.
+                let mask = read_mask(&band, rect, path)?;
                 let mut planes: Vec<Vec<f32>> = (0..4).map(|_| Vec::with_capacity(index.len())).collect();
-                for v in index {
-                    let entry = entries.get(v as usize).copied().flatten().filter(|_| *nodata != Some(v));
+                for (i, v) in index.into_iter().enumerate() {
+                    let masked = mask.as_ref().is_some_and(|m| m[i] == 0.0);
+                    let entry = entries.get(v as usize).copied().flatten().filter(|_| *nodata != Some(v) && !masked);
                     let [r, g, b, a] = entry.map_or([0.0; 4], |c| c.map(|c| f32::from(c) / 255.0));
                     // A missing entry or the nodata index is transparent.
                     let a = if entry.is_some() { a } else { 0.0 };

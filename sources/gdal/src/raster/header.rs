@@ -13,6 +13,7 @@ use relief_source::SourceError;
 use super::blocks::BLOCK;
 use super::decode::Decoder;
 use super::halve::Halving;
+use super::warp::{self, MemFile};
 use super::{FileStamp, Fingerprint, LevelInfo, PixelRect, Raster, RasterKind, ReadOptions, Store, format_err, vrt};
 use crate::crs;
 
@@ -22,6 +23,8 @@ pub(super) struct Header {
     pub(super) decoder: Decoder,
     pub(super) levels: Vec<LevelInfo>,
     open_path: PathBuf,
+    /// The warped VRT `open_path` names, kept while a version reads it.
+    warp: Option<Arc<MemFile>>,
     holes: Vec<PixelRect>,
     bytes_per_pixel: usize,
     categorical: bool,
@@ -41,6 +44,27 @@ impl Raster {
         if width == 0 || height == 0 || ds.raster_count() == 0 {
             return Err(format_err("raster has no pixels or no bands", path));
         }
+        let kind = options.kind.unwrap_or_else(|| guess_kind(&ds));
+        let (driver, bands) = (ds.driver().short_name(), ds.raster_count());
+        // A raster georeferenced by GCPs is read through its warp, north-up.
+        let warped = match ds.geo_transform() {
+            Ok(_) => None,
+            Err(_) => Some(
+                warp::from_gcps(&ds, &members.open_path, path, kind, options)?
+                    .ok_or_else(|| format_err("raster has no georeferencing (no geotransform and no GCPs)", path))?,
+            ),
+        };
+        let band_options;
+        let (ds, options, open_path, holes) = match &warped {
+            Some(w) => {
+                band_options = ReadOptions { band: w.band, ..options.clone() };
+                // Missing mosaic members read as the VRT says (its nodata);
+                // their holes are in the file's pixels, not the warp's.
+                (open_dataset_named(&w.file.path, path)?, &band_options, w.file.path.clone(), Vec::new())
+            }
+            None => (ds, options, members.open_path, members.holes),
+        };
+        let (width, height) = ds.raster_size();
         let geo = ds.geo_transform().map_err(|_| format_err("raster has no georeferencing (no geotransform)", path))?;
         let inverse = geo.invert().map_err(|_| format_err("raster geotransform cannot be inverted", path))?;
         let srs = if let Some(def) = &options.crs_override {
@@ -64,13 +88,30 @@ impl Raster {
             && geo[2] == 0.0
             && geo[4] == 0.0
             && ((width as f64 * geo[1]).abs() - 360.0).abs() < 1e-6;
-
-        let kind = options.kind.unwrap_or_else(|| guess_kind(&ds));
         let mut details = BTreeMap::new();
-        details.insert("driver".into(), ds.driver().short_name());
+        details.insert("driver".into(), driver);
         details.insert("size".into(), format!("{width}x{height}"));
-        details.insert("bands".into(), ds.raster_count().to_string());
-        details.insert("pixel_size".into(), format!("{} x {}", geo[1], geo[5].abs()));
+        details.insert("bands".into(), bands.to_string());
+        let rotated = geo[2] != 0.0 || geo[4] != 0.0;
+        if rotated {
+            // Pixel sides along the raster's own axes, and how far they turn.
+            details.insert("pixel_size".into(), format!("{} x {}", geo[1].hypot(geo[4]), geo[2].hypot(geo[5])));
+            details.insert(
+                "georeferencing".into(),
+                format!(
+                    "rotated geotransform (its rows run {:.3} degrees anticlockwise of east): sampled through it \
+                     as it is, no warp",
+                    geo[4].atan2(geo[1]).to_degrees()
+                ),
+            );
+        } else {
+            details.insert("pixel_size".into(), format!("{} x {}", geo[1], geo[5].abs()));
+        }
+        let mut warnings = Vec::new();
+        if let Some(w) = &warped {
+            details.insert("georeferencing".into(), w.description.clone());
+            warnings.push(w.warning.clone());
+        }
         if !members.missing.is_empty() {
             let names: Vec<String> = members.missing.iter().map(|p| p.display().to_string()).collect();
             tracing::warn!(vrt = %path.display(), "missing mosaic files left out: {}", names.join(", "));
@@ -107,14 +148,17 @@ impl Raster {
             wraps_x,
             geographic: srs.is_geographic(),
             details,
+            warped: warped.is_some(),
+            warnings,
             store: Arc::new(Store::placeholder()),
         };
         Ok(Header {
             raster,
             decoder,
             levels,
-            open_path: members.open_path,
-            holes: members.holes,
+            open_path,
+            warp: warped.map(|w| w.file),
+            holes,
             bytes_per_pixel,
             categorical,
         })
@@ -125,7 +169,7 @@ impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
-        let Self { mut raster, decoder, levels, open_path, holes, bytes_per_pixel, categorical } = self;
+        let Self { mut raster, decoder, levels, open_path, warp, holes, bytes_per_pixel, categorical } = self;
         let file_stamp =
             FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
         let halving = match (raster.kind, categorical) {
@@ -142,6 +186,7 @@ impl Header {
             version: VERSION.fetch_add(1, Ordering::Relaxed),
             path: raster.path.clone(),
             open_path,
+            warp,
             holes,
             file_stamp,
             decoder,

@@ -3,6 +3,7 @@
 //! demand, as blocks of a nodata-aware mip pyramid (`blocks`). A raster
 //! small enough is read whole when it opens; a larger one only where tiles
 //! need it. A reload finds the changed blocks (`changes`) and reads only those.
+//! A raster georeferenced by GCPs is opened through a north-up warp (`warp`).
 
 mod blocks;
 mod changes;
@@ -14,6 +15,7 @@ mod options;
 mod reload;
 mod tiff;
 mod vrt;
+mod warp;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -47,8 +49,11 @@ pub(crate) struct Store {
     /// This version of the file (dataset handles are per version).
     version: u64,
     path: PathBuf,
-    /// What GDAL opens: the file, or a VRT rewritten without its missing members.
+    /// What GDAL opens: the file, a VRT rewritten without its missing
+    /// members, or the file's warp.
     open_path: PathBuf,
+    /// The warp `open_path` names, kept while this version reads it.
+    warp: Option<Arc<warp::MemFile>>,
     /// Base pixels of missing members: nodata.
     holes: Vec<PixelRect>,
     file_stamp: FileStamp,
@@ -91,6 +96,10 @@ pub(crate) struct Raster {
     /// The raster's CRS is geographic (degrees).
     pub geographic: bool,
     pub details: BTreeMap<String, String>,
+    /// Read through a warp (GCPs): the pixels are the warp's, not the file's blocks.
+    pub warped: bool,
+    /// Sentences for the scene state: what was read differently from how the file says it.
+    pub warnings: Vec<String>,
     store: Arc<Store>,
 }
 
@@ -254,6 +263,7 @@ impl Store {
             version: 0,
             path: PathBuf::new(),
             open_path: PathBuf::new(),
+            warp: None,
             holes: Vec::new(),
             file_stamp: FileStamp::NONE,
             decoder: Decoder::Height { band: 1, nodata: None, scale: 1.0, offset: 0.0 },
@@ -275,6 +285,7 @@ impl Store {
             version: self.version,
             path: self.path.clone(),
             open_path: self.open_path.clone(),
+            warp: self.warp.clone(),
             holes: self.holes.clone(),
             file_stamp: self.file_stamp,
             decoder: self.decoder.clone(),

@@ -1,6 +1,7 @@
 """Testing with a real reliefd: a pytest plugin (fixtures `relief_scene`,
-`reliefd`, `relief_client`), the hill scene it serves, and edits of GIS
-files made the way GIS tools make them.
+`reliefd_args`, `reliefd`, `relief_token`, `relief_client`), the hill scene
+it serves, edits of GIS files made the way GIS tools make them, and a token
+file and TLS certificates for a reliefd off loopback.
 
     def test_reload(relief_client, relief_scene):
         generation = relief_client.state().generation
@@ -22,6 +23,14 @@ from relief.testing.edits import (
     set_attribute,
     write_window,
 )
+from relief.testing.security import (
+    CONTROL_TOKEN,
+    READ_TOKEN,
+    Certificates,
+    TokenFile,
+    make_certificates,
+    write_token_file,
+)
 from relief.testing.scene import (
     PARCELS,
     HillScene,
@@ -35,13 +44,18 @@ from relief.testing.scene import (
 
 __all__ = [
     "BIN_ENV",
+    "CONTROL_TOKEN",
+    "Certificates",
     "PARCELS",
+    "READ_TOKEN",
+    "TokenFile",
     "HillScene",
     "Reliefd",
     "add_feature",
     "edit_window",
     "feature_count",
     "find_reliefd",
+    "make_certificates",
     "hill",
     "hill_at",
     "hill_pixels",
@@ -53,5 +67,6 @@ __all__ = [
     "write_hill_dem",
     "write_hill_scene",
     "write_polygons",
+    "write_token_file",
     "write_window",
 ]

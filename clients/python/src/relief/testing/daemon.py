@@ -94,6 +94,7 @@ class Reliefd:
         self._stdout: list[str] = []
         self._lock = threading.Lock()
         self._ready = threading.Event()
+        self._viewer_seen = threading.Event()
         self._threads: list[threading.Thread] = []
         self.address = ""
         self.viewer_url = ""
@@ -106,7 +107,9 @@ class Reliefd:
             raise RuntimeError("reliefd is already started")
         # Started again after stop(): a fresh process, the log goes on.
         self._ready.clear()
+        self._viewer_seen.clear()
         self.address = ""
+        self.viewer_url = ""
         if not self._env.get("XDG_RUNTIME_DIR"):
             # Mesa's lavapipe wants a private runtime folder.
             self._runtime_dir = tempfile.TemporaryDirectory(prefix="reliefd-xdg-")
@@ -135,6 +138,8 @@ class Reliefd:
             self._kill()
             why = f"exited with {code}" if code is not None else f"said nothing in {self.start_timeout} s"
             raise RuntimeError(f"reliefd did not start ({why}): {' '.join(command)}\n{self.log_text()}")
+        # The `viewer:` line follows at once; it says whether TLS is served.
+        self._viewer_seen.wait(5.0)
         return self
 
     def _read_stdout(self, stream: IO[str]) -> None:
@@ -147,8 +152,10 @@ class Reliefd:
                 self._ready.set()
             elif line.startswith("viewer: "):
                 self.viewer_url = line[len("viewer: ") :].strip()
+                self._viewer_seen.set()
         # Ended (exited before saying where it listens, or after): unblock start().
         self._ready.set()
+        self._viewer_seen.set()
 
     def _read_stderr(self, stream: IO[str]) -> None:
         for line in stream:
@@ -206,11 +213,24 @@ class Reliefd:
 
     # ------------------------------------------------------------ clients and logs
 
-    def connect(self, *, timeout: float = 30.0) -> Client:
-        """A client connected to this reliefd."""
+    @property
+    def tls(self) -> bool:
+        """Whether it serves TLS (its `viewer:` line says https)."""
+        return self.viewer_url.startswith("https://")
+
+    def connect(
+        self, *, timeout: float = 30.0, token: str | None = None, ca: str | os.PathLike[str] | bytes | None = None
+    ) -> Client:
+        """A client connected to this reliefd, sending `token` (none when
+        None: RELIEF_TOKEN is not read) and trusting `ca` when it serves TLS
+        (RELIEF_CA is not read either)."""
         if not self.address:
             raise RuntimeError("reliefd is not started")
-        return connect(self.address, timeout=timeout)
+        if ca is not None and not self.tls:
+            raise ValueError("a CA was given for a reliefd that does not serve TLS")
+        if self.tls and ca is None:
+            raise ValueError("this reliefd serves TLS: give the CA that signed its certificate (ca=...)")
+        return connect(self.address, timeout=timeout, token=token or "", ca=ca, tls=self.tls)
 
     @property
     def log(self) -> list[str]:

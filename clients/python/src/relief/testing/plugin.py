@@ -4,8 +4,13 @@ point): fixtures that serve the hill scene with a real reliefd.
 - `relief_scene`: the hill DEM and parcels written under tmp_path
   (a relief.testing.HillScene). Override it in a conftest.py to serve
   another scene: the other fixtures only read its `.manifest`.
+- `reliefd_args`: extra arguments of `reliefd serve` (none). Override it
+  to serve with tokens or TLS (relief.testing.write_token_file,
+  make_certificates; their `.args`).
 - `reliefd`: reliefd serving `relief_scene` on a free port (a
   relief.testing.Reliefd), stopped with SIGTERM afterwards.
+- `relief_token`: the token `relief_client` sends (None: none). Override
+  it along with `reliefd_args`.
 - `relief_client`: a relief.Client connected to it.
 
 The binary comes from --relief-bin, else $RELIEF_BIN, else `reliefd` on
@@ -50,9 +55,22 @@ def relief_scene(tmp_path: Path) -> HillScene:
 
 
 @pytest.fixture
-def reliefd(relief_scene: HillScene) -> Iterator[Reliefd]:
-    """reliefd serving `relief_scene` on 127.0.0.1 (a free port)."""
-    daemon = Reliefd(relief_scene.manifest)
+def reliefd_args() -> tuple[str, ...]:
+    """Extra arguments of `reliefd serve` (none)."""
+    return ()
+
+
+@pytest.fixture
+def relief_token() -> str | None:
+    """The token `relief_client` sends (none)."""
+    return None
+
+
+@pytest.fixture
+def reliefd(relief_scene: HillScene, reliefd_args: tuple[str, ...]) -> Iterator[Reliefd]:
+    """reliefd serving `relief_scene` on 127.0.0.1 (a free port), started
+    with `reliefd_args`."""
+    daemon = Reliefd(relief_scene.manifest, args=tuple(reliefd_args))
     daemon.start()
     try:
         yield daemon
@@ -63,7 +81,7 @@ def reliefd(relief_scene: HillScene) -> Iterator[Reliefd]:
 
 
 @pytest.fixture
-def relief_client(reliefd: Reliefd) -> Iterator[Client]:
-    """A client connected to `reliefd`."""
-    with reliefd.connect() as client:
+def relief_client(reliefd: Reliefd, relief_token: str | None) -> Iterator[Client]:
+    """A client connected to `reliefd`, sending `relief_token`."""
+    with reliefd.connect(token=relief_token) as client:
         yield client

@@ -84,7 +84,7 @@ class GeodeticPoint(_message.Message):
     def __init__(self, lon_deg: _Optional[float] = ..., lat_deg: _Optional[float] = ...) -> None: ...
 
 class QualityOverrides(_message.Message):
-    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m", "shadow_cascades", "shadow_map_size", "detail_octaves")
+    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m", "shadow_cascades", "shadow_map_size", "detail_octaves", "color_detail")
     RESAMPLING_FIELD_NUMBER: _ClassVar[int]
     REPROJECTION_ERROR_PX_FIELD_NUMBER: _ClassVar[int]
     CLIPMAP_GRID_SIZE_FIELD_NUMBER: _ClassVar[int]
@@ -97,6 +97,7 @@ class QualityOverrides(_message.Message):
     SHADOW_CASCADES_FIELD_NUMBER: _ClassVar[int]
     SHADOW_MAP_SIZE_FIELD_NUMBER: _ClassVar[int]
     DETAIL_OCTAVES_FIELD_NUMBER: _ClassVar[int]
+    COLOR_DETAIL_FIELD_NUMBER: _ClassVar[int]
     resampling: str
     reprojection_error_px: float
     clipmap_grid_size: int
@@ -109,7 +110,8 @@ class QualityOverrides(_message.Message):
     shadow_cascades: int
     shadow_map_size: int
     detail_octaves: int
-    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ..., shadow_cascades: _Optional[int] = ..., shadow_map_size: _Optional[int] = ..., detail_octaves: _Optional[int] = ...) -> None: ...
+    color_detail: int
+    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ..., shadow_cascades: _Optional[int] = ..., shadow_map_size: _Optional[int] = ..., detail_octaves: _Optional[int] = ..., color_detail: _Optional[int] = ...) -> None: ...
 
 class GetStateRequest(_message.Message):
     __slots__ = ()
@@ -146,7 +148,7 @@ class ReloadRequest(_message.Message):
     def __init__(self, source_ids: _Optional[_Iterable[str]] = ...) -> None: ...
 
 class SourceState(_message.Message):
-    __slots__ = ("id", "kind", "output", "inputs", "status", "error", "files", "version", "active", "extent", "crs", "vertical_datum", "vertical_units", "tiles_generated", "details", "instance_classes")
+    __slots__ = ("id", "kind", "output", "inputs", "status", "error", "files", "version", "active", "extent", "crs", "vertical_datum", "vertical_units", "tiles_generated", "details", "instance_classes", "warnings")
     class DetailsEntry(_message.Message):
         __slots__ = ("key", "value")
         KEY_FIELD_NUMBER: _ClassVar[int]
@@ -170,6 +172,7 @@ class SourceState(_message.Message):
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     DETAILS_FIELD_NUMBER: _ClassVar[int]
     INSTANCE_CLASSES_FIELD_NUMBER: _ClassVar[int]
+    WARNINGS_FIELD_NUMBER: _ClassVar[int]
     id: str
     kind: str
     output: PayloadKind
@@ -186,7 +189,8 @@ class SourceState(_message.Message):
     tiles_generated: int
     details: _containers.ScalarMap[str, str]
     instance_classes: _containers.RepeatedCompositeFieldContainer[InstanceClass]
-    def __init__(self, id: _Optional[str] = ..., kind: _Optional[str] = ..., output: _Optional[_Union[PayloadKind, str]] = ..., inputs: _Optional[_Iterable[str]] = ..., status: _Optional[_Union[SourceStatus, str]] = ..., error: _Optional[str] = ..., files: _Optional[_Iterable[str]] = ..., version: _Optional[int] = ..., active: _Optional[bool] = ..., extent: _Optional[_Union[Extent, _Mapping]] = ..., crs: _Optional[str] = ..., vertical_datum: _Optional[str] = ..., vertical_units: _Optional[str] = ..., tiles_generated: _Optional[int] = ..., details: _Optional[_Mapping[str, str]] = ..., instance_classes: _Optional[_Iterable[_Union[InstanceClass, _Mapping]]] = ...) -> None: ...
+    warnings: _containers.RepeatedScalarFieldContainer[str]
+    def __init__(self, id: _Optional[str] = ..., kind: _Optional[str] = ..., output: _Optional[_Union[PayloadKind, str]] = ..., inputs: _Optional[_Iterable[str]] = ..., status: _Optional[_Union[SourceStatus, str]] = ..., error: _Optional[str] = ..., files: _Optional[_Iterable[str]] = ..., version: _Optional[int] = ..., active: _Optional[bool] = ..., extent: _Optional[_Union[Extent, _Mapping]] = ..., crs: _Optional[str] = ..., vertical_datum: _Optional[str] = ..., vertical_units: _Optional[str] = ..., tiles_generated: _Optional[int] = ..., details: _Optional[_Mapping[str, str]] = ..., instance_classes: _Optional[_Iterable[_Union[InstanceClass, _Mapping]]] = ..., warnings: _Optional[_Iterable[str]] = ...) -> None: ...
 
 class InstanceClass(_message.Message):
     __slots__ = ("has_rule", "instances", "samples")
@@ -212,7 +216,7 @@ class EffectState(_message.Message):
     def __init__(self, name: _Optional[str] = ..., sources: _Optional[_Iterable[str]] = ..., ran: _Optional[bool] = ..., last_cost_ms: _Optional[float] = ...) -> None: ...
 
 class Counters(_message.Message):
-    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered")
+    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores")
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     CACHE_HITS_FIELD_NUMBER: _ClassVar[int]
     CACHE_MISSES_FIELD_NUMBER: _ClassVar[int]
@@ -225,6 +229,7 @@ class Counters(_message.Message):
     FRAME_STREAMS_FIELD_NUMBER: _ClassVar[int]
     OPEN_VIEWS_FIELD_NUMBER: _ClassVar[int]
     STREAM_FRAMES_RENDERED_FIELD_NUMBER: _ClassVar[int]
+    OUTER_STORES_FIELD_NUMBER: _ClassVar[int]
     tiles_generated: int
     cache_hits: int
     cache_misses: int
@@ -237,7 +242,20 @@ class Counters(_message.Message):
     frame_streams: int
     open_views: int
     stream_frames_rendered: int
-    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ...) -> None: ...
+    outer_stores: _containers.RepeatedCompositeFieldContainer[OuterStore]
+    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ...) -> None: ...
+
+class OuterStore(_message.Message):
+    __slots__ = ("name", "hits", "misses", "writes")
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    HITS_FIELD_NUMBER: _ClassVar[int]
+    MISSES_FIELD_NUMBER: _ClassVar[int]
+    WRITES_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    hits: int
+    misses: int
+    writes: int
+    def __init__(self, name: _Optional[str] = ..., hits: _Optional[int] = ..., misses: _Optional[int] = ..., writes: _Optional[int] = ...) -> None: ...
 
 class GridInfo(_message.Message):
     __slots__ = ("kind", "crs", "tile_size", "extent", "level0_columns", "level0_rows")

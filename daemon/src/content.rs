@@ -1,0 +1,164 @@
+//! Content addresses: what a source's tiles are made of, as one number a
+//! tile store outside this process (a folder on disk, Redis) can key them
+//! by. A source's address hashes its kind, options, the scene's grid, the
+//! bytes of every file it reads and its inputs' addresses, with reliefd's
+//! own build: a file edited while reliefd was down, or a new reliefd, gives
+//! a new address, so a stale tile is never read back.
+//!
+//! Addresses are worked out off the serving path, by one background thread
+//! after each load and generation (`ContentKeys`); until a source's is
+//! ready its tiles simply skip the outer stores.
+
+use std::fs::File;
+use std::io::{Read, Seek, SeekFrom};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Condvar, Mutex, OnceLock};
+
+use xxhash_rust::xxh3::Xxh3;
+
+use crate::graph::SceneSnapshot;
+
+/// Bumped when the encoding of keys or tiles changes.
+const FORMAT: &[u8] = b"relief-content-1";
+/// Files up to this size are hashed whole; larger ones by their size,
+/// modification time and samples (a 3 GB DEM must not delay serving).
+const WHOLE_FILE_LIMIT: u64 = 1 << 30;
+const SAMPLE_BYTES: u64 = 1 << 20;
+const SAMPLE_EVERY: u64 = 64 << 20;
+
+/// A source version's content address, once worked out (`None` inside when
+/// it cannot be: a file that cannot be read, an input without one).
+#[derive(Debug, Clone, Default)]
+pub struct ContentKey(Arc<OnceLock<Option<u128>>>);
+
+impl ContentKey {
+    /// The address, if it is ready and there is one.
+    pub fn get(&self) -> Option<u128> {
+        self.0.get().copied().flatten()
+    }
+}
+
+/// The address of one tile: its source's, the quality it was made with
+/// and its key.
+pub fn tile_address(source: u128, quality: &impl std::hash::Hash, key: relief_source::TileKey) -> u128 {
+    let mut h = Xxh3::new();
+    h.update(&source.to_le_bytes());
+    quality.hash(&mut h);
+    h.update(&[key.level]);
+    h.update(&key.x.to_le_bytes());
+    h.update(&key.y.to_le_bytes());
+    h.digest128()
+}
+
+/// Works out every slot's address of `snap` that is not known yet, inputs first.
+pub fn fill(snap: &SceneSnapshot) {
+    for slot in &snap.slots {
+        if slot.content.0.get().is_some() {
+            continue;
+        }
+        let inputs: Option<Vec<u128>> = slot.inputs.iter().map(|&i| snap.slots[i].content.get()).collect();
+        let address = slot.source.as_ref().zip(inputs).and_then(|(source, inputs)| {
+            let mut h = Xxh3::new();
+            h.update(FORMAT);
+            h.update(&build_id().to_le_bytes());
+            h.update(format!("{:?}", snap.grid).as_bytes());
+            h.update(slot.spec.kind.as_bytes());
+            h.update(format!("{:?}", slot.spec.options).as_bytes());
+            for input in inputs {
+                h.update(&input.to_le_bytes());
+            }
+            let mut files = source.info().files;
+            files.sort();
+            for file in files {
+                let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+                h.update(name.as_bytes());
+                h.update(&file_digest(&file).ok()?.to_le_bytes());
+            }
+            Some(h.digest128())
+        });
+        let _ = slot.content.0.set(address);
+    }
+}
+
+/// The bytes of `path`, hashed: whole up to `WHOLE_FILE_LIMIT`, else its
+/// length and modification time with a 1 MiB sample every 64 MiB.
+pub fn file_digest(path: &Path) -> std::io::Result<u128> {
+    let mut file = File::open(path)?;
+    let meta = file.metadata()?;
+    let mut h = Xxh3::new();
+    h.update(&meta.len().to_le_bytes());
+    let mut buffer = vec![0; 1 << 20];
+    if meta.len() <= WHOLE_FILE_LIMIT {
+        loop {
+            let n = file.read(&mut buffer)?;
+            if n == 0 {
+                break;
+            }
+            h.update(&buffer[..n]);
+        }
+    } else {
+        let modified = meta.modified()?.duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+        h.update(&modified.as_nanos().to_le_bytes());
+        let mut at = 0;
+        while at < meta.len() {
+            file.seek(SeekFrom::Start(at))?;
+            let want = SAMPLE_BYTES.min(meta.len() - at) as usize;
+            file.read_exact(&mut buffer[..want])?;
+            h.update(&buffer[..want]);
+            at += SAMPLE_EVERY;
+        }
+    }
+    Ok(h.digest128())
+}
+
+/// This reliefd's build: its executable's bytes, so tiles made by another
+/// build are never read back.
+fn build_id() -> u128 {
+    static ID: OnceLock<u128> = OnceLock::new();
+    *ID.get_or_init(|| {
+        let exe: Option<PathBuf> = std::env::current_exe().ok();
+        exe.and_then(|p| file_digest(&p).ok()).unwrap_or(0)
+    })
+}
+
+/// The background thread that fills in addresses: snapshots are handed to
+/// it as they are published, and it takes the latest (an older one's new
+/// slots are the latest's too, or gone).
+pub struct ContentKeys {
+    latest: Arc<(Mutex<Option<Arc<SceneSnapshot>>>, Condvar)>,
+}
+
+impl ContentKeys {
+    pub fn start() -> Self {
+        let latest = Arc::new((Mutex::new(None), Condvar::new()));
+        let shared = Arc::clone(&latest);
+        let spawned = std::thread::Builder::new().name("relief-content".into()).spawn(move || run(&shared));
+        if let Err(e) = spawned {
+            tracing::warn!("cannot start the content-address thread ({e}); tiles skip the outer stores");
+        }
+        Self { latest }
+    }
+
+    /// Asks for `snap`'s addresses; never blocks on the hashing.
+    pub fn fill(&self, snap: Arc<SceneSnapshot>) {
+        let (slot, ready) = &*self.latest;
+        *slot.lock().expect("content lock is never poisoned") = Some(snap);
+        ready.notify_one();
+    }
+}
+
+fn run(latest: &(Mutex<Option<Arc<SceneSnapshot>>>, Condvar)) {
+    let (slot, ready) = latest;
+    loop {
+        let snap = {
+            let mut guard = slot.lock().expect("content lock is never poisoned");
+            loop {
+                if let Some(snap) = guard.take() {
+                    break snap;
+                }
+                guard = ready.wait(guard).expect("content lock is never poisoned");
+            }
+        };
+        fill(&snap);
+    }
+}
