@@ -7,10 +7,14 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # Mesa's lavapipe wants a private runtime folder (it only warns without one).
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
+# reliefd keeps tiles on disk in the user's cache folder: the tests get one
+# of their own, gone when they end, so no run reads another's tiles.
+XDG_CACHE_HOME=$(mktemp -d)
+export XDG_CACHE_HOME
 
 log=$(mktemp)
 pylog=$(mktemp)
-trap 'rm -f "$log" "$pylog"' EXIT
+trap 'rm -rf "$log" "$pylog" "$XDG_CACHE_HOME"' EXIT
 # One build with one feature set serves the binaries, the tests and the
 # benches (benches must build; they never run here: timings are not
 # assertions). `cargo build --bins` first would build without the

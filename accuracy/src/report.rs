@@ -61,7 +61,7 @@ pub fn write(out: &Path, sweeps: &[Sweep], header: &Header) -> anyhow::Result<()
             let _ = writeln!(md, " {mark} |");
         }
         let _ = writeln!(md, "\n![{} error against time](accuracy/{stem}.svg)\n", s.knob);
-        let _ = writeln!(md, "**Why the default.** {}", s.why_default);
+        let _ = writeln!(md, "**Why the default.** {} {}", s.default_standing(), s.why_default);
     }
     std::fs::write(out.join("accuracy.md"), md)?;
     Ok(())

@@ -71,6 +71,43 @@ impl Sweep {
         front
     }
 
+    /// Where the default stands, measured: on the front, or which settings
+    /// beat it on both counts (a sentence for the report).
+    pub fn default_standing(&self) -> String {
+        let Some(d) = self.rows.iter().position(|r| r.default) else {
+            return "No default was measured in this sweep.".into();
+        };
+        let def = &self.rows[d];
+        let better: Vec<&Row> = self
+            .rows
+            .iter()
+            .filter(|r| {
+                r.time <= def.time && r.error <= def.error && (r.time < def.time || r.error < def.error)
+            })
+            .collect();
+        if better.is_empty() {
+            return format!("Measured: the default ({}) is on the Pareto front.", def.setting);
+        }
+        let named: Vec<String> = better
+            .iter()
+            .map(|r| {
+                format!(
+                    "{} ({} against {}, error {} against {})",
+                    r.setting,
+                    crate::report::number(r.time),
+                    crate::report::number(def.time),
+                    crate::report::number(r.error),
+                    crate::report::number(def.error)
+                )
+            })
+            .collect();
+        format!(
+            "Measured: the default ({}) is not on this case's front; at least as fast and as accurate here: {}.",
+            def.setting,
+            named.join("; ")
+        )
+    }
+
     /// The plot's file name: the knob's name with anything but letters,
     /// digits and underscores made underscores.
     pub fn file_stem(&self) -> String {

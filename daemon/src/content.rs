@@ -12,11 +12,12 @@
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Condvar, Mutex, OnceLock};
+use std::sync::{Arc, Condvar, Mutex, OnceLock, Weak};
 
 use xxhash_rust::xxh3::Xxh3;
 
 use crate::graph::SceneSnapshot;
+use crate::tiles::TileStore;
 
 /// Bumped when the encoding of keys or tiles changes.
 const FORMAT: &[u8] = b"relief-content-1";
@@ -50,9 +51,11 @@ pub fn tile_address(source: u128, quality: &impl std::hash::Hash, key: relief_so
     h.digest128()
 }
 
-/// Works out every slot's address of `snap` that is not known yet, inputs first.
-pub fn fill(snap: &SceneSnapshot) {
-    for slot in &snap.slots {
+/// Works out every slot's address of `snap` that is not known yet, inputs
+/// first; the indices of the slots that got one now.
+pub fn fill(snap: &SceneSnapshot) -> Vec<usize> {
+    let mut found = Vec::new();
+    for (index, slot) in snap.slots.iter().enumerate() {
         if slot.content.0.get().is_some() {
             continue;
         }
@@ -76,8 +79,12 @@ pub fn fill(snap: &SceneSnapshot) {
             }
             Some(h.digest128())
         });
+        if address.is_some() {
+            found.push(index);
+        }
         let _ = slot.content.0.set(address);
     }
+    found
 }
 
 /// The bytes of `path`, hashed: whole up to `WHOLE_FILE_LIMIT`, else its
@@ -123,42 +130,63 @@ fn build_id() -> u128 {
 
 /// The background thread that fills in addresses: snapshots are handed to
 /// it as they are published, and it takes the latest (an older one's new
-/// slots are the latest's too, or gone).
+/// slots are the latest's too, or gone). Tiles made before their source's
+/// address was known are handed to the outer stores once it is. The
+/// thread ends when this handle is dropped.
 pub struct ContentKeys {
-    latest: Arc<(Mutex<Option<Arc<SceneSnapshot>>>, Condvar)>,
+    shared: Arc<Shared>,
+}
+
+#[derive(Default)]
+struct Shared {
+    /// The latest snapshot not yet filled, and whether the handle is gone.
+    state: Mutex<(Option<Arc<SceneSnapshot>>, bool)>,
+    ready: Condvar,
 }
 
 impl ContentKeys {
-    pub fn start() -> Self {
-        let latest = Arc::new((Mutex::new(None), Condvar::new()));
-        let shared = Arc::clone(&latest);
-        let spawned = std::thread::Builder::new().name("relief-content".into()).spawn(move || run(&shared));
+    pub fn start(store: Weak<TileStore>) -> Self {
+        let shared = Arc::new(Shared::default());
+        let theirs = Arc::clone(&shared);
+        let spawned = std::thread::Builder::new().name("relief-content".into()).spawn(move || run(&theirs, &store));
         if let Err(e) = spawned {
             tracing::warn!("cannot start the content-address thread ({e}); tiles skip the outer stores");
         }
-        Self { latest }
+        Self { shared }
     }
 
     /// Asks for `snap`'s addresses; never blocks on the hashing.
     pub fn fill(&self, snap: Arc<SceneSnapshot>) {
-        let (slot, ready) = &*self.latest;
-        *slot.lock().expect("content lock is never poisoned") = Some(snap);
-        ready.notify_one();
+        self.shared.state.lock().expect("content lock is never poisoned").0 = Some(snap);
+        self.shared.ready.notify_one();
     }
 }
 
-fn run(latest: &(Mutex<Option<Arc<SceneSnapshot>>>, Condvar)) {
-    let (slot, ready) = latest;
+impl Drop for ContentKeys {
+    fn drop(&mut self) {
+        self.shared.state.lock().expect("content lock is never poisoned").1 = true;
+        self.shared.ready.notify_one();
+    }
+}
+
+fn run(shared: &Shared, store: &Weak<TileStore>) {
     loop {
         let snap = {
-            let mut guard = slot.lock().expect("content lock is never poisoned");
+            let mut state = shared.state.lock().expect("content lock is never poisoned");
             loop {
-                if let Some(snap) = guard.take() {
+                if state.1 {
+                    return;
+                }
+                if let Some(snap) = state.0.take() {
                     break snap;
                 }
-                guard = ready.wait(guard).expect("content lock is never poisoned");
+                state = shared.ready.wait(state).expect("content lock is never poisoned");
             }
         };
-        fill(&snap);
+        let found = fill(&snap);
+        let Some(store) = store.upgrade() else { return };
+        for index in found {
+            store.persist(&snap.slots[index]);
+        }
     }
 }

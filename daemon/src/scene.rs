@@ -116,10 +116,10 @@ impl Scene {
         }
         let (generation, _) = watch::channel(snapshot.generation);
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
-        let backings = outer_stores(&snapshot.manifest);
+        let store = Arc::new(TileStore::new(budget, threads).with_backings(outer_stores(&snapshot.manifest)));
         let snapshot = Arc::new(snapshot);
-        let content = ContentKeys::start();
-        if !backings.is_empty() {
+        let content = ContentKeys::start(Arc::downgrade(&store));
+        if store.has_backings() {
             content.fill(Arc::clone(&snapshot));
         }
         Ok((
@@ -128,7 +128,7 @@ impl Scene {
                 current: RwLock::new(snapshot),
                 manifest_error: RwLock::new(None),
                 registry,
-                store: Arc::new(TileStore::new(budget, threads).with_backings(backings)),
+                store,
                 generation,
                 events,
                 refresh_lock: Mutex::new(()),

@@ -115,6 +115,15 @@ impl TileStore {
         self
     }
 
+    /// Hands `slot`'s cached tiles to the outer stores, once its content
+    /// address is known (tiles made before it were kept in memory only).
+    pub fn persist(&self, slot: &crate::graph::Slot) {
+        let Some(content) = slot.content.get() else { return };
+        for (quality, key, tile) in self.cached(&slot.spec.id, slot.effective_version) {
+            self.backings.put(crate::content::tile_address(content, &quality, key), &tile);
+        }
+    }
+
     pub fn has_backings(&self) -> bool {
         !self.backings.is_empty()
     }

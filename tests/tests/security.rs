@@ -292,3 +292,80 @@ async fn no_request_reads_a_file_the_scene_does_not_declare() -> anyhow::Result<
     daemon.stop(&[])?;
     Ok(())
 }
+
+/// `relief ARGS` against `port` over TLS with the environment cleared of
+/// tokens and CAs: (exit code, stderr).
+fn cli(args: &[&str], env: &[(&str, &str)]) -> anyhow::Result<(i32, String)> {
+    let mut command = Command::new(relief_tests::bin("relief"));
+    command.env_remove("RELIEF_TOKEN").env_remove("RELIEF_CA").env_remove("RELIEF_SERVER").args(args);
+    for (k, v) in env {
+        command.env(k, v);
+    }
+    let out = command.output()?;
+    Ok((out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stderr).into_owned()))
+}
+
+#[tokio::test]
+async fn the_cli_sends_its_token_over_tls_and_says_plainly_when_refused() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let manifest = scenes::hill(dir.path(), "")?;
+    let tokens = token_file(dir.path())?;
+    let (ca, cert, key) = certificates()?;
+    let (ca_path, cert_path, key_path) =
+        (dir.path().join("ca.pem"), dir.path().join("server.pem"), dir.path().join("server.key"));
+    std::fs::write(&ca_path, ca)?;
+    std::fs::write(&cert_path, cert)?;
+    std::fs::write(&key_path, key)?;
+    let daemon = Reliefd::start(
+        &manifest,
+        &[
+            "--token-file",
+            &tokens,
+            "--tls-cert",
+            &cert_path.display().to_string(),
+            "--tls-key",
+            &key_path.display().to_string(),
+        ],
+    )?;
+    let port = daemon.addr.rsplit(':').next().context("no port")?.to_owned();
+    let https = format!("https://localhost:{port}");
+    let ca = ca_path.display().to_string();
+    let set = ["camera", "set", "10.25,45.1,9000,30,-45,0"];
+    let outcomes = tokio::task::spawn_blocking(move || -> anyhow::Result<Vec<(i32, String)>> {
+        let with = |extra: &[&str]| -> Vec<String> {
+            ["--server", https.as_str()].iter().chain(extra).map(|s| (*s).to_owned()).collect()
+        };
+        let run = |args: Vec<String>, env: &[(&str, &str)]| {
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            cli(&args, env)
+        };
+        let plain = format!("http://127.0.0.1:{port}");
+        Ok(vec![
+            run(with(&["--ca", &ca, "state"]), &[])?,
+            run(with(&["--ca", &ca, "--token", READ, "state"]), &[])?,
+            run(with(&set), &[("RELIEF_TOKEN", READ), ("RELIEF_CA", &ca)])?,
+            run(with(&[&["--ca", ca.as_str(), "--token", CONTROL][..], &set[..]].concat()), &[])?,
+            run(with(&["--token", READ, "state"]), &[])?,
+            cli(&["--server", &plain, "--token", READ, "state"], &[])?,
+        ])
+    })
+    .await??;
+    let [none, read, steer_read, steer_control, no_ca, plaintext] = outcomes.as_slice() else {
+        anyhow::bail!("six outcomes expected")
+    };
+    assert_eq!(none.0, 1, "{}", none.1);
+    assert!(none.1.contains("refused the call: missing token") && none.1.contains("(UNAUTHENTICATED)"), "{}", none.1);
+    assert_eq!(read.0, 0, "{}", read.1);
+    assert_eq!(steer_read.0, 1, "{}", steer_read.1);
+    assert!(steer_read.1.contains("(PERMISSION_DENIED)") && steer_read.1.contains("control token"), "{}", steer_read.1);
+    assert_eq!(steer_control.0, 0, "{}", steer_control.1);
+    assert_ne!(no_ca.0, 0, "a server signed by an unknown CA was trusted");
+    assert!(no_ca.1.contains("over TLS"), "{}", no_ca.1);
+    assert_ne!(plaintext.0, 0);
+    assert!(plaintext.1.contains("https://"), "{}", plaintext.1);
+    for (_, stderr) in &outcomes {
+        assert!(!stderr.contains("{ ") && !stderr.contains("Some("), "Debug output: {stderr}");
+    }
+    daemon.stop(&[])?;
+    Ok(())
+}

@@ -3,7 +3,12 @@
 //! device, a scratch folder, the demo scene (a synthetic range whose
 //! heights are a formula, so every rendered pixel has a known answer).
 
+mod antialias;
 mod clipmap;
+mod data;
+mod reprojection;
+mod resampling;
+mod tile_size;
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -19,6 +24,10 @@ pub type Run = fn(&Context) -> anyhow::Result<Vec<Sweep>>;
 /// Every knob, in the report's order.
 pub const ALL: &[(&str, Run)] = &[
     ("clipmap", clipmap::run),
+    ("resampling", resampling::run),
+    ("reprojection", reprojection::run),
+    ("tile_size", tile_size::run),
+    ("antialias", antialias::run),
 ];
 
 /// What every knob's sweep may use.
@@ -33,6 +42,11 @@ impl Context {
     pub fn new() -> anyhow::Result<Self> {
         let dir = tempfile::tempdir()?;
         let demo = relief_examples::write_demo_scene(&dir.path().join("demo"))?;
+        // Tiles are timed as generated, never read back from a disk cache
+        // an earlier knob or run left.
+        let text = std::fs::read_to_string(&demo)?;
+        anyhow::ensure!(!text.contains("[cache]"), "the demo manifest has a [cache] section already");
+        std::fs::write(&demo, format!("{text}\n[cache]\ndisk_mb = 0\n"))?;
         Ok(Self { gpu: Arc::new(Gpu::headless()?), dir, demo })
     }
 

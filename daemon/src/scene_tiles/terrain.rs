@@ -125,18 +125,26 @@ impl TerrainSamples for SceneTerrain<'_> {
     }
 
     /// A corner sits between four texel centres (colour tiles have a
-    /// one-texel border): their mean.
+    /// one-texel border): their mean, weighted by alpha (the mean of the
+    /// premultiplied colours, handed on straight), so a texel beside a
+    /// transparent one keeps its colour and only its coverage halves.
     fn colors(&self, level: u8, xs: Range<i64>, ys: Range<i64>) -> Option<Vec<[u8; 4]>> {
         self.read(self.color, level, xs, ys, [0; 4], |tile, i, j| match tile {
             Payload::Color(t) => {
-                let mut sum = [0u32; 4];
+                let (mut rgb, mut alpha) = ([0u32; 3], 0u32);
                 for (di, dj) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                     let o = ((j + dj) * t.size + i + di) * 4;
-                    for (total, v) in sum.iter_mut().zip(&t.rgba[o..o + 4]) {
-                        *total += u32::from(*v);
+                    let a = u32::from(t.rgba[o + 3]);
+                    for (total, v) in rgb.iter_mut().zip(&t.rgba[o..o + 3]) {
+                        *total += u32::from(*v) * a;
                     }
+                    alpha += a;
                 }
-                Some(sum.map(|v| ((v + 2) / 4) as u8))
+                if alpha == 0 {
+                    return Some([0; 4]);
+                }
+                let [r, g, b] = rgb.map(|v| ((v + alpha / 2) / alpha) as u8);
+                Some([r, g, b, ((alpha + 2) / 4) as u8])
             }
             _ => None,
         })

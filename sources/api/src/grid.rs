@@ -221,14 +221,14 @@ impl TileGrid {
             let spacing = p.size / f64::from(tile_size);
             if largest > FARTHEST {
                 return Err(format!(
-                    "projected grid coordinates reach {largest:e} CRS units, farther from the CRS's origin than \
+                    "projected grid coordinates reach {largest:.1e} CRS units, farther from the CRS's origin than \
                      any map of this planet ({FARTHEST:e}), where f64 holds positions only to {resolution:.1e} \
                      units: refused"
                 ));
             }
             if resolution > spacing / 1000.0 {
                 return Err(format!(
-                    "projected grid coordinates reach {largest:e} CRS units, where f64 holds positions only to \
+                    "projected grid coordinates reach {largest:.1e} CRS units, where f64 holds positions only to \
                      {resolution:.1e} units, coarser than a thousandth of the grid's sample spacing \
                      ({spacing:e}): refused"
                 ));

@@ -100,11 +100,28 @@ fn open_ring(ring: &[[f64; 3]], geodetic: bool) -> Vec<[f64; 2]> {
 }
 
 /// Twice the signed area (positive counter-clockwise, x east, y north).
+/// A ring whose area is lost in rounding against its own size: collinear
+/// points (whose computed area is 1e-16, not 0), or lobes that cancel.
+fn has_no_area(ring: &[[f64; 2]]) -> bool {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in ring {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let diagonal2 = (hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2);
+    signed_area2(ring).abs() <= 1e-9 * diagonal2
+}
+
+/// Twice the ring's signed area, from its first point (so coordinates far
+/// from the origin do not cancel away the area of a small ring).
 fn signed_area2(ring: &[[f64; 2]]) -> f64 {
+    let Some(&o) = ring.first() else { return 0.0 };
     (0..ring.len())
         .map(|i| {
             let (a, b) = (ring[i], ring[(i + 1) % ring.len()]);
-            a[0] * b[1] - b[0] * a[1]
+            (a[0] - o[0]) * (b[1] - o[1]) - (b[0] - o[0]) * (a[1] - o[1])
         })
         .sum()
 }
@@ -204,9 +221,10 @@ impl Source for Extrude {
             let Geometry::Polygons(polygons) = &feature.geometry else { continue };
             let first_index = mesh.indices.len() as u32;
             for polygon in polygons {
-                let mut rings: Vec<Vec<[f64; 2]>> =
-                    polygon.iter().map(|r| open_ring(r, geodetic)).filter(|r| r.len() >= 3).collect();
-                let Some(exterior) = rings.first() else { continue };
+                let Some(exterior) = polygon.first().map(|r| open_ring(r, geodetic)) else { continue };
+                if exterior.is_empty() {
+                    continue;
+                }
                 let n = exterior.len() as f64;
                 let (cx, cy) = exterior.iter().fold((0.0, 0.0), |(x, y), p| (x + p[0] / n, y + p[1] / n));
                 if ctx.grid.key_at(key.level, cx, cy) != Some(key) {
@@ -215,10 +233,20 @@ impl Source for Extrude {
                 let skip = |mesh: &mut MeshTile, reason: String| {
                     mesh.skipped.push(Skipped { feature_id: feature.id, reason });
                 };
-                if signed_area2(exterior) == 0.0 {
-                    skip(&mut mesh, "the footprint has no area".into());
+                if exterior.len() < 3 {
+                    skip(&mut mesh, format!("the footprint has {} distinct points, fewer than three", exterior.len()));
                     continue;
                 }
+                if has_no_area(&exterior) {
+                    skip(&mut mesh, "the footprint has no area (its points are collinear, or its lobes cancel)".into());
+                    continue;
+                }
+                // Holes of under three points or no area cut nothing.
+                let mut rings: Vec<Vec<[f64; 2]>> = std::iter::once(exterior)
+                    .chain(
+                        polygon[1..].iter().map(|r| open_ring(r, geodetic)).filter(|r| r.len() >= 3 && !has_no_area(r)),
+                    )
+                    .collect();
                 for (k, ring) in rings.iter_mut().enumerate() {
                     if (signed_area2(ring) > 0.0) != (k == 0) {
                         ring.reverse();
