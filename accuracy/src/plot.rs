@@ -55,23 +55,40 @@ where
     let blue = RGBColor(40, 90, 170);
     let red = RGBColor(200, 50, 40);
     chart
-        .draw_series(LineSeries::new(front.iter().map(|&i| (sweep.rows[i].time, sweep.rows[i].error)), red.stroke_width(2)))?
+        .draw_series(LineSeries::new(
+            front.iter().map(|&i| (sweep.rows[i].time, sweep.rows[i].error)),
+            red.stroke_width(2),
+        ))?
         .label("Pareto front")
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], red.stroke_width(2)));
     chart
         .draw_series(sweep.rows.iter().enumerate().map(|(i, r)| {
             let on_front = front.contains(&i);
-            Circle::new((r.time, r.error), if on_front { 5 } else { 4 }, if on_front { red.filled() } else { blue.filled() })
+            Circle::new(
+                (r.time, r.error),
+                if on_front { 5 } else { 4 },
+                if on_front { red.filled() } else { blue.filled() },
+            )
         }))?
         .label("setting")
         .legend(move |(x, y)| Circle::new((x + 9, y), 4, blue.filled()));
     chart
-        .draw_series(sweep.rows.iter().filter(|r| r.default).map(|r| Circle::new((r.time, r.error), 10, BLACK.stroke_width(2))))?
+        .draw_series(
+            sweep.rows.iter().filter(|r| r.default).map(|r| Circle::new((r.time, r.error), 10, BLACK.stroke_width(2))),
+        )?
         .label("default")
         .legend(|(x, y)| Circle::new((x + 9, y), 6, BLACK.stroke_width(2)));
     chart.draw_series(
-        sweep.rows.iter().map(|r| Text::new(format!(" {}", r.setting), (r.time, r.error), ("sans-serif", 12).into_font())),
+        sweep
+            .rows
+            .iter()
+            .map(|r| Text::new(format!(" {}", r.setting), (r.time, r.error), ("sans-serif", 12).into_font())),
     )?;
-    chart.configure_series_labels().position(SeriesLabelPosition::UpperRight).background_style(WHITE.mix(0.85)).border_style(BLACK).draw()?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
     Ok(())
 }

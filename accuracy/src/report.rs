@@ -37,7 +37,8 @@ pub fn write(out: &Path, sweeps: &[Sweep], header: &Header) -> anyhow::Result<()
         crate::plot::write(s, &plots.join(format!("{stem}.svg")))?;
         let _ = writeln!(md, "\n## {}\n", s.knob);
         let _ = writeln!(md, "{}\n\n- reference: {}\n- error: {}\n- time: {}\n", s.case, s.reference, s.error, s.time);
-        let extra: Vec<&str> = s.rows.first().map(|r| r.extra.iter().map(|(h, _)| h.as_str()).collect()).unwrap_or_default();
+        let extra: Vec<&str> =
+            s.rows.first().map(|r| r.extra.iter().map(|(h, _)| h.as_str()).collect()).unwrap_or_default();
         let _ = write!(md, "| setting | time | error |");
         for h in &extra {
             let _ = write!(md, " {h} |");

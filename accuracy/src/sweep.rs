@@ -81,9 +81,7 @@ impl Sweep {
         let better: Vec<&Row> = self
             .rows
             .iter()
-            .filter(|r| {
-                r.time <= def.time && r.error <= def.error && (r.time < def.time || r.error < def.error)
-            })
+            .filter(|r| r.time <= def.time && r.error <= def.error && (r.time < def.time || r.error < def.error))
             .collect();
         if better.is_empty() {
             return format!("Measured: the default ({}) is on the Pareto front.", def.setting);

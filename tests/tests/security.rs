@@ -69,7 +69,7 @@ async fn every_call_needs_a_token_and_only_control_tokens_steer() -> anyhow::Res
     assert!(status.message().contains("control token"), "{}", status.message());
     let camera = view.get_camera(with_token(pb::GetCameraRequest {}, Some(READ))?).await?.into_inner();
     let moved = pb::SetCameraRequest { camera: Some(pb::Camera { heading_deg: 90.0, ..camera }) };
-    let denied = view.set_camera(with_token(moved.clone(), Some(READ))?).await;
+    let denied = view.set_camera(with_token(moved, Some(READ))?).await;
     assert_eq!(denied.err().map(|s| s.code()), Some(Code::PermissionDenied));
     let orbit = pb::NavigateRequest {
         view_id: String::new(),
@@ -186,16 +186,16 @@ fn serve_once(manifest: &Path, listen: &str, extra: &[&str]) -> anyhow::Result<(
     let stdout = child.stdout.take().context("no stdout")?;
     let mut stderr = child.stderr.take().context("no stderr")?;
     let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
+    std::thread::Builder::new().name("reliefd-stdout".into()).spawn(move || {
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
             let _ = tx.send(line);
         }
-    });
-    let err = std::thread::spawn(move || {
+    })?;
+    let err = std::thread::Builder::new().name("reliefd-stderr".into()).spawn(move || {
         let mut text = String::new();
         let _ = stderr.read_to_string(&mut text);
         text
-    });
+    })?;
     let mut printed = String::new();
     let mut serving = false;
     for _ in 0..600 {

@@ -11,7 +11,12 @@ use super::data::surface_error;
 use super::{Context, HD, demo_pose, frame_ms, median, still_frames};
 use crate::sweep::{Row, Sweep};
 
-fn sweep(cx: &Context, terrain: &SceneTerrain<'_>, grid: &relief_source::TileGrid, at: &Pose) -> anyhow::Result<Vec<Row>> {
+fn sweep(
+    cx: &Context,
+    terrain: &SceneTerrain<'_>,
+    grid: &relief_source::TileGrid,
+    at: &Pose,
+) -> anyhow::Result<Vec<Row>> {
     let mut rows = Vec::new();
     for n in [31usize, 63, 127, 255] {
         for levels in [4usize, 6, 8, 10] {

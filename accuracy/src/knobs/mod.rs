@@ -3,11 +3,19 @@
 //! device, a scratch folder, the demo scene (a synthetic range whose
 //! heights are a formula, so every rendered pixel has a known answer).
 
+mod analytic;
 mod antialias;
+mod atmosphere;
+mod bands;
 mod clipmap;
+mod color_detail;
 mod data;
+mod detail;
+mod interleave;
+mod precision;
 mod reprojection;
 mod resampling;
+mod shadows;
 mod tile_size;
 
 use std::path::PathBuf;
@@ -23,11 +31,17 @@ pub type Run = fn(&Context) -> anyhow::Result<Vec<Sweep>>;
 
 /// Every knob, in the report's order.
 pub const ALL: &[(&str, Run)] = &[
-    ("clipmap", clipmap::run),
     ("resampling", resampling::run),
     ("reprojection", reprojection::run),
     ("tile_size", tile_size::run),
     ("antialias", antialias::run),
+    ("clipmap", clipmap::run),
+    ("color_detail", color_detail::run),
+    ("precision", precision::run),
+    ("atmosphere", atmosphere::run),
+    ("shadows", shadows::run),
+    ("detail", detail::run),
+    ("bands", bands::run),
 ];
 
 /// What every knob's sweep may use.
@@ -51,6 +65,7 @@ impl Context {
     }
 
     /// A scene loaded in process (tile pool of 2), every source loaded.
+    #[expect(clippy::unused_self, reason = "a knob loads its scenes through its context, as it renders through it")]
     pub fn load(&self, manifest: &std::path::Path) -> anyhow::Result<Scene> {
         match Scene::load(manifest, false, 2) {
             Ok((scene, _)) => Ok(scene),
@@ -64,7 +79,13 @@ impl Context {
 
 /// The demo's camera: 9 km up, 25 degrees down, over the range.
 pub fn demo_pose() -> Pose {
-    Pose { position: [6.45, 44.95 + 10.0 * 25.0 / 111_320.0, 9000.0], heading_deg: 15.0, pitch_deg: -25.0, roll_deg: 0.0, vertical_fov_deg: 50.0 }
+    Pose {
+        position: [6.45, 44.95 + 10.0 * 25.0 / 111_320.0, 9000.0],
+        heading_deg: 15.0,
+        pitch_deg: -25.0,
+        roll_deg: 0.0,
+        vertical_fov_deg: 50.0,
+    }
 }
 
 pub const HD: RenderSettings = RenderSettings::new(1280, 720, true);

@@ -128,10 +128,12 @@ fn inside(h0: f32, mu: f32, to_ground: bool) -> vec2<f32> {
 
 // One texel of the scattering, computed at the frame pixel under its
 // centre: in-scattered light (rgb) and one less the transmittance (a).
+// The ray goes through that pixel's own centre, where its depth was
+// drawn (with an even downsample the texel's centre is a pixel corner).
 @fragment
 fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let size = atmo.frame_size.yz;
-    let at = min(frag.xy * atmo.frame_size.x, size - vec2<f32>(0.5));
+    let at = min(floor(frag.xy * atmo.frame_size.x) + vec2<f32>(0.5), size - vec2<f32>(0.5));
     let ndc = ndc_of(at, size);
     let z = textureLoad(depth, vec2<i32>(at), 0);
     let up = atmo.eye.up.xyz;
