@@ -126,27 +126,26 @@ fn certificates() -> anyhow::Result<(String, String, String)> {
     Ok((ca.pem(), cert.pem(), key.serialize_pem()))
 }
 
+/// reliefd serving the hill with the test's tokens and TLS from a CA of
+/// the test's own: (the daemon, its port, the CA's PEM, written to `ca.pem` in `dir`).
+fn tls_daemon(dir: &Path) -> anyhow::Result<(Reliefd, String, String)> {
+    let manifest = scenes::hill(dir, "")?;
+    let tokens = token_file(dir)?;
+    let (ca, cert, key) = certificates()?;
+    let (cert_path, key_path) = (dir.join("server.pem"), dir.join("server.key"));
+    std::fs::write(dir.join("ca.pem"), &ca)?;
+    std::fs::write(&cert_path, cert)?;
+    std::fs::write(&key_path, key)?;
+    let (cert_arg, key_arg) = (cert_path.display().to_string(), key_path.display().to_string());
+    let daemon = Reliefd::start(&manifest, &["--token-file", &tokens, "--tls-cert", &cert_arg, "--tls-key", &key_arg])?;
+    let port = daemon.addr.rsplit(':').next().context("no port")?.to_owned();
+    Ok((daemon, port, ca))
+}
+
 #[tokio::test]
 async fn tls_clients_with_the_ca_are_served_and_plaintext_is_refused() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
-    let manifest = scenes::hill(dir.path(), "")?;
-    let tokens = token_file(dir.path())?;
-    let (ca, cert, key) = certificates()?;
-    let (cert_path, key_path) = (dir.path().join("server.pem"), dir.path().join("server.key"));
-    std::fs::write(&cert_path, cert)?;
-    std::fs::write(&key_path, key)?;
-    let daemon = Reliefd::start(
-        &manifest,
-        &[
-            "--token-file",
-            &tokens,
-            "--tls-cert",
-            &cert_path.display().to_string(),
-            "--tls-key",
-            &key_path.display().to_string(),
-        ],
-    )?;
-    let port = daemon.addr.rsplit(':').next().context("no port")?.to_owned();
+    let (daemon, port, ca) = tls_daemon(dir.path())?;
     let tls = ClientTlsConfig::new().ca_certificate(Certificate::from_pem(ca)).domain_name("localhost");
     let secure = Channel::from_shared(format!("https://localhost:{port}"))?.tls_config(tls)?.connect().await?;
     assert_eq!(state_code(&secure, Some(READ)).await?, Code::Ok);
@@ -308,28 +307,9 @@ fn cli(args: &[&str], env: &[(&str, &str)]) -> anyhow::Result<(i32, String)> {
 #[tokio::test]
 async fn the_cli_sends_its_token_over_tls_and_says_plainly_when_refused() -> anyhow::Result<()> {
     let dir = tempfile::tempdir()?;
-    let manifest = scenes::hill(dir.path(), "")?;
-    let tokens = token_file(dir.path())?;
-    let (ca, cert, key) = certificates()?;
-    let (ca_path, cert_path, key_path) =
-        (dir.path().join("ca.pem"), dir.path().join("server.pem"), dir.path().join("server.key"));
-    std::fs::write(&ca_path, ca)?;
-    std::fs::write(&cert_path, cert)?;
-    std::fs::write(&key_path, key)?;
-    let daemon = Reliefd::start(
-        &manifest,
-        &[
-            "--token-file",
-            &tokens,
-            "--tls-cert",
-            &cert_path.display().to_string(),
-            "--tls-key",
-            &key_path.display().to_string(),
-        ],
-    )?;
-    let port = daemon.addr.rsplit(':').next().context("no port")?.to_owned();
+    let (daemon, port, _) = tls_daemon(dir.path())?;
     let https = format!("https://localhost:{port}");
-    let ca = ca_path.display().to_string();
+    let ca = dir.path().join("ca.pem").display().to_string();
     let set = ["camera", "set", "10.25,45.1,9000,30,-45,0"];
     let outcomes = tokio::task::spawn_blocking(move || -> anyhow::Result<Vec<(i32, String)>> {
         let with = |extra: &[&str]| -> Vec<String> {

@@ -43,11 +43,14 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
     let down = demo_pose();
     let horizon = Pose { pitch_deg: -6.0, position: [down.position[0], down.position[1] - 0.25, 2500.0], ..down };
     let reference = "the terrain's formula, at the ground point each pixel's depth gives (f64)";
-    let why = "Levels set how far the fine mesh reaches, n how fine it is near the eye. The default, n 127 with \
-               8 levels, is chosen for both views at once: looking down, 6 levels already reach the edge of the \
-               view and 8 cost only the extra levels' draw; towards the horizon the 7th and 8th levels carry the \
-               mid-distance that 6 leave to the coarse base. n 255 halves the error near the eye for two to \
-               four times the frame, too slow for a live view on a CPU device.";
+    let why = "Levels set how far the fine mesh reaches, n how fine it is near the eye; n 255 cuts the error near \
+               the eye for two to four times the frame, too slow for a live view on a CPU device, and 4 levels \
+               leave most of the view to the coarse base. Between 6 and 8 levels these two views do not justify \
+               the default: where 6 levels reach the view's far edge, the two more cost their draw and, towards \
+               the horizon, measured a larger error, not a smaller one (the finest levels sit where the ground is \
+               seen most obliquely). 8 was chosen for views from higher up and wider, which these two do not \
+               cover; a sweep over altitudes is what should settle it, and until then 6 is the better-supported \
+               setting for views like these.";
     Ok(vec![
         Sweep {
             knob: "clipmap_grid_size and clipmap_levels".into(),
