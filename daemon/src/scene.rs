@@ -318,6 +318,13 @@ impl Scene {
             }
         };
         *self.manifest_error.write().expect("scene lock is never poisoned") = None;
+        let (was, now) = (&old.manifest, &new.manifest);
+        if (was.cache_budget_bytes, &was.disk, &was.redis) != (now.cache_budget_bytes, &now.disk, &now.redis) {
+            // The stores are the process's: opened once, when reliefd starts.
+            tracing::warn!(
+                "the manifest's [cache] changed: the new sizes and stores take effect when reliefd restarts"
+            );
+        }
         let mut dirt = HashMap::new();
         let mut changed = Vec::new();
         for slot in &new.slots {

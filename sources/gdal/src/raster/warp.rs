@@ -584,28 +584,31 @@ mod tests {
     }
 
     #[test]
-    fn the_frame_of_a_rotation_keeps_the_pixel_size_and_holds_the_whole_file() {
+    fn the_frame_of_a_rotation_keeps_the_pixel_size_and_holds_the_whole_file() -> Result<(), Box<dyn std::error::Error>>
+    {
         let (s, c) = 30f64.to_radians().sin_cos();
         let points: Vec<[f64; 4]> = [(0.0, 0.0), (200.0, 0.0), (0.0, 150.0), (200.0, 150.0)]
             .iter()
             .map(|&(p, l): &(f64, f64)| [p, l, 10.0 * (c * p + s * l), 10.0 * (s * p - c * l)])
             .collect();
-        let fit = Polynomial::fit(1, &points).unwrap();
-        let frame = Frame::suggested(&fit, (200, 150), 1).unwrap();
+        let fit = Polynomial::fit(1, &points).ok_or("four corners fit a first-order polynomial")?;
+        let frame = Frame::suggested(&fit, (200, 150), 1).ok_or("a frame for the fit")?;
         assert!((frame.pixel - 10.0).abs() < 1e-9, "{frame:?}");
         let width = 10.0 * (200.0 * c + 150.0 * s);
         let height = 10.0 * (200.0 * s + 150.0 * c);
         assert_eq!(frame.size, ((width / 10.0).ceil() as usize, (height / 10.0).ceil() as usize));
         assert!((frame.geo[0] - 0.0).abs() < 1e-6 && (frame.geo[3] - 10.0 * 200.0 * s).abs() < 1e-6, "{frame:?}");
-        let even = Frame::suggested(&fit, (200, 150), 8).unwrap();
+        let even = Frame::suggested(&fit, (200, 150), 8).ok_or("a frame in multiples of 8")?;
         assert_eq!(even.size, (frame.size.0.next_multiple_of(8), frame.size.1.next_multiple_of(8)));
+        Ok(())
     }
 
     #[test]
-    fn numbers_read_back_exactly() {
+    fn numbers_read_back_exactly() -> Result<(), Box<dyn std::error::Error>> {
         for v in [0.1, -9999.0, 1.0 / 3.0, 5e6, f64::from(f32::MAX)] {
-            assert_eq!(number(v).parse::<f64>().unwrap(), v);
+            assert_eq!(number(v).parse::<f64>()?, v);
         }
         assert_eq!(number(f64::NAN), "nan");
+        Ok(())
     }
 }
