@@ -73,6 +73,99 @@ pub(crate) fn axis_taps(u: f64, size: usize, kernel: Resampling, wrap: bool) -> 
     Some(t)
 }
 
+/// One axis of a mip level, as the base level's coordinates see it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LevelAxis {
+    /// The level's pixels along the axis.
+    pub size: usize,
+    /// Base pixels per full pixel of the level.
+    pub pixel: f64,
+    /// The raster's base pixels along the axis.
+    pub base: usize,
+    /// The axis wraps round (the longitudes of a whole-planet raster).
+    pub wrap: bool,
+}
+
+/// Taps for base-level edge coordinate `u` on `axis` of a level, or None
+/// off the raster. The base level is GDAL's convention (`axis_taps`). A
+/// coarser level uses the kernel on its even lattice where the taps stay
+/// on full pixels; near an edge, and beside a last pixel that hangs over
+/// it, it interpolates linearly between the two pixels round `u` at
+/// their true centres (the middle of the part on the raster), and holds
+/// the outer pixel's value from its centre to the raster's edge, as the
+/// base level and GDAL do (never a value outside the pixels'). A coarse
+/// level thus reaches the raster's edge and no farther, with each value
+/// where the ground it averages lies.
+pub(crate) fn level_taps(u: f64, axis: LevelAxis, kernel: Resampling) -> Option<Taps> {
+    let LevelAxis { size, pixel, base, wrap } = axis;
+    if pixel == 1.0 {
+        return axis_taps(u, size, kernel, wrap);
+    }
+    let extent = base as f64;
+    if size == 0 || !u.is_finite() || (!wrap && !(0.0..=extent).contains(&u)) {
+        return None;
+    }
+    let x = if wrap { u.rem_euclid(extent) } else { u } / pixel;
+    let (last, period) = (size - 1, extent / pixel);
+    let cover = (period - last as f64).clamp(1e-9, 1.0);
+    let full = cover == 1.0;
+    let mut t = Taps { index: [0; MAX_TAPS], weight: [0.0; MAX_TAPS], len: 0 };
+    if kernel == Resampling::Nearest {
+        t.index[0] = (x.floor() as usize).min(last);
+        t.weight[0] = 1.0;
+        t.len = 1;
+        return Some(t);
+    }
+    // The kernel's reach on the even lattice: off the edges and off a
+    // partial last pixel, the level is even there.
+    let nearest = (x - 0.5).floor() as i64;
+    let radius = kernel.radius() as i64;
+    let (first_tap, last_tap) = (nearest - radius + 1, nearest + radius);
+    let even_to = last as i64 - i64::from(!full);
+    if (wrap && full) || (first_tap >= 0 && last_tap <= even_to) {
+        return axis_taps(x, size, kernel, wrap);
+    }
+    let own = |i: usize| if i == last { last as f64 + cover / 2.0 } else { i as f64 + 0.5 };
+    let centre = |i: i64| -> f64 {
+        match usize::try_from(i) {
+            Err(_) => own(last) - period,
+            Ok(i) if i > last => own(0) + period,
+            Ok(i) => own(i),
+        }
+    };
+    let last_i = last as i64;
+    let x = if wrap {
+        x
+    } else if size == 1 {
+        t.index[0] = 0;
+        t.weight[0] = 1.0;
+        t.len = 1;
+        return Some(t);
+    } else {
+        x.clamp(centre(0), centre(last_i))
+    };
+    // The pixel centre at or before x, and the next: across the seam on a
+    // wrapped axis, the outer two on a plain one.
+    let below = if x < centre(0) {
+        if wrap { -1 } else { 0 }
+    } else if x >= centre(last_i) {
+        if wrap { last_i } else { last_i - 1 }
+    } else {
+        ((x - 0.5).floor() as i64).min(last_i - 1)
+    };
+    let (a, b) = (centre(below), centre(below + 1));
+    let s = (x - a) / (b - a);
+    let place = |k: i64| k.rem_euclid(size as i64) as usize;
+    for (k, w) in [(below, 1.0 - s), (below + 1, s)] {
+        if w != 0.0 {
+            t.index[t.len] = place(k);
+            t.weight[t.len] = w;
+            t.len += 1;
+        }
+    }
+    Some(t)
+}
+
 /// A height at edge coordinates (u, v) of a level of `size` pixels, read
 /// from `window` of it (which holds the taps). NaN when the point is off
 /// the raster or mostly over nodata.
@@ -199,6 +292,45 @@ mod tests {
         assert!(height_at(&l, -0.01, 1.0, Resampling::Bilinear, false).is_nan());
         assert!(height_at(&l, 1.0, 3.01, Resampling::Nearest, false).is_nan());
         assert!(height_at(&l, f64::NAN, 1.0, Resampling::Nearest, false).is_nan());
+    }
+
+    /// The value the taps give over a level's pixels `values`.
+    fn through(t: &Taps, values: &[f64]) -> f64 {
+        (0..t.len).map(|k| t.weight[k] * values[t.index[k]]).sum::<f64>() / t.weight[..t.len].iter().sum::<f64>()
+    }
+
+    #[test]
+    fn a_coarse_levels_partial_last_pixel_stands_at_the_middle_of_its_ground() {
+        // 10 base pixels at 4 a level pixel: 3 pixels, the last covering
+        // 2 of 4 (base 8..10, its middle at 9). A line h = u (base edge
+        // coordinates) halved is the pixels' middles: 2, 6, 9.
+        let axis = LevelAxis { size: 3, pixel: 4.0, base: 10, wrap: false };
+        let values = [2.0, 6.0, 9.0];
+        for kernel in Resampling::ALL.into_iter().filter(|k| *k != Resampling::Nearest) {
+            for u in [2.0, 3.0, 4.5, 6.0, 7.0, 8.5, 9.0] {
+                let t = level_taps(u, axis, kernel).unwrap();
+                assert!((through(&t, &values) - u).abs() < 1e-9, "{kernel} at {u}: {}", through(&t, &values));
+            }
+            // Held from the outer centres to the edge, nothing past it.
+            for (u, want) in [(0.0, 2.0), (1.0, 2.0), (9.5, 9.0), (10.0, 9.0)] {
+                assert_eq!(through(&level_taps(u, axis, kernel).unwrap(), &values), want, "{kernel} at {u}");
+            }
+            assert!(level_taps(10.01, axis, kernel).is_none() && level_taps(-0.01, axis, kernel).is_none());
+        }
+        assert_eq!(level_taps(9.9, axis, Resampling::Nearest).unwrap().index[0], 2);
+        // Wrapped (a whole-planet raster): across the seam from the partial
+        // pixel's middle (9) to the first's (2 + 10).
+        let axis = LevelAxis { wrap: true, ..axis };
+        let t = level_taps(10.5, axis, Resampling::Bilinear).unwrap();
+        let (a, b) = (t.weight[..t.len].to_vec(), t.index[..t.len].to_vec());
+        assert_eq!(b, [2, 0]);
+        assert!((a[0] - 1.5 / 3.0).abs() < 1e-12 && (a[1] - 1.5 / 3.0).abs() < 1e-12, "{a:?}");
+        // A level whose pixels all lie on the raster (an overview's even
+        // spread, or a multiple) is the kernel on its even lattice inside.
+        let even = LevelAxis { size: 4, pixel: 2.5, base: 10, wrap: false };
+        let t = level_taps(5.0, even, Resampling::Cubic).unwrap();
+        let u = axis_taps(2.0, 4, Resampling::Cubic, false).unwrap();
+        assert_eq!((t.index, t.weight, t.len), (u.index, u.weight, u.len));
     }
 
     proptest! {

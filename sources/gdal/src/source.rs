@@ -11,7 +11,7 @@ use relief_source::{
 
 use crate::crs;
 use crate::raster::{ChangeDetection, PixelRect, Raster, RasterKind, ReadOptions, Reloaded, Residency, VerticalUnits};
-use crate::resample::{Taps, axis_taps, color_from_taps, height_from_taps};
+use crate::resample::{LevelAxis, Taps, axis_taps, color_from_taps, height_from_taps, level_taps};
 
 /// The manifest kind of this source.
 pub const KIND: &str = "gdal";
@@ -310,34 +310,24 @@ impl GdalSource {
                 (ratio.log2().floor() as usize).min(r.levels().len() - 1)
             }
         };
-        let taps_of = |coords: &[f64], size: usize, scale: f64, wrap: bool| -> Vec<Option<Taps>> {
-            coords.iter().map(|c| axis_taps(c / scale, size, kernel, wrap)).collect()
+        let taps_of = |coords: &[f64], axis: LevelAxis| -> Vec<Option<Taps>> {
+            coords.iter().map(|&c| level_taps(c, axis, kernel)).collect()
         };
         if placed.same_crs && r.geo[2] == 0.0 && r.geo[4] == 0.0 {
             // North-up: the inverse has no cross terms, so u depends on x alone.
             let us: Vec<f64> = (0..cols).map(|i| r.pixel_of(lattice.x(i), 0.0).0).collect();
             let vs: Vec<f64> = (0..rows).map(|j| r.pixel_of(0.0, lattice.y(j)).1).collect();
             let mip = mip_for(us[cols / 2 + 1] - us[cols / 2], vs[rows / 2 + 1] - vs[rows / 2]);
-            let level = &r.levels()[mip];
-            return Ok(Sampler {
-                mip,
-                columns: taps_of(&us, level.width, level.scale, r.wraps_x),
-                rows: taps_of(&vs, level.height, level.scale, false),
-                separable: true,
-            });
+            let (across, down) = r.levels()[mip].axes((r.width(), r.height()), r.wraps_x);
+            return Ok(Sampler { mip, columns: taps_of(&us, across), rows: taps_of(&vs, down), separable: true });
         }
         let (us, vs) = self.pixel_coords(placed, lattice, quality.reprojection_error_px)?;
         let c = (rows / 2) * cols + cols / 2;
         let (dx, dy) =
             ((us[c + 1] - us[c]).hypot(vs[c + 1] - vs[c]), (us[c + cols] - us[c]).hypot(vs[c + cols] - vs[c]));
         let mip = mip_for(dx, dy);
-        let level = &r.levels()[mip];
-        Ok(Sampler {
-            mip,
-            columns: taps_of(&us, level.width, level.scale, r.wraps_x),
-            rows: taps_of(&vs, level.height, level.scale, false),
-            separable: false,
-        })
+        let (across, down) = r.levels()[mip].axes((r.width(), r.height()), r.wraps_x);
+        Ok(Sampler { mip, columns: taps_of(&us, across), rows: taps_of(&vs, down), separable: false })
     }
 
     fn generate_into(&self, key: TileKey, grid: &TileGrid, quality: &Quality) -> Result<Payload, SourceError> {

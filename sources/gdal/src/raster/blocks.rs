@@ -13,7 +13,7 @@ use gdal::Dataset;
 use moka::sync::Cache;
 use relief_source::SourceError;
 
-use super::halve::{Halving, halve_window};
+use super::halve::{Covers, Halving, halve_window};
 use super::{PixelRect, Store};
 
 /// Side of a block, in pixels of its level.
@@ -194,10 +194,13 @@ impl Store {
             y1: (2 * rect.y1).min(below.height),
         };
         let w = self.window(level - 1, under)?;
+        let columns: Vec<f64> = (under.x0..under.x1).map(|x| below.column_cover(x)).collect();
+        let rows: Vec<f64> = (under.y0..under.y1).map(|y| below.row_cover(y)).collect();
+        let covers = Covers { columns: &columns, rows: &rows };
         let planes = w
             .planes
             .iter()
-            .map(|p| halve_window(p, w.width, w.height, (rect.width(), rect.height()), self.halving))
+            .map(|p| halve_window(p, w.width, w.height, covers, (rect.width(), rect.height()), self.halving))
             .collect();
         Ok(Block { width: rect.width(), height: rect.height(), planes })
     }

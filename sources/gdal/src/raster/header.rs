@@ -224,7 +224,8 @@ fn level_infos(
             (0..n).map(|i| band.overview(i).map_or((0, 0), |o| o.size())).collect()
         })
         .unwrap_or_default();
-    let mut levels = vec![LevelInfo { width, height, scale: 1.0, overview: None }];
+    let base = (width, height);
+    let mut levels = vec![LevelInfo::new(base, 1.0, None, (1.0, 1.0), base)];
     loop {
         let prev = levels.last().expect("the base level is there");
         if prev.width <= 1 && prev.height <= 1 {
@@ -232,7 +233,13 @@ fn level_infos(
         }
         let (w, h) = (prev.width.div_ceil(2), prev.height.div_ceil(2));
         let overview = overviews.iter().position(|&s| s == (w, h));
-        levels.push(LevelInfo { width: w, height: h, scale: prev.scale * 2.0, overview });
+        // An overview spreads its pixels evenly over the raster; a halved
+        // level's are twice the level below's.
+        let pixel = match overview {
+            Some(_) => (width as f64 / w as f64, height as f64 / h as f64),
+            None => (prev.pixel.0 * 2.0, prev.pixel.1 * 2.0),
+        };
+        levels.push(LevelInfo::new((w, h), prev.scale * 2.0, overview, pixel, base));
     }
     levels
 }

@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use super::changes::ChangeDetection;
+use crate::resample::LevelAxis;
 
 /// What a raster is read as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -72,15 +73,69 @@ impl Residency {
     }
 }
 
-/// One level of the mip pyramid: `width` x `height` pixels, each `scale`
-/// base pixels wide; read from the file's overview number `overview` when
-/// it has one of this size, else halved from the level below.
+/// One level of the mip pyramid: `width` x `height` pixels, `scale` times
+/// coarser than the base level in name (a power of two); read from the
+/// file's overview number `overview` when it has one of this size, else
+/// halved from the level below.
+///
+/// Where a pixel stands: a full pixel is `pixel` base pixels wide and
+/// high. A file's overview spreads its pixels evenly over the raster
+/// (GDAL's convention, `pixel` = base size / level size), so every pixel
+/// is full. A halved level's pixels are twice those of the level below, so
+/// where the base size is not a multiple its last column and row hang
+/// over the raster's edge: only `cover` of them (a fraction) lies on it,
+/// and they stand at the middle of that part.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct LevelInfo {
     pub width: usize,
     pub height: usize,
     pub scale: f64,
     pub overview: Option<usize>,
+    /// Base pixels per full pixel of this level, across and down.
+    pub pixel: (f64, f64),
+    /// The part of the last column and of the last row on the raster.
+    pub cover: (f64, f64),
+}
+
+impl LevelInfo {
+    /// A level of `width` x `height` pixels of `pixel` base pixels over a
+    /// raster of `base` pixels.
+    pub(crate) fn new(
+        (width, height): (usize, usize),
+        scale: f64,
+        overview: Option<usize>,
+        pixel: (f64, f64),
+        base: (usize, usize),
+    ) -> Self {
+        let cover = |base: usize, pixel: f64, size: usize| (base as f64 / pixel - (size - 1) as f64).clamp(1e-9, 1.0);
+        Self {
+            width,
+            height,
+            scale,
+            overview,
+            pixel,
+            cover: (cover(base.0, pixel.0, width), cover(base.1, pixel.1, height)),
+        }
+    }
+
+    /// How much of column `x` lies on the raster (1 but for a partial last one).
+    pub(crate) fn column_cover(&self, x: usize) -> f64 {
+        if x + 1 == self.width { self.cover.0 } else { 1.0 }
+    }
+
+    /// How much of row `y` lies on the raster.
+    pub(crate) fn row_cover(&self, y: usize) -> f64 {
+        if y + 1 == self.height { self.cover.1 } else { 1.0 }
+    }
+
+    /// This level's columns and rows over a raster of `base` pixels, as
+    /// the kernels see them.
+    pub(crate) fn axes(&self, base: (usize, usize), wraps_x: bool) -> (LevelAxis, LevelAxis) {
+        (
+            LevelAxis { size: self.width, pixel: self.pixel.0, base: base.0, wrap: wraps_x },
+            LevelAxis { size: self.height, pixel: self.pixel.1, base: base.1, wrap: false },
+        )
+    }
 }
 
 /// How the manifest asked the raster to be read.
