@@ -9,6 +9,7 @@ use std::path::Path;
 use proptest::prelude::*;
 use proptest::sample::Index;
 use relief_daemon::manifest::Manifest;
+use relief_testkit::{DebugMarks, apply, in_words, mutation};
 
 /// Cases per property.
 const CASES: u32 = 256;
@@ -179,60 +180,6 @@ const VALUES: &[&str] = &[
     "{ crs = \"EPSG:32612\", extent = [nan, 0, 1, 1] }",
 ];
 
-#[derive(Debug, Clone)]
-enum Mutation {
-    /// A byte replaced.
-    Set(Index, u8),
-    /// A byte's bit flipped.
-    Flip(Index, u8),
-    /// Text from `INSERTS` put in.
-    Insert(Index, Index),
-    /// A span dropped.
-    Drop(Index, usize),
-    /// A span written twice.
-    Repeat(Index, usize),
-    /// The file cut short.
-    Cut(Index),
-}
-
-fn mutation() -> impl Strategy<Value = Mutation> {
-    prop_oneof![
-        1 => (any::<Index>(), any::<u8>()).prop_map(|(at, b)| Mutation::Set(at, b)),
-        1 => (any::<Index>(), 0u8..8).prop_map(|(at, bit)| Mutation::Flip(at, bit)),
-        3 => (any::<Index>(), any::<Index>()).prop_map(|(at, what)| Mutation::Insert(at, what)),
-        1 => (any::<Index>(), 1usize..64).prop_map(|(at, len)| Mutation::Drop(at, len)),
-        1 => (any::<Index>(), 1usize..64).prop_map(|(at, len)| Mutation::Repeat(at, len)),
-        1 => any::<Index>().prop_map(Mutation::Cut),
-    ]
-}
-
-fn apply(bytes: &mut Vec<u8>, mutations: &[Mutation]) {
-    for m in mutations {
-        if bytes.is_empty() {
-            return;
-        }
-        let len = bytes.len();
-        match m {
-            Mutation::Set(at, b) => bytes[at.index(len)] = *b,
-            Mutation::Flip(at, bit) => bytes[at.index(len)] ^= 1 << bit,
-            Mutation::Insert(at, what) => {
-                let at = at.index(len + 1);
-                bytes.splice(at..at, INSERTS[what.index(INSERTS.len())].bytes());
-            }
-            Mutation::Drop(at, n) => {
-                let at = at.index(len);
-                bytes.drain(at..(at + n).min(len));
-            }
-            Mutation::Repeat(at, n) => {
-                let at = at.index(len);
-                let span = bytes[at..(at + n).min(len)].to_vec();
-                bytes.splice(at..at, span);
-            }
-            Mutation::Cut(at) => bytes.truncate(at.index(len)),
-        }
-    }
-}
-
 /// Each value (what follows `key = ` on a line) replaced by one of
 /// `VALUES`, for a list of (line, value) picks.
 fn replace_values(text: &str, picks: &[(Index, Index)]) -> String {
@@ -246,22 +193,11 @@ fn replace_values(text: &str, picks: &[(Index, Index)]) -> String {
     lines.join("\n") + "\n"
 }
 
-/// Marks of Rust `Debug` output, which no message may show.
-const DEBUG_MARKS: &[&str] = &["BytesStart", "Borrowed(", "Some(", "None", "Err(", "Ok("];
-
-/// The first mark of `Debug` output in `message`: one of `DEBUG_MARKS`, or
-/// a struct's ` { field: `. (A TOML inline table, ` { crs = `, which the
+/// Marks of Rust `Debug` output, which no message may show, and a
+/// struct's ` { field: `. (A TOML inline table, ` { crs = `, which the
 /// messages may suggest, is not one.)
-fn debug_output(message: &str) -> Option<&str> {
-    if let Some(mark) = DEBUG_MARKS.iter().find(|mark| message.contains(**mark)) {
-        return Some(mark);
-    }
-    message.match_indices(" { ").find_map(|(at, _)| {
-        let rest = &message[at + 3..];
-        let field = rest.find(|c: char| !(c.is_ascii_alphanumeric() || c == '_')).unwrap_or(rest.len());
-        (field > 0 && rest[field..].starts_with(':')).then(|| &message[at..=(at + 3 + field)])
-    })
-}
+const DEBUG_MARKS: DebugMarks =
+    DebugMarks::new(&["BytesStart", "Borrowed(", "Some(", "None", "Err(", "Ok("]).and_struct_fields();
 
 /// Parses `text` as a manifest in a folder of its own: a manifest, or an
 /// error in words that ends with the manifest's path.
@@ -278,17 +214,14 @@ fn parses_or_fails_in_words(text: &str) -> Result<(), TestCaseError> {
 fn check_message(message: &str, text: &str, path: &Path) -> Result<(), TestCaseError> {
     // TOML's messages quote the manifest's line, which may hold a mark
     // itself: only marks the manifest lacks count.
-    let debug = debug_output(message).filter(|mark| !text.contains(mark));
-    prop_assert!(debug.is_none(), "Debug output ({}) in: {}", debug.unwrap_or_default(), message);
-    prop_assert!(message.ends_with(&path.display().to_string()), "the path is not last: {}", message);
-    Ok(())
+    in_words(message, DEBUG_MARKS.find(message).filter(|mark| !text.contains(mark)), path)
 }
 
 #[test]
 fn debug_output_is_told_from_toml() {
-    assert_eq!(debug_output("bad: Start(BytesStart { buf: Borrowed(\"b\") })"), Some("BytesStart"));
-    assert_eq!(debug_output("bad: Point { x: 1 }"), Some(" { x:"));
-    assert_eq!(debug_output("use \"geodetic\" or { crs = \"EPSG:...\" }"), None);
+    assert_eq!(DEBUG_MARKS.find("bad: Start(BytesStart { buf: Borrowed(\"b\") })"), Some("BytesStart"));
+    assert_eq!(DEBUG_MARKS.find("bad: Point { x: 1 }"), Some(" { x:"));
+    assert_eq!(DEBUG_MARKS.find("use \"geodetic\" or { crs = \"EPSG:...\" }"), None);
 }
 
 #[test]
@@ -303,7 +236,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(CASES))]
 
     #[test]
-    fn mutated_manifest_bytes_parse_or_fail_in_words(mutations in prop::collection::vec(mutation(), 1..5)) {
+    fn mutated_manifest_bytes_parse_or_fail_in_words(mutations in prop::collection::vec(mutation(INSERTS), 1..5)) {
         let mut bytes = MANIFEST.as_bytes().to_vec();
         apply(&mut bytes, &mutations);
         // A manifest is read as UTF-8 text; bytes that are not are refused
