@@ -1,11 +1,18 @@
 """What the sync and asyncio clients share: the address, TLS and token,
-channel options, default timeouts and request checks."""
+the channel and the services' stubs on it, default timeouts and request
+checks."""
 
 from __future__ import annotations
 
 import math
 import os
 from dataclasses import dataclass
+from types import ModuleType
+from typing import Any, Generic, TypeVar
+
+import grpc
+
+from relief._proto.relief.v1 import relief_pb2_grpc as pb_grpc
 
 #: Where clients connect when given no address (as the `relief` CLI).
 DEFAULT_ADDRESS = "127.0.0.1:50051"
@@ -123,6 +130,51 @@ def endpoint(
         token = os.environ.get(TOKEN_ENV, "")
     token = check_token(token) if token.strip() else None
     return Endpoint(where, secure, read_ca(ca) if ca is not None else None, token)
+
+
+def open_channel(endpoint: Endpoint, grpc_module: ModuleType, **extra: Any) -> Any:
+    """A channel to `endpoint` made by `grpc_module`: `grpc` for a blocking
+    channel, `grpc.aio` for an asyncio one (the two differ only in their
+    constructors). Over TLS trusting the endpoint's CA (None: the system's
+    certificates), else plaintext; with CHANNEL_OPTIONS. `extra` goes to the
+    constructor as it is (grpc.aio's `interceptors`)."""
+    if endpoint.tls:
+        credentials = grpc.ssl_channel_credentials(root_certificates=endpoint.root_certificates)
+        return grpc_module.secure_channel(endpoint.target, credentials, options=CHANNEL_OPTIONS, **extra)
+    return grpc_module.insecure_channel(endpoint.target, options=CHANNEL_OPTIONS, **extra)
+
+
+ChannelT = TypeVar("ChannelT")
+
+
+class Connection(Generic[ChannelT]):
+    """What a client is built on, blocking or asyncio: where it connects
+    (`endpoint`, `address`), the default timeout of its calls, its channel
+    and the stubs of the three services on it. Each client opens its
+    channel in `_open` (through `open_channel`). The arguments are those of
+    relief.Client, documented there."""
+
+    def __init__(
+        self,
+        address: str | None = None,
+        *,
+        timeout: float = DEFAULT_TIMEOUT_S,
+        token: str | None = None,
+        ca: str | os.PathLike[str] | bytes | None = None,
+        tls: bool | None = None,
+    ) -> None:
+        self.endpoint = endpoint(address, token=token, ca=ca, tls=tls)
+        self.address = self.endpoint.target
+        self.timeout = timeout
+        self._channel = self._open(self.endpoint)
+        self._scene = pb_grpc.SceneServiceStub(self._channel)
+        self._view = pb_grpc.ViewServiceStub(self._channel)
+        self._tiles = pb_grpc.TileServiceStub(self._channel)
+
+    def _open(self, to: Endpoint) -> ChannelT:
+        """The channel to `to` that sends its bearer token, if any, on
+        every call."""
+        raise NotImplementedError
 
 
 def unreachable(endpoint: Endpoint, timeout: float) -> str:

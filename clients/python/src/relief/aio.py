@@ -21,7 +21,6 @@ import grpc.aio
 from relief import _channel, _convert
 from relief._bearer import aio_interceptors
 from relief._proto.relief.v1 import relief_pb2 as pb
-from relief._proto.relief.v1 import relief_pb2_grpc as pb_grpc
 from relief.client import _expect
 from relief.errors import Unavailable, from_rpc_error
 from relief.types import (
@@ -90,38 +89,16 @@ class AsyncStream(Generic[T]):
         self.close()
 
 
-class AsyncClient:
+class AsyncClient(_channel.Connection[grpc.aio.Channel]):
     """A connection to reliefd for asyncio code. Use `relief.aio.connect()`
     as an async context manager (or await it, and `await client.close()`).
     `address`, `token`, `ca` and `tls` as for relief.Client: the token
     (RELIEF_TOKEN when None) goes as `authorization: Bearer` on every call,
     a CA (RELIEF_CA when None) or an https:// address means TLS."""
 
-    def __init__(
-        self,
-        address: str | None = None,
-        *,
-        timeout: float = _channel.DEFAULT_TIMEOUT_S,
-        token: str | None = None,
-        ca: str | os.PathLike[str] | bytes | None = None,
-        tls: bool | None = None,
-    ) -> None:
-        self.endpoint = _channel.endpoint(address, token=token, ca=ca, tls=tls)
-        self.address = self.endpoint.target
-        self.timeout = timeout
-        interceptors = aio_interceptors(self.endpoint.token)
-        if self.endpoint.tls:
-            credentials = grpc.ssl_channel_credentials(root_certificates=self.endpoint.root_certificates)
-            self._channel = grpc.aio.secure_channel(
-                self.address, credentials, options=_channel.CHANNEL_OPTIONS, interceptors=interceptors
-            )
-        else:
-            self._channel = grpc.aio.insecure_channel(
-                self.address, options=_channel.CHANNEL_OPTIONS, interceptors=interceptors
-            )
-        self._scene = pb_grpc.SceneServiceStub(self._channel)
-        self._view = pb_grpc.ViewServiceStub(self._channel)
-        self._tiles = pb_grpc.TileServiceStub(self._channel)
+    def _open(self, to: _channel.Endpoint) -> grpc.aio.Channel:
+        channel: grpc.aio.Channel = _channel.open_channel(to, grpc.aio, interceptors=aio_interceptors(to.token))
+        return channel
 
     # ------------------------------------------------------------ lifecycle
 

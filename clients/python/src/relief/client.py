@@ -18,7 +18,6 @@ import grpc
 from relief import _channel, _convert
 from relief._bearer import Bearer
 from relief._proto.relief.v1 import relief_pb2 as pb
-from relief._proto.relief.v1 import relief_pb2_grpc as pb_grpc
 from relief.errors import ReliefError, Unavailable, from_rpc_error
 from relief.types import (
     Camera,
@@ -88,7 +87,7 @@ class Stream(Generic[T]):
                 pass
 
 
-class Client:
+class Client(_channel.Connection[grpc.Channel]):
     """A connection to reliefd. Use `relief.connect()`; close it (or use it
     as a context manager) when done. Every method raises a ReliefError
     subclass when the call fails, with the server's message.
@@ -100,29 +99,15 @@ class Client:
     trust and means TLS (RELIEF_CA names one when None); `tls=True` with no
     CA trusts the system's certificates, `tls=False` forces plaintext."""
 
-    def __init__(
-        self,
-        address: str | None = None,
-        *,
-        timeout: float = _channel.DEFAULT_TIMEOUT_S,
-        token: str | None = None,
-        ca: str | os.PathLike[str] | bytes | None = None,
-        tls: bool | None = None,
-    ) -> None:
-        self.endpoint = _channel.endpoint(address, token=token, ca=ca, tls=tls)
-        self.address = self.endpoint.target
-        self.timeout = timeout
-        if self.endpoint.tls:
-            credentials = grpc.ssl_channel_credentials(root_certificates=self.endpoint.root_certificates)
-            self._raw = grpc.secure_channel(self.address, credentials, options=_channel.CHANNEL_OPTIONS)
-        else:
-            self._raw = grpc.insecure_channel(self.address, options=_channel.CHANNEL_OPTIONS)
-        self._channel = self._raw
-        if self.endpoint.token is not None:
-            self._channel = grpc.intercept_channel(self._raw, Bearer(self.endpoint.token))
-        self._scene = pb_grpc.SceneServiceStub(self._channel)
-        self._view = pb_grpc.ViewServiceStub(self._channel)
-        self._tiles = pb_grpc.TileServiceStub(self._channel)
+    #: The channel itself, which `wait_ready` and `close` act on (the one
+    #: that sends the token only wraps it).
+    _raw: grpc.Channel
+
+    def _open(self, to: _channel.Endpoint) -> grpc.Channel:
+        self._raw = _channel.open_channel(to, grpc)
+        if to.token is None:
+            return self._raw
+        return grpc.intercept_channel(self._raw, Bearer(to.token))
 
     # ------------------------------------------------------------ lifecycle
 
