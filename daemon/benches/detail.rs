@@ -1,9 +1,10 @@
-//! The detail effect's octaves against time. A fractal surface (sines in
-//! octaves, each half the last's wavelength and height) is the data down
-//! to one tile level and the truth below it. The noise fitted to the data
-//! is set against what the truth itself adds at each finer octave (the RMS
-//! of what the four-point prediction from the octave above misses), and
-//! each count of octaves is timed in a low view at 1280 x 720.
+//! The detail effect's octaves against time. A fractal surface
+//! (`relief_examples::fractal`: sines in octaves, each half the last's
+//! wavelength and height) is the data down to one tile level and the truth
+//! below it. The noise fitted to the data is set against what the truth
+//! itself adds at each finer octave (the RMS of what the four-point
+//! prediction from the octave above misses), and each count of octaves is
+//! timed in a low view at 1280 x 720.
 //!
 //! `cargo bench -p relief-daemon --bench detail`
 
@@ -16,19 +17,8 @@ mod common;
 
 use analytic::{Analytic, pose, utm_scene_of};
 use common::median;
+use relief_examples::fractal;
 use relief_renderer::{ClipmapConfig, Detail, Detailed, Frame, RenderSettings, Renderer, TerrainSamples};
-
-/// Sines from 2.5 km down to 8 cm across, each octave half the last's height.
-fn fractal(x: f64, y: f64) -> f64 {
-    let (mut h, mut wavelength, mut amplitude) = (1500.0, 2500.0, 120.0);
-    for k in 0..16 {
-        let a = f64::from(k) * 1.7;
-        h += amplitude * ((a.cos() * x + a.sin() * y) / wavelength * std::f64::consts::TAU + a).sin();
-        wavelength /= 2.0;
-        amplitude /= 2.0;
-    }
-    h
-}
 
 /// The data's finest level: 20 km / 256 / 2^5, 2.4 m samples.
 const DATA_LEVEL: u8 = 5;

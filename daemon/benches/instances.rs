@@ -29,19 +29,6 @@ const SETTINGS: RenderSettings = RenderSettings::new(1280, 720, true);
 /// Frames timed per row (the median is printed).
 const FRAMES: usize = 5;
 
-/// 60 m over the wood south of the town, looking north across it.
-fn forest_view() -> Pose {
-    let (lon, lat) = relief_examples::DEMO_TOWN_CENTRE;
-    let (lon, lat) = (lon, lat - 0.035);
-    Pose {
-        position: [lon, lat, relief_examples::demo_terrain(lon, lat) + 60.0],
-        heading_deg: 5.0,
-        pitch_deg: -8.0,
-        roll_deg: 0.0,
-        vertical_fov_deg: 50.0,
-    }
-}
-
 fn total_ms(frame: &Frame) -> f64 {
     frame.passes.iter().map(|(_, ms)| ms).sum()
 }
@@ -78,7 +65,10 @@ fn main() -> anyhow::Result<()> {
     let trees = SceneInstances::new(&scene.store, &snap, quality, &models).context("the demo has a forest")?;
     let gpu = Arc::new(Gpu::headless()?);
     let mut renderer = Renderer::new(Arc::clone(&gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-    let view = forest_view();
+    // 60 m over the wood south of the town, looking north across it.
+    let relief_examples::Viewpoint { position, heading_deg, pitch_deg, vertical_fov_deg } =
+        relief_examples::demo_forest_view();
+    let view = Pose { position, heading_deg, pitch_deg, roll_deg: 0.0, vertical_fov_deg };
     let mut run = |layers: SceneLayers<'_>, bands: InstanceBands| -> anyhow::Result<Vec<Frame>> {
         let settings = RenderSettings { bands, ..SETTINGS };
         // The first frame fills the levels and builds tiles: not timed.

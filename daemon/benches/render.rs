@@ -16,13 +16,12 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use common::median;
-use glam::DVec3;
 use relief_daemon::view::{SceneBuildings, SceneTerrain};
 use relief_renderer::{
     Atmosphere, ClipmapConfig, Frame, Gpu, Pose, RenderSettings, Renderer, SceneLayers, SunAngles, Surface,
     TerrainSamples, WaterSamples,
 };
-use relief_source::{Extent, geodesy};
+use relief_source::Extent;
 
 const SETTINGS: RenderSettings = RenderSettings::new(1280, 720, true);
 
@@ -42,32 +41,15 @@ fn total_ms(frame: &Frame) -> f64 {
 }
 
 /// RMS and max of (rendered - formula) over every 4th pixel that shows
-/// the DEM (not its void), in metres.
+/// the DEM (not its void), in metres (`relief_tests::surface`); 0 when
+/// none does.
 fn surface_error(frame: &Frame) -> (f64, f64) {
-    let [w0, s0, e0, n0] = relief_examples::DEMO_EXTENT;
-    let (mut sum, mut max, mut n) = (0.0, 0.0f64, 0usize);
-    for py in (0..frame.height).step_by(4) {
-        for px in (0..frame.width).step_by(4) {
-            let depth = frame.depth[(py * frame.width + px) as usize];
-            if depth <= 0.0 {
-                continue;
-            }
-            let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), frame.width, frame.height, depth);
-            let p: DVec3 = frame.view.eye + dir * distance;
-            let (lon, lat, h) = geodesy::geodetic_from_ecef(p.to_array());
-            if !(w0 + 0.01..e0 - 0.01).contains(&lon)
-                || !(s0 + 0.01..n0 - 0.01).contains(&lat)
-                || relief_examples::in_demo_void(lon, lat)
-            {
-                continue;
-            }
-            let e = h - relief_examples::demo_terrain(lon, lat);
-            sum += e * e;
-            max = max.max(e.abs());
-            n += 1;
-        }
-    }
-    ((sum / n.max(1) as f64).sqrt(), max)
+    let point_in_ecef = |px: u32, py: u32, depth: f32| {
+        let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), frame.width, frame.height, depth);
+        (frame.view.eye + dir * distance).to_array()
+    };
+    relief_tests::surface::demo_surface_error(&frame.depth, frame.width, frame.height, point_in_ecef)
+        .unwrap_or((0.0, 0.0))
 }
 
 fn main() -> anyhow::Result<()> {

@@ -97,6 +97,23 @@ pub fn utm_surface(x: f64, y: f64) -> f64 {
     2500.0 + 0.05 * (x - 300_000.0) - 0.02 * (y - 5_100_000.0) + 80.0 * ((x / 700.0).sin() * (y / 900.0).cos())
 }
 
+/// A fractal surface in metres over plane x and y in metres (any projected
+/// grid; the detail effect's bench and `make accuracy` lay it over 20 km of
+/// UTM 12N): 1500 m plus sines in 16 octaves, from 2.5 km down to 8 cm
+/// across, each octave half the last's wavelength and height (120 m for
+/// the first) and turned 1.7 radians from it. Rough at every scale, so it
+/// can be the data down to one level and the truth below it.
+pub fn fractal(x: f64, y: f64) -> f64 {
+    let (mut h, mut wavelength, mut amplitude) = (1500.0, 2500.0, 120.0);
+    for k in 0..16 {
+        let a = f64::from(k) * 1.7;
+        h += amplitude * ((a.cos() * x + a.sin() * y) / wavelength * std::f64::consts::TAU + a).sin();
+        wavelength /= 2.0;
+        amplitude /= 2.0;
+    }
+    h
+}
+
 /// 300 x 200 pixels of 30 m in EPSG:32612.
 pub fn utm_spec() -> RasterSpec<'static> {
     RasterSpec {
@@ -337,6 +354,36 @@ pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
 /// Where the demo's town is (lon, lat) and how many buildings it has.
 pub const DEMO_TOWN_CENTRE: (f64, f64) = (6.6, 45.09);
 pub const DEMO_TOWN_BUILDINGS: usize = 2000;
+
+/// A camera over an example scene as plain numbers, level (no roll), for
+/// callers to turn into the renderer's `Pose` (this crate does not depend
+/// on the renderer).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Viewpoint {
+    /// Longitude and latitude in degrees, then height in metres above the
+    /// ellipsoid.
+    pub position: [f64; 3],
+    /// Clockwise from north.
+    pub heading_deg: f64,
+    /// 0 looks at the horizon, -90 straight down.
+    pub pitch_deg: f64,
+    pub vertical_fov_deg: f64,
+}
+
+/// 60 m over the demo's wood 0.035 degrees (3.9 km) south of the town,
+/// looking north across the wood and the town, 8 degrees down: the trees
+/// near and far, the view the instances bench and `make accuracy` measure
+/// the instance bands in.
+pub fn demo_forest_view() -> Viewpoint {
+    let (lon, lat) = DEMO_TOWN_CENTRE;
+    let (lon, lat) = (lon, lat - 0.035);
+    Viewpoint {
+        position: [lon, lat, demo_terrain(lon, lat) + 60.0],
+        heading_deg: 5.0,
+        pitch_deg: -8.0,
+        vertical_fov_deg: 50.0,
+    }
+}
 
 /// Writes `count` building footprints round `centre` as a shapefile (with
 /// GDAL, as a GIS would): rectangles 12 to 30 m a side on a jittered

@@ -1,6 +1,7 @@
 //! Helpers for relief's end-to-end tests: start the real `reliefd` on
 //! loopback, make analytic fixtures with GDAL, and ask GDAL itself for
-//! reference values.
+//! reference values; for the benches and `make accuracy` too, a drawn
+//! surface's error against the demo's formula (`surface`).
 
 pub mod browser;
 pub mod daemon;
@@ -10,6 +11,7 @@ pub mod qgis;
 pub mod redis;
 pub mod reference;
 pub mod scenes;
+pub mod surface;
 pub mod tiles;
 pub mod vectors;
 

@@ -20,19 +20,6 @@ const ROUNDS: usize = 5;
 /// How far the reference draws every instance as a model, metres.
 const REFERENCE_REACH_M: f64 = 6000.0;
 
-/// 60 m over the wood south of the town, looking north across it.
-fn forest_view() -> Pose {
-    let (lon, lat) = relief_examples::DEMO_TOWN_CENTRE;
-    let (lon, lat) = (lon, lat - 0.035);
-    Pose {
-        position: [lon, lat, relief_examples::demo_terrain(lon, lat) + 60.0],
-        heading_deg: 5.0,
-        pitch_deg: -8.0,
-        roll_deg: 0.0,
-        vertical_fov_deg: 50.0,
-    }
-}
-
 /// A setting as the manifest would spell it.
 fn label(b: &InstanceBands) -> String {
     let [e0, e1, e2] = b.edges_m;
@@ -62,7 +49,10 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
     let models = ModelCache::default();
     let trees = SceneInstances::new(&scene.store, &snap, quality, &models).context("the demo has no forest")?;
     let mut renderer = Renderer::new(cx.gpu.clone(), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-    let view = forest_view();
+    // 60 m over the wood south of the town, looking north across it.
+    let relief_examples::Viewpoint { position, heading_deg, pitch_deg, vertical_fov_deg } =
+        relief_examples::demo_forest_view();
+    let view = Pose { position, heading_deg, pitch_deg, roll_deg: 0.0, vertical_fov_deg };
     let layers = SceneLayers {
         buildings: Some(&buildings as &dyn MeshTiles),
         instances: Some(&trees as &dyn InstanceTiles),

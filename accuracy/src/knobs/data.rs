@@ -6,36 +6,21 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use gdal::spatial_ref::{AxisMappingStrategy, CoordTransform, SpatialRef};
-use glam::DVec3;
 use relief_daemon::graph::SceneSnapshot;
 use relief_daemon::scene::Scene;
 use relief_renderer::Frame;
-use relief_source::{Payload, Quality, TileKey, geodesy};
+use relief_source::{Payload, Quality, TileKey};
 
 /// RMS and max of (drawn - formula) over every 4th pixel that shows the
-/// demo DEM (not its void), in metres.
+/// demo DEM (not its void), in metres (`relief_tests::surface`); NaN when
+/// none does.
 pub fn surface_error(frame: &Frame) -> (f64, f64) {
-    let [w0, s0, e0, n0] = relief_examples::DEMO_EXTENT;
-    let mut stats = ErrorStats::default();
-    for py in (0..frame.height).step_by(4) {
-        for px in (0..frame.width).step_by(4) {
-            let depth = frame.depth[(py * frame.width + px) as usize];
-            if depth <= 0.0 {
-                continue;
-            }
-            let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), frame.width, frame.height, depth);
-            let p: DVec3 = frame.view.eye + dir * distance;
-            let (lon, lat, h) = geodesy::geodetic_from_ecef(p.to_array());
-            if !(w0 + 0.01..e0 - 0.01).contains(&lon)
-                || !(s0 + 0.01..n0 - 0.01).contains(&lat)
-                || relief_examples::in_demo_void(lon, lat)
-            {
-                continue;
-            }
-            stats.add(h - relief_examples::demo_terrain(lon, lat));
-        }
-    }
-    (stats.rms(), stats.max())
+    let point_in_ecef = |px: u32, py: u32, depth: f32| {
+        let (dir, distance) = frame.view.unproject(f64::from(px), f64::from(py), frame.width, frame.height, depth);
+        (frame.view.eye + dir * distance).to_array()
+    };
+    relief_tests::surface::demo_surface_error(&frame.depth, frame.width, frame.height, point_in_ecef)
+        .unwrap_or((f64::NAN, f64::NAN))
 }
 
 /// RMS and largest magnitude of a set of differences.
