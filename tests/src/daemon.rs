@@ -24,10 +24,13 @@ pub struct Reliefd {
 
 impl Reliefd {
     /// Starts `reliefd serve MANIFEST --listen 127.0.0.1:0` and waits for
-    /// its `listening on ADDR` line.
+    /// its `listening on ADDR` line. With RELIEF_DAEMON_WRAP set, reliefd
+    /// runs under that command (words split on whitespace), for a profiler:
+    /// `env LD_PRELOAD=... VAR=...` keeps reliefd's own process id, which
+    /// `pid` and the benches' resident sets read.
     pub fn start(manifest: &Path, extra: &[&str]) -> anyhow::Result<Self> {
         let cache = tempfile::tempdir()?;
-        let mut child = Command::new(crate::bin("reliefd"))
+        let mut child = wrapped(crate::bin("reliefd"))
             .env("XDG_CACHE_HOME", cache.path())
             .arg("serve")
             .arg(manifest)
@@ -138,6 +141,21 @@ impl Drop for Reliefd {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+}
+
+/// A command running `program`, under RELIEF_DAEMON_WRAP's command where
+/// that is set.
+fn wrapped(program: std::path::PathBuf) -> Command {
+    let wrap = std::env::var("RELIEF_DAEMON_WRAP").unwrap_or_default();
+    let mut words = wrap.split_whitespace();
+    match words.next() {
+        Some(first) => {
+            let mut command = Command::new(first);
+            command.args(words).arg(program);
+            command
+        }
+        None => Command::new(program),
     }
 }
 

@@ -17,7 +17,7 @@ struct Frame {
     eye_low: vec4<f32>,
 }
 
-@group(0) @binding(0) var<uniform> frame: Frame;
+@group(0) @binding(0) var<storage, read> frame: Frame;
 
 fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
     let l = length(v);

@@ -16,6 +16,27 @@ use std::time::Instant;
 
 use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
+/// How a pass binds its small buffers (the frame's, its own parameters):
+/// as read-only storage, never as uniform buffers. Mesa 22.3's lavapipe,
+/// the software Vulkan reliefd renders with where there is no GPU,
+/// "inlines" a uniform buffer's values into a shader with a branch or
+/// loop bound decided by them alone: it compiles the shader again each
+/// time such a pipeline or its bind group is bound, and never frees what
+/// it compiled, so every frame kept megabytes for good. It never inlines
+/// storage buffers, and they read the same everywhere else. The test below
+/// checks that no shader declares `var<storage, read>`.
+pub fn params_binding(min_binding_size: Option<wgpu::BufferSize>) -> wgpu::BindingType {
+    wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Storage { read_only: true },
+        has_dynamic_offset: false,
+        min_binding_size,
+    }
+}
+
+/// The usage of a buffer bound by [`params_binding`] and written by the
+/// CPU.
+pub const PARAMS_USAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE.union(wgpu::BufferUsages::COPY_DST);
+
 /// A pass's pipeline drawing into the frame's target: reversed-Z depth
 /// (nearer is greater), no culling, `vs` and `fs` of `shader`.
 pub fn pipeline(
@@ -208,5 +229,82 @@ impl PassCounters {
 
     pub fn stats(&self) -> &[PassStats] {
         &self.stats
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use wgpu::naga;
+
+    /// Every pass's shader put together as its pass does it.
+    fn shaders() -> Vec<(&'static str, String)> {
+        let framed = |source: &str| format!("{}\n{source}", include_str!("frame.wgsl"));
+        let overlay = |source: &str| framed(&format!("{}\n{source}", super::overlay::FULLSCREEN));
+        let shadowed = |source: &str| overlay(&format!("{}\n{source}", super::shadows::LOOKUP));
+        vec![
+            ("terrain", framed(&format!("const COLOR_DETAIL: i32 = 2;\n{}", include_str!("terrain/terrain.wgsl")))),
+            ("buildings", framed(include_str!("buildings/buildings.wgsl"))),
+            ("instances", framed(include_str!("instances/instances.wgsl"))),
+            ("shadows", shadowed(include_str!("shadows/shadows.wgsl"))),
+            ("atmosphere", shadowed(include_str!("atmosphere/atmosphere.wgsl"))),
+            (
+                "atmosphere composite",
+                format!("{}\n{}", super::overlay::FULLSCREEN, include_str!("atmosphere/composite.wgsl")),
+            ),
+            ("water", overlay(include_str!("water/water.wgsl"))),
+            ("fog", overlay(include_str!("fog/fog.wgsl"))),
+        ]
+    }
+
+    /// Every `.wgsl` file under `dir`, a pass added later's included.
+    fn wgsl_files(dir: &std::path::Path, found: &mut Vec<std::path::PathBuf>) -> std::io::Result<()> {
+        for entry in std::fs::read_dir(dir)? {
+            let path = entry?.path();
+            if path.is_dir() {
+                wgsl_files(&path, found)?;
+            } else if path.extension().is_some_and(|e| e == "wgsl") {
+                found.push(path);
+            }
+        }
+        Ok(())
+    }
+
+    /// Guards the daemon's memory on lavapipe: a shader that reads a
+    /// uniform buffer is compiled again at every bind and never freed
+    /// there (`params_binding`). Every shader parses and validates, and
+    /// none declares a uniform buffer.
+    #[test]
+    fn no_shader_reads_a_uniform_buffer() -> Result<(), String> {
+        for (name, source) in shaders() {
+            let module = naga::front::wgsl::parse_str(&source)
+                .map_err(|e| format!("shader '{name}': {}", e.emit_to_string(&source)))?;
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                .validate(&module)
+                .map_err(|e| format!("shader '{name}': {}", e.emit_to_string(&source)))?;
+            let uniforms: Vec<String> = module
+                .global_variables
+                .iter()
+                .filter(|(_, g)| g.space == naga::AddressSpace::Uniform)
+                .map(|(_, g)| g.name.clone().unwrap_or_default())
+                .collect();
+            if !uniforms.is_empty() {
+                return Err(format!(
+                    "shader '{name}' reads uniform buffers {uniforms:?}: bind them as read-only storage"
+                ));
+            }
+        }
+        let mut files = Vec::new();
+        wgsl_files(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut files)
+            .map_err(|e| format!("cannot list the shaders: {e}"))?;
+        for path in &files {
+            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            if text.contains("var<uniform>") {
+                return Err(format!("{} declares a uniform buffer: bind it as read-only storage", path.display()));
+            }
+        }
+        if files.len() < 10 {
+            return Err(format!("found only {} shaders under src/", files.len()));
+        }
+        Ok(())
     }
 }

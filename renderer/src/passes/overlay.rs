@@ -31,11 +31,7 @@ impl Overlay {
     ) -> Self {
         let shader = super::shader(device, label, &format!("{FULLSCREEN}\n{source}"));
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
-        let uniform = |min| wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(min),
-        };
+        let uniform = |min| super::params_binding(wgpu::BufferSize::new(min));
         let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some(label),
@@ -82,7 +78,7 @@ impl Overlay {
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
             contents: bytemuck::bytes_of(&U::default()),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: super::PARAMS_USAGE,
         });
         Self { pipeline, layout, uniform }
     }

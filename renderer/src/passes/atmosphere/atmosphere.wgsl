@@ -27,7 +27,7 @@ struct Atmosphere {
     frame_size: vec4<f32>,
 }
 
-@group(0) @binding(1) var<uniform> atmo: Atmosphere;
+@group(0) @binding(1) var<storage, read> atmo: Atmosphere;
 @group(0) @binding(2) var depth: texture_depth_2d;
 
 const BETA_R = vec3<f32>(5.8e-6, 13.5e-6, 33.1e-6);

@@ -8,7 +8,7 @@ struct Composite {
 
 @group(0) @binding(0) var scattered: texture_2d<f32>;
 @group(0) @binding(1) var bilinear: sampler;
-@group(0) @binding(2) var<uniform> composite: Composite;
+@group(0) @binding(2) var<storage, read> composite: Composite;
 
 @fragment
 fn fs_composite(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {

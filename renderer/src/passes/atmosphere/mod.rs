@@ -136,14 +136,7 @@ impl AtmospherePass {
                     },
                 ),
                 entry(1, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
-                entry(
-                    2,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                ),
+                entry(2, super::params_binding(None)),
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -184,7 +177,7 @@ impl AtmospherePass {
         let composite_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("atmosphere composite"),
             contents: bytemuck::bytes_of(&[1.0f32; 4]),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: super::PARAMS_USAGE,
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("atmosphere composite"),

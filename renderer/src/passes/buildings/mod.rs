@@ -124,7 +124,7 @@ impl BuildingsPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("buildings"),
             entries: &[
-                entry(0, buffer(wgpu::BufferBindingType::Uniform)),
+                entry(0, super::params_binding(None)),
                 entry(1, buffer(wgpu::BufferBindingType::Storage { read_only: true })),
             ],
         });

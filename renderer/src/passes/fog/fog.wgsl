@@ -19,7 +19,7 @@ struct Fog {
     color: vec4<f32>,
 }
 
-@group(0) @binding(1) var<uniform> fog: Fog;
+@group(0) @binding(1) var<storage, read> fog: Fog;
 @group(0) @binding(2) var depth: texture_depth_2d;
 
 // Optical depth along `l` metres of a ray rising `dh` metres: the

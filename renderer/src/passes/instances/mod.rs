@@ -123,11 +123,7 @@ impl InstancesPass {
             ty,
             count: None,
         };
-        let uniform = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
+        let uniform = super::params_binding(None);
         let model_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("instance models"),
             entries: &[entry(0, uniform)],

@@ -128,7 +128,7 @@ pub fn bake(
     let frame_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("billboard bake frame"),
         contents: bytemuck::bytes_of(&frame),
-        usage: wgpu::BufferUsages::UNIFORM,
+        usage: wgpu::BufferUsages::STORAGE,
     });
     let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("billboard bake"),

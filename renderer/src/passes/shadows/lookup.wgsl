@@ -15,7 +15,7 @@ struct ShadowCascades {
     info: vec4<f32>,
 }
 
-@group(1) @binding(0) var<uniform> cascades: ShadowCascades;
+@group(1) @binding(0) var<storage, read> cascades: ShadowCascades;
 @group(1) @binding(1) var shadow_maps: texture_depth_2d_array;
 @group(1) @binding(2) var shadow_test: sampler_comparison;
 

@@ -160,14 +160,7 @@ impl ShadowsPass {
         let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow lookup"),
             entries: &[
-                entry(
-                    0,
-                    wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(size_of::<CascadesUniform>() as u64),
-                    },
-                ),
+                entry(0, super::params_binding(wgpu::BufferSize::new(size_of::<CascadesUniform>() as u64))),
                 entry(
                     1,
                     wgpu::BindingType::Texture {
@@ -203,7 +196,7 @@ impl ShadowsPass {
         let cascades_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("shadow cascades"),
             contents: bytemuck::bytes_of(&CascadesUniform::default()),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: super::PARAMS_USAGE,
         });
         // Lit where the point is at least as near the sun as the map's.
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {

@@ -11,7 +11,7 @@ struct ShadowView {
     params: vec4<f32>,
 }
 
-@group(0) @binding(1) var<uniform> shade: ShadowView;
+@group(0) @binding(1) var<storage, read> shade: ShadowView;
 @group(0) @binding(2) var depth: texture_depth_2d;
 
 @fragment

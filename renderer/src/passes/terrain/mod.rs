@@ -74,11 +74,7 @@ impl TerrainPass {
         let shader = super::shader(device, "terrain", &source);
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let uniform = wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        };
+        let uniform = super::params_binding(None);
         let texture = |filterable| wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension: wgpu::TextureViewDimension::D2Array,
@@ -111,7 +107,7 @@ impl TerrainPass {
         let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("levels"),
             size: (size_of::<LevelUniform>() * MAX_LEVELS) as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: super::PARAMS_USAGE,
             mapped_at_creation: false,
         });
         // Repeat: the colour textures are toroidal.

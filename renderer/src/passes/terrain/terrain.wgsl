@@ -31,7 +31,7 @@ struct Levels {
     items: array<Level, 16>,
 }
 
-@group(0) @binding(1) var<uniform> levels: Levels;
+@group(0) @binding(1) var<storage, read> levels: Levels;
 @group(0) @binding(2) var positions: texture_2d_array<f32>;
 @group(0) @binding(3) var colors: texture_2d_array<f32>;
 @group(0) @binding(4) var linear: sampler;

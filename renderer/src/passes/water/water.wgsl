@@ -27,7 +27,7 @@ struct Water {
     body: vec4<f32>,
 }
 
-@group(0) @binding(1) var<uniform> water: Water;
+@group(0) @binding(1) var<storage, read> water: Water;
 @group(0) @binding(2) var depth: texture_depth_2d;
 @group(1) @binding(0) var mask: texture_2d<f32>;
 @group(1) @binding(1) var waves: texture_2d<f32>;
