@@ -126,7 +126,7 @@ pub(crate) struct Window {
 }
 
 impl Store {
-    fn blocks_across(&self, level: usize) -> usize {
+    pub(super) fn blocks_across(&self, level: usize) -> usize {
         self.levels[level].width.div_ceil(BLOCK)
     }
 
@@ -168,6 +168,11 @@ impl Store {
     pub(crate) fn keep(&self, level: usize, bx: usize, by: usize, block: Arc<Block>) {
         let key = self.key(level, bx, by);
         cache().insert(key, block);
+    }
+
+    /// Drops block (bx, by) of `level` of this version from the cache.
+    pub(crate) fn forget(&self, level: usize, bx: usize, by: usize) {
+        cache().invalidate(&self.key(level, bx, by));
     }
 
     /// The pixels of block (bx, by) of `level`, rectangle of that level.

@@ -125,6 +125,12 @@ impl Raster {
         rects.extend(own);
         let mut store = new_store.fork(self.store.uid);
         store.bump(&rects);
+        // The old version's blocks under the change are never asked for
+        // again by a new tile: let them go now rather than when they age
+        // out of the budget (a save a second would otherwise fill it with
+        // dead blocks). A tile of the old generation still being made
+        // reads them again if it needs them.
+        self.store.forget_replaced(&store);
         if let Some(pinned) = &mut store.pinned {
             for ((bx, by), block, changed) in &read {
                 if !changed.is_empty() {
@@ -160,6 +166,16 @@ impl Store {
                         *s = s.wrapping_add(1);
                     }
                 }
+            }
+        }
+    }
+
+    /// Drops from the cache this version's blocks whose stamps `next` bumped.
+    pub(super) fn forget_replaced(&self, next: &Store) {
+        for (level, (old, new)) in self.stamps.iter().zip(&next.stamps).enumerate() {
+            let across = self.blocks_across(level);
+            for (i, _) in old.iter().zip(new).enumerate().filter(|(_, (o, n))| o != n) {
+                self.forget(level, i % across, i / across);
             }
         }
     }
@@ -231,6 +247,59 @@ fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A reload lets the cache drop the old version's blocks under the
+    /// change (at every level), and only those.
+    #[test]
+    fn a_reload_drops_the_replaced_blocks_from_the_cache() -> Result<(), Box<dyn std::error::Error>> {
+        use gdal::DriverManager;
+        use gdal::raster::{Buffer, RasterCreationOptions};
+
+        let dir = tempfile::tempdir()?;
+        let path = dir.path().join("two.tif");
+        let (w, h) = (1100usize, 600usize);
+        {
+            let driver = DriverManager::get_driver_by_name("GTiff")?;
+            let options = RasterCreationOptions::from_iter(["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256"]);
+            let mut ds = driver.create_with_band_type_with_options::<f32, _>(&path, w, h, 1, &options)?;
+            ds.set_geo_transform(&[10.0, 0.001, 0.0, 46.0, 0.0, -0.001])?;
+            ds.set_spatial_ref(&gdal::spatial_ref::SpatialRef::from_epsg(4326)?)?;
+            let data: Vec<f32> = (0..w * h).map(|i| (i % 977) as f32).collect();
+            ds.rasterband(1)?.write((0, 0), (w, h), &mut Buffer::new((w, h), data))?;
+        }
+        let options = ReadOptions {
+            kind: None,
+            crs_override: None,
+            units_override: None,
+            band: 1,
+            categorical: false,
+            residency: super::super::Residency::Windowed,
+            changes: ChangeDetection::Exact,
+            overviews: false,
+        };
+        let raster = Raster::open(&path, &options)?;
+        // Level 1 is 550 x 300 pixels: blocks (0, 0), (1, 0), (2, 0) and the row below.
+        raster.window(1, PixelRect { x0: 0, y0: 0, x1: 550, y1: 300 })?;
+        let held = |r: &Raster, level: usize, bx: usize, by: usize| r.store.peek(level, bx, by).is_some();
+        assert!(held(&raster, 1, 0, 0) && held(&raster, 1, 2, 1) && held(&raster, 0, 0, 0));
+        {
+            let ds = gdal::Dataset::open_ex(
+                &path,
+                gdal::DatasetOptions { open_flags: gdal::GdalOpenFlags::GDAL_OF_UPDATE, ..Default::default() },
+            )?;
+            ds.rasterband(1)?.write((10, 10), (4, 4), &mut Buffer::new((4, 4), vec![-5.0f32; 16]))?;
+        }
+        let Reloaded::Pixels(fresh, rects) = raster.reload(&options)? else {
+            return Err("a pixel edit reloads as changed pixels".into());
+        };
+        assert!(!rects.is_empty());
+        // The old version's blocks over the edit are gone, at both levels;
+        // the others stay, and the new version holds the same ones.
+        assert!(!held(&raster, 0, 0, 0) && !held(&raster, 1, 0, 0), "replaced blocks still held");
+        assert!(held(&raster, 1, 1, 0) && held(&raster, 1, 2, 1), "untouched blocks dropped");
+        assert!(held(&fresh, 1, 1, 0) && !held(&fresh, 1, 0, 0));
+        Ok(())
+    }
 
     #[test]
     fn block_diffs_find_exactly_the_changed_blocks() {
