@@ -14,8 +14,8 @@
 //!   rewritten through GDAL once a second, to 2000 m and to 1000 m in
 //!   turn (so the file alternates between two contents).
 //!
-//! Every 10 s a row: reliefd's resident set (VmRSS), the tile cache's
-//! bytes and the resident set less them, frames delivered and tiles requested in the interval, GetTile
+//! Every 10 s a row: reliefd's resident set (VmRSS), the bytes the tile
+//! cache and the raster block cache hold and the resident set less them, frames delivered and tiles requested in the interval, GetTile
 //! p50 and p99 in the interval, the generation and the errors so far.
 //! Then totals: p99 of GetTile over the run, errors of every kind (source
 //! errors from GetState and the Watch stream too), the resident set
@@ -47,9 +47,10 @@ use relief_tests::edit;
 use tokio_stream::StreamExt;
 use tonic::transport::Channel;
 
-/// What the resident set may hold beyond the memory cache's budget: the
-/// renderer and its device (lavapipe keeps its buffers in process memory),
-/// GDAL's block cache, the sources, the frame streams.
+/// What the resident set may hold beyond the two memory caches' budgets
+/// (tiles, decoded raster blocks): the renderer and its device (lavapipe
+/// keeps its buffers in process memory), GDAL's own block cache, the
+/// sources, the frame streams, the queue of tiles for the disk store.
 const OVERHEAD_ALLOWED_MB: f64 = 400.0;
 
 const SOURCES: [&str; 3] = ["dem", "ortho", "shade"];
@@ -305,7 +306,10 @@ async fn run() -> anyhow::Result<()> {
         .context("the warm-up frame")?;
     let first = state(&channel).await?;
     let counters = first.counters.clone().unwrap_or_default();
-    let budget_mb = mb(counters.cache_budget_bytes);
+    // Both memory caches: tiles ([cache] memory_mb) and decoded raster
+    // blocks ([cache] raster_mb).
+    let (tile_budget_mb, raster_budget_mb) = (mb(counters.cache_budget_bytes), mb(counters.raster_cache_budget_bytes));
+    let budget_mb = tile_budget_mb + raster_budget_mb;
     let keys = KeyRange {
         grid: first.grid.clone().context("GetState has no grid")?,
         extent: first.sources.iter().find(|s| s.id == "dem").and_then(|s| s.extent).unwrap_or_else(|| {
@@ -328,13 +332,13 @@ async fn run() -> anyhow::Result<()> {
         println!("[cache] added to the manifest: {}", cache_lines.replace('\n', "; "));
     }
     println!(
-        "memory cache budget ([cache] memory_mb): {budget_mb:.0} MB; goal: resident set flat, within budget + {OVERHEAD_ALLOWED_MB:.0} MB = {:.0} MB\n",
+        "memory cache budgets: tiles ([cache] memory_mb) {tile_budget_mb:.0} MB + raster blocks ([cache] raster_mb) {raster_budget_mb:.0} MB; goal: resident set flat, within the budgets + {OVERHEAD_ALLOWED_MB:.0} MB = {:.0} MB\n",
         budget_mb + OVERHEAD_ALLOWED_MB
     );
     println!(
-        "| t s | RSS MB | cache MB | RSS - cache MB | frames delivered | tiles requested | GetTile p50 ms | GetTile p99 ms | generation | errors so far |"
+        "| t s | RSS MB | tile cache MB | raster cache MB | RSS - caches MB | frames delivered | tiles requested | GetTile p50 ms | GetTile p99 ms | generation | errors so far |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
 
     let events = edit::Events::follow(channel.clone()).await?;
     let tally = Arc::new(Tally::default());
@@ -349,6 +353,8 @@ async fn run() -> anyhow::Result<()> {
     let started = Instant::now();
     let mut all_latencies = Vec::new();
     let mut rss = Vec::new();
+    // RSS less what the two caches hold, at each row.
+    let mut beyond_caches = Vec::new();
     let mut unhealthy_seen: Vec<(String, String)> = Vec::new();
     let (mut frames_before, mut tiles_before) = (0, 0);
     let mut next_row = started;
@@ -372,10 +378,12 @@ async fn run() -> anyhow::Result<()> {
         let mut interval = std::mem::take(&mut *tally.latencies.lock().expect("tally lock"));
         interval.sort_by(f64::total_cmp);
         let errors = tally.errors() + events.errors().len() as u64;
+        let caches = mb(c.cache_bytes) + mb(c.raster_cache_bytes);
         println!(
-            "| {t:.0} | {r:.0} | {:.0} | {:.0} | {} | {} | {:.1} | {:.1} | {} | {errors} |",
+            "| {t:.0} | {r:.0} | {:.0} | {:.0} | {:.0} | {} | {} | {:.1} | {:.1} | {} | {errors} |",
             mb(c.cache_bytes),
-            r - mb(c.cache_bytes),
+            mb(c.raster_cache_bytes),
+            r - caches,
             frames - frames_before,
             tiles - tiles_before,
             percentile(&interval, 0.5),
@@ -385,6 +393,7 @@ async fn run() -> anyhow::Result<()> {
         (frames_before, tiles_before) = (frames, tiles);
         all_latencies.extend(interval);
         rss.push(r);
+        beyond_caches.push(r - caches);
         streams = (c.frame_streams, c.frame_views);
         if Instant::now() >= end {
             break;
@@ -446,13 +455,21 @@ async fn run() -> anyhow::Result<()> {
     );
     println!("| reliefd RSS MB: min / max / last | {min:.0} / {max:.0} / {last_rss:.0} |");
     println!("| RSS growth from 20 s to the end MB | {:+.0} |", last_rss - settled);
-    println!("| memory cache budget MB (counters.cache_budget_bytes) | {budget_mb:.0} |");
     println!(
-        "| GDAL decoded-block budget MB ([cache] raster_mb, the default; not in GetState, counted in the overhead) | {:.0} |",
-        mb(relief_source_gdal::DEFAULT_BLOCK_BUDGET)
+        "| memory cache budgets MB: tiles + raster blocks (counters.cache_budget_bytes, raster_cache_budget_bytes) | {tile_budget_mb:.0} + {raster_budget_mb:.0} |"
     );
-    println!("| tile cache at the end MB; entries | {:.0}; {} |", mb(c.cache_bytes), c.cache_entries);
-    println!("| overhead = max RSS - budget MB (allowed {OVERHEAD_ALLOWED_MB:.0}) | {:+.0} |", max - budget_mb);
+    println!(
+        "| caches at the end MB: tiles (entries); raster blocks | {:.0} ({}); {:.0} |",
+        mb(c.cache_bytes),
+        c.cache_entries,
+        mb(c.raster_cache_bytes)
+    );
+    let (low, high) = beyond_caches.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &r| (lo.min(r), hi.max(r)));
+    println!(
+        "| RSS less what the caches hold MB: min / max / last | {low:.0} / {high:.0} / {:.0} |",
+        beyond_caches.last().copied().unwrap_or(f64::NAN)
+    );
+    println!("| overhead = max RSS - both budgets MB (allowed {OVERHEAD_ALLOWED_MB:.0}) | {:+.0} |", max - budget_mb);
     for o in &c.outer_stores {
         println!("| outer store '{}': hits / misses / writes | {} / {} / {} |", o.name, o.hits, o.misses, o.writes);
     }

@@ -63,6 +63,13 @@ async fn metrics_move_with_reloads_tiles_renders_streams_and_errors() -> anyhow:
     assert!(value(&after, "relief_tiles_carried_total").is_some(), "{after}");
     assert!(value(&after, "relief_tile_cache_misses_total").unwrap_or(0.0) > 0.0, "{after}");
     assert!(value(&after, "relief_tile_cache_bytes").unwrap_or(0.0) > 0.0, "{after}");
+    // The tile at level 0 read the DEM's coarse levels, which the raster
+    // cache holds (the base level of a small raster is held whole, apart).
+    let raster_bytes = value(&after, "relief_raster_cache_bytes").unwrap_or(0.0);
+    assert!(raster_bytes > 0.0, "{after}");
+    let counters = state.counters.clone().unwrap_or_default();
+    assert_eq!(counters.raster_cache_budget_bytes, 512 << 20, "the default raster_mb: {counters:?}");
+    assert!(counters.raster_cache_bytes > 0, "{counters:?}");
     assert!(value(&after, r#"relief_tiles_generated_total{source="dem"}"#).unwrap_or(0.0) > 0.0, "{after}");
     assert_eq!(value(&after, r#"relief_render_pass_seconds_count{pass="terrain"}"#), Some(1.0), "{after}");
     assert_eq!(value(&after, r#"relief_streams_active{kind="events"}"#), Some(1.0), "{after}");

@@ -204,6 +204,8 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
                 .into_iter()
                 .map(|b| pb::OuterStore { name: b.name.into(), hits: b.hits, misses: b.misses, writes: b.writes })
                 .collect(),
+            raster_cache_bytes: relief_source_gdal::cached_bytes(),
+            raster_cache_budget_bytes: relief_source_gdal::block_budget(),
         }),
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),

@@ -56,6 +56,7 @@ fn describe() {
     describe_counter!("relief_tile_cache_misses_total", "tile requests that generated the tile");
     describe_gauge!("relief_tile_cache_bytes", Unit::Bytes, "bytes held by the tile cache");
     describe_gauge!("relief_tile_cache_tiles", "tiles held by the tile cache");
+    describe_gauge!("relief_raster_cache_bytes", Unit::Bytes, "bytes of decoded raster blocks held");
     describe_counter!("relief_tiles_generated_total", "tiles generated, by source");
     describe_histogram!("relief_render_pass_seconds", Unit::Seconds, "time of each render pass per frame, by pass");
     describe_gauge!("relief_streams_active", "open streams, by kind (frames, events)");
@@ -70,6 +71,7 @@ fn collect(calls: &Calls) {
     metrics::counter!("relief_tile_cache_misses_total").absolute(stats.misses);
     metrics::gauge!("relief_tile_cache_bytes").set(stats.bytes as f64);
     metrics::gauge!("relief_tile_cache_tiles").set(stats.entries as f64);
+    metrics::gauge!("relief_raster_cache_bytes").set(relief_source_gdal::cached_bytes() as f64);
     for (source, n) in store.generated() {
         metrics::counter!("relief_tiles_generated_total", "source" => source).absolute(n);
     }

@@ -216,7 +216,7 @@ class EffectState(_message.Message):
     def __init__(self, name: _Optional[str] = ..., sources: _Optional[_Iterable[str]] = ..., ran: _Optional[bool] = ..., last_cost_ms: _Optional[float] = ...) -> None: ...
 
 class Counters(_message.Message):
-    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores")
+    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes")
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     CACHE_HITS_FIELD_NUMBER: _ClassVar[int]
     CACHE_MISSES_FIELD_NUMBER: _ClassVar[int]
@@ -230,6 +230,8 @@ class Counters(_message.Message):
     OPEN_VIEWS_FIELD_NUMBER: _ClassVar[int]
     STREAM_FRAMES_RENDERED_FIELD_NUMBER: _ClassVar[int]
     OUTER_STORES_FIELD_NUMBER: _ClassVar[int]
+    RASTER_CACHE_BYTES_FIELD_NUMBER: _ClassVar[int]
+    RASTER_CACHE_BUDGET_BYTES_FIELD_NUMBER: _ClassVar[int]
     tiles_generated: int
     cache_hits: int
     cache_misses: int
@@ -243,7 +245,9 @@ class Counters(_message.Message):
     open_views: int
     stream_frames_rendered: int
     outer_stores: _containers.RepeatedCompositeFieldContainer[OuterStore]
-    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ...) -> None: ...
+    raster_cache_bytes: int
+    raster_cache_budget_bytes: int
+    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ...) -> None: ...
 
 class OuterStore(_message.Message):
     __slots__ = ("name", "hits", "misses", "writes")
