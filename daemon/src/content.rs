@@ -6,8 +6,8 @@
 //! a new address, so a stale tile is never read back.
 //!
 //! Addresses are worked out off the serving path, by one background thread
-//! after each load and generation (`ContentKeys`); until a source's is
-//! ready its tiles simply skip the outer stores.
+//! at the lowest priority after each load and generation (`ContentKeys`);
+//! until a source's is ready its tiles simply skip the outer stores.
 
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
@@ -88,8 +88,44 @@ pub fn fill(snap: &SceneSnapshot) -> Vec<usize> {
 }
 
 /// The bytes of `path`, hashed: whole up to `WHOLE_FILE_LIMIT`, else its
-/// length and modification time with a 1 MiB sample every 64 MiB.
+/// length and modification time with a 1 MiB sample every 64 MiB. A file
+/// hashed before and not touched since (the same length, modification
+/// time and inode) is not read again: an edit to one file of a mosaic of
+/// hundreds re-reads that file alone. As git does with its index, a file
+/// modified less than `SETTLED` before it was hashed is hashed again next
+/// time: a second write within the clock's tick could leave the same
+/// modification time.
 pub fn file_digest(path: &Path) -> std::io::Result<u128> {
+    use std::collections::HashMap;
+    use std::os::unix::fs::MetadataExt;
+    use std::time::{Duration, SystemTime};
+    /// Length, modification time and inode: what a write changes.
+    type Stamp = (u64, SystemTime, u64);
+    const SETTLED: Duration = Duration::from_secs(2);
+    static KNOWN: OnceLock<Mutex<HashMap<PathBuf, (Stamp, u128)>>> = OnceLock::new();
+    let known = KNOWN.get_or_init(Mutex::default);
+    let stamp_of = |meta: &std::fs::Metadata| Some((meta.len(), meta.modified().ok()?, meta.ino()));
+    let before = stamp_of(&std::fs::metadata(path)?);
+    let remembered = known.lock().expect("digest lock is never poisoned").get(path).copied();
+    if let (Some(before), Some((stamp, digest))) = (before, remembered)
+        && stamp == before
+    {
+        return Ok(digest);
+    }
+    let hashed_at = SystemTime::now();
+    let digest = hash_file(path)?;
+    // Remembered only if the file was settled when read, and did not
+    // change while it was.
+    let settled = before.filter(|(_, modified, _)| *modified + SETTLED < hashed_at);
+    if let Some(stamp) = settled
+        && stamp_of(&std::fs::metadata(path)?) == Some(stamp)
+    {
+        known.lock().expect("digest lock is never poisoned").insert(path.to_path_buf(), (stamp, digest));
+    }
+    Ok(digest)
+}
+
+fn hash_file(path: &Path) -> std::io::Result<u128> {
     let mut file = File::open(path)?;
     let meta = file.metadata()?;
     let mut h = Xxh3::new();
@@ -170,6 +206,12 @@ impl Drop for ContentKeys {
 }
 
 fn run(shared: &Shared, store: &Weak<TileStore>) {
+    // Hashing yields to serving: on a busy machine (a first frame, a
+    // reload) the tiles come first.
+    let lowest = rustix::process::setpriority_process(Some(rustix::thread::gettid()), 19);
+    if let Err(e) = lowest {
+        tracing::debug!("the content-address thread keeps its priority: {e}");
+    }
     loop {
         let snap = {
             let mut state = shared.state.lock().expect("content lock is never poisoned");
@@ -188,5 +230,34 @@ fn run(shared: &Shared, store: &Weak<TileStore>) {
         for index in found {
             store.persist(&snap.slots[index]);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::{Duration, SystemTime};
+
+    use super::*;
+
+    /// Every write gives a new digest: one within the clock's tick of the
+    /// last (the same length, maybe the same modification time) because a
+    /// fresh file is never remembered, and one to a settled file because
+    /// its modification time moves.
+    #[test]
+    fn a_file_digest_follows_every_write() -> std::io::Result<()> {
+        let dir = tempfile::tempdir()?;
+        let path = dir.path().join("dem.bin");
+        std::fs::write(&path, b"first version")?;
+        let first = file_digest(&path)?;
+        std::fs::write(&path, b"other version")?;
+        let second = file_digest(&path)?;
+        assert_ne!(first, second);
+        // Settled: modified a minute ago, remembered, the same answer.
+        File::options().write(true).open(&path)?.set_modified(SystemTime::now() - Duration::from_secs(60))?;
+        assert_eq!(file_digest(&path)?, second);
+        assert_eq!(file_digest(&path)?, second);
+        std::fs::write(&path, b"third version")?;
+        assert_ne!(file_digest(&path)?, second);
+        Ok(())
     }
 }
