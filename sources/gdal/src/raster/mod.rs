@@ -12,6 +12,7 @@ mod decode;
 mod halve;
 mod header;
 mod options;
+mod prefetch;
 mod reload;
 mod tiff;
 mod vrt;
@@ -161,8 +162,10 @@ impl Raster {
         &self.store.levels
     }
 
-    /// The pixels of `rect` of mip `level`.
+    /// The pixels of `rect` of mip `level` (the file blocks under it read
+    /// side by side first: `prefetch`).
     pub(crate) fn window(&self, level: usize, rect: PixelRect) -> Result<Window, SourceError> {
+        prefetch::file_blocks(&self.store, level, &rect);
         self.store.window(level, rect)
     }
 
