@@ -44,13 +44,32 @@ impl Block {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-struct BlockKey {
+pub(crate) struct BlockKey {
     raster: u64,
     level: u8,
     bx: u32,
     by: u32,
     /// Bumped when the block's pixels change, so an old block is never served.
     stamp: u32,
+}
+
+/// Keys of a version's blocks that a newer version replaced: dropped from
+/// the cache when the version holding this goes.
+#[derive(Debug, Default)]
+pub(crate) struct Departing(std::sync::Mutex<Vec<BlockKey>>);
+
+impl Departing {
+    pub(super) fn note(&self, key: BlockKey) {
+        self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(key);
+    }
+}
+
+impl Drop for Departing {
+    fn drop(&mut self) {
+        for key in self.0.get_mut().unwrap_or_else(std::sync::PoisonError::into_inner).iter() {
+            cache().invalidate(key);
+        }
+    }
 }
 
 static BUDGET: AtomicU64 = AtomicU64::new(DEFAULT_BLOCK_BUDGET);
@@ -135,7 +154,7 @@ impl Store {
         self.stamps[level][by * self.blocks_across(level) + bx]
     }
 
-    fn key(&self, level: usize, bx: usize, by: usize) -> BlockKey {
+    pub(super) fn key(&self, level: usize, bx: usize, by: usize) -> BlockKey {
         BlockKey {
             raster: self.uid,
             level: level as u8,
@@ -168,11 +187,6 @@ impl Store {
     pub(crate) fn keep(&self, level: usize, bx: usize, by: usize, block: Arc<Block>) {
         let key = self.key(level, bx, by);
         cache().insert(key, block);
-    }
-
-    /// Drops block (bx, by) of `level` of this version from the cache.
-    pub(crate) fn forget(&self, level: usize, bx: usize, by: usize) {
-        cache().invalidate(&self.key(level, bx, by));
     }
 
     /// The pixels of block (bx, by) of `level`, rectangle of that level.
@@ -220,10 +234,9 @@ impl Store {
         }
         let mut planes =
             with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?;
-        let scale =
-            overview.map_or(1, |o| self.levels.iter().find(|l| l.overview == Some(o)).map_or(1, |l| l.scale as usize));
+        let level = overview.and_then(|o| self.levels.iter().find(|l| l.overview == Some(o)));
         for hole in &self.holes {
-            let hole = hole.shrink(scale);
+            let hole = level.map_or(*hole, |l| hole.on_level(l));
             let (x0, x1) = (hole.x0.max(rect.x0), hole.x1.min(rect.x1));
             let (y0, y1) = (hole.y0.max(rect.y0), hole.y1.min(rect.y1));
             let fill = if self.halving == Halving::ColorMean { 0.0 } else { f32::NAN };

@@ -198,6 +198,7 @@ impl Header {
             bytes_read: previous.map_or_else(|| Arc::new(AtomicU64::new(0)), |p| Arc::clone(&p.bytes_read)),
             poles: [OnceLock::new(), OnceLock::new()],
             signatures: Arc::new(OnceLock::new()),
+            replaced: super::blocks::Departing::default(),
         });
         Ok(raster)
     }

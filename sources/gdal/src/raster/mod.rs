@@ -72,6 +72,10 @@ pub(crate) struct Store {
     /// The blocks' signatures for the next reload, found in the background
     /// (None when the file changed meanwhile).
     signatures: Arc<OnceLock<Option<Signatures>>>,
+    /// Blocks a newer version replaced: they leave the cache when this
+    /// version goes, not before, since a generation still serving it may
+    /// read them meanwhile.
+    replaced: blocks::Departing,
 }
 
 #[derive(Debug, Clone)]
@@ -124,6 +128,21 @@ impl PixelRect {
 
     pub(crate) fn height(&self) -> usize {
         self.y1.saturating_sub(self.y0)
+    }
+
+    /// This rectangle of the base level, over `level` (every pixel it
+    /// touches, by the level's own pixel size: an overview's need not be a
+    /// power of two).
+    pub(crate) fn on_level(&self, level: &LevelInfo) -> Self {
+        let (px, py) = level.pixel;
+        let floor = |v: usize, p: f64| (v as f64 / p).floor() as usize;
+        let ceil = |v: usize, p: f64, size: usize| ((v as f64 / p).ceil() as usize).min(size);
+        Self {
+            x0: floor(self.x0, px),
+            y0: floor(self.y0, py),
+            x1: ceil(self.x1, px, level.width),
+            y1: ceil(self.y1, py, level.height),
+        }
     }
 
     /// This rectangle of the base level, over a level `scale` times coarser
@@ -278,6 +297,7 @@ impl Store {
             bytes_read: Arc::new(AtomicU64::new(0)),
             poles: [OnceLock::new(), OnceLock::new()],
             signatures: Arc::new(OnceLock::new()),
+            replaced: blocks::Departing::default(),
         }
     }
 
@@ -300,6 +320,7 @@ impl Store {
             bytes_read: Arc::clone(&self.bytes_read),
             poles: [OnceLock::new(), OnceLock::new()],
             signatures: Arc::new(OnceLock::new()),
+            replaced: blocks::Departing::default(),
         }
     }
 }

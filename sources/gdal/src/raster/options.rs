@@ -185,4 +185,18 @@ mod tests {
         assert_eq!(VerticalUnits::from_unit_type("ft"), Some(VerticalUnits::Feet));
         assert_eq!(VerticalUnits::from_unit_type("fathoms"), None);
     }
+
+    /// An overview of an odd base spreads its pixels evenly (100,001 base
+    /// pixels over 50,001: each 1.99998 wide), so a base edit at [448, 512)
+    /// touches overview pixels 224 to 256, not 224 to 255 as halving by 2
+    /// would say; a halved level's partial last pixel covers what is left.
+    #[test]
+    fn levels_place_their_pixels_over_the_base() {
+        let overview = LevelInfo::new((50_001, 3), 2.0, Some(0), (100_001.0 / 50_001.0, 1.0), (100_001, 3));
+        assert_eq!(overview.cover, (1.0, 1.0));
+        let rect = super::super::PixelRect { x0: 448, y0: 0, x1: 512, y1: 1 }.on_level(&overview);
+        assert_eq!((rect.x0, rect.x1), (224, 257));
+        let halved = LevelInfo::new((13, 13), 8.0, None, (8.0, 8.0), (100, 100));
+        assert_eq!((halved.cover, halved.column_cover(12), halved.column_cover(11)), ((0.5, 0.5), 0.5, 1.0));
+    }
 }
