@@ -28,7 +28,7 @@ fn queue() -> Option<&'static Mutex<Sender<Job>>> {
         .get_or_init(|| {
             let (tx, rx) = channel::<Job>();
             let rx = Arc::new(Mutex::new(rx));
-            let readers = std::thread::available_parallelism().map_or(2, usize::from).clamp(2, 4);
+            let readers = std::thread::available_parallelism().map_or(2, usize::from).clamp(2, 16);
             let started = (0..readers)
                 .filter(|i| {
                     let rx = Arc::clone(&rx);
@@ -64,18 +64,35 @@ fn file_level(levels: &[LevelInfo], level: usize) -> (usize, usize) {
 /// the reader threads, and returns when they are in (or failed: the
 /// window's own read then meets the error and reports it).
 pub(super) fn file_blocks(store: &Arc<Store>, level: usize, rect: &super::PixelRect) {
-    let (file, span) = file_level(&store.levels, level);
-    let base = &store.levels[file];
-    let (x0, y0) = (rect.x0 * span, rect.y0 * span);
-    let (x1, y1) = ((rect.x1 * span).min(base.width), (rect.y1 * span).min(base.height));
-    if x0 >= x1 || y0 >= y1 {
+    if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return;
     }
-    let missing: Vec<(usize, usize)> = (y0 / BLOCK..=(y1 - 1) / BLOCK)
-        .flat_map(|by| (x0 / BLOCK..=(x1 - 1) / BLOCK).map(move |bx| (bx, by)))
-        .filter(|&(bx, by)| store.cached(file, bx, by).is_none())
+    let (file, span) = file_level(&store.levels, level);
+    let blocks = |l: usize, r: (usize, usize, usize, usize)| {
+        (r.1 / BLOCK..=(r.3 - 1) / BLOCK)
+            .flat_map(move |by| (r.0 / BLOCK..=(r.2 - 1) / BLOCK).map(move |bx| (l, bx, by)))
+    };
+    // Only under the blocks of `level` the cache lacks (file blocks under
+    // cached ones would be read for nothing).
+    let wanted: Vec<(usize, usize, usize)> = blocks(level, (rect.x0, rect.y0, rect.x1, rect.y1))
+        .filter(|&(l, bx, by)| store.cached(l, bx, by).is_none())
         .collect();
-    if missing.len() < 2 {
+    let base = &store.levels[file];
+    let mut missing: Vec<(usize, usize)> = Vec::new();
+    for &(_, bx, by) in &wanted {
+        let (x0, y0) = (bx * BLOCK * span, by * BLOCK * span);
+        let (x1, y1) = (((bx + 1) * BLOCK * span).min(base.width), ((by + 1) * BLOCK * span).min(base.height));
+        if x0 < x1 && y0 < y1 {
+            let under = blocks(file, (x0, y0, x1, y1));
+            missing.extend(under.filter(|&(_, x, y)| store.cached(file, x, y).is_none()).map(|(_, x, y)| (x, y)));
+        }
+    }
+    missing.sort_unstable();
+    missing.dedup();
+    // Read ahead at most a quarter of the block budget: more would be
+    // pushed out again before the window reaches it.
+    let block_bytes = (BLOCK * BLOCK * 4 * store.decoder.planes()) as u64;
+    if missing.len() < 2 || missing.len() as u64 * block_bytes > super::blocks::block_budget() / 4 {
         return;
     }
     let Some(queue) = queue() else { return };
