@@ -28,15 +28,44 @@ const SAMPLE_BYTES: u64 = 1 << 20;
 const SAMPLE_EVERY: u64 = 64 << 20;
 
 /// A source version's content address, once worked out (`None` inside when
-/// it cannot be: a file that cannot be read, an input without one).
+/// it cannot be: a file that cannot be read or that changed since the
+/// version was taken in, an input without one).
 #[derive(Debug, Clone, Default)]
-pub struct ContentKey(Arc<OnceLock<Option<u128>>>);
+pub struct ContentKey(Arc<OnceLock<Option<u128>>>, Arc<Vec<(PathBuf, Option<Stamp>)>>);
 
 impl ContentKey {
+    /// The key of a version just taken in, with its files' stamps as they
+    /// are now: the address is worked out later, and only if they still
+    /// are (a write after the version read its files would otherwise give
+    /// the old version's tiles the new bytes' address).
+    pub fn taken_in(source: Option<&Arc<dyn relief_source::Source>>) -> Self {
+        let files = source.map(|s| s.info().files).unwrap_or_default();
+        let stamped = files.into_iter().map(|f| {
+            let then = stamp(&f);
+            (f, then)
+        });
+        Self(Arc::default(), Arc::new(stamped.collect()))
+    }
+
     /// The address, if it is ready and there is one.
     pub fn get(&self) -> Option<u128> {
         self.0.get().copied().flatten()
     }
+
+    /// Whether every file is as it was when the version was taken in.
+    fn unchanged(&self) -> bool {
+        self.1.iter().all(|(file, then)| stamp(file) == *then)
+    }
+}
+
+/// Length, modification and change times, device and inode: what any
+/// write changes (the change time cannot be set back by a user).
+type Stamp = (u64, std::time::SystemTime, i64, i64, u64, u64);
+
+fn stamp(path: &Path) -> Option<Stamp> {
+    use std::os::unix::fs::MetadataExt;
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()?, meta.ctime(), meta.ctime_nsec(), meta.dev(), meta.ino()))
 }
 
 /// The address of one tile: its source's, the quality it was made with
@@ -72,12 +101,15 @@ pub fn fill(snap: &SceneSnapshot) -> Vec<usize> {
             }
             let mut files = source.info().files;
             files.sort();
+            if !slot.content.unchanged() {
+                return None;
+            }
             for file in files {
                 let name = file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
                 h.update(name.as_bytes());
                 h.update(&file_digest(&file).ok()?.to_le_bytes());
             }
-            Some(h.digest128())
+            slot.content.unchanged().then(|| h.digest128())
         });
         if address.is_some() {
             found.push(index);
@@ -89,26 +121,23 @@ pub fn fill(snap: &SceneSnapshot) -> Vec<usize> {
 
 /// The bytes of `path`, hashed: whole up to `WHOLE_FILE_LIMIT`, else its
 /// length and modification time with a 1 MiB sample every 64 MiB. A file
-/// hashed before and not touched since (the same length, modification
-/// time and inode) is not read again: an edit to one file of a mosaic of
+/// hashed before and not touched since (the same `Stamp`) is not read again: an edit to one file of a mosaic of
 /// hundreds re-reads that file alone. As git does with its index, a file
 /// modified less than `SETTLED` before it was hashed is hashed again next
 /// time: a second write within the clock's tick could leave the same
 /// modification time.
 pub fn file_digest(path: &Path) -> std::io::Result<u128> {
     use std::collections::HashMap;
-    use std::os::unix::fs::MetadataExt;
     use std::time::{Duration, SystemTime};
-    /// Length, modification time and inode: what a write changes.
-    type Stamp = (u64, SystemTime, u64);
     const SETTLED: Duration = Duration::from_secs(2);
+    /// Files remembered at most (a scene's files; past it, forgotten).
+    const REMEMBERED: usize = 100_000;
     static KNOWN: OnceLock<Mutex<HashMap<PathBuf, (Stamp, u128)>>> = OnceLock::new();
     let known = KNOWN.get_or_init(Mutex::default);
-    let stamp_of = |meta: &std::fs::Metadata| Some((meta.len(), meta.modified().ok()?, meta.ino()));
-    let before = stamp_of(&std::fs::metadata(path)?);
+    let before = stamp(path);
     let remembered = known.lock().expect("digest lock is never poisoned").get(path).copied();
-    if let (Some(before), Some((stamp, digest))) = (before, remembered)
-        && stamp == before
+    if let (Some(before), Some((then, digest))) = (before, remembered)
+        && then == before
     {
         return Ok(digest);
     }
@@ -116,11 +145,15 @@ pub fn file_digest(path: &Path) -> std::io::Result<u128> {
     let digest = hash_file(path)?;
     // Remembered only if the file was settled when read, and did not
     // change while it was.
-    let settled = before.filter(|(_, modified, _)| *modified + SETTLED < hashed_at);
-    if let Some(stamp) = settled
-        && stamp_of(&std::fs::metadata(path)?) == Some(stamp)
+    let settled = before.filter(|s| s.1 + SETTLED < hashed_at);
+    if let Some(then) = settled
+        && stamp(path) == Some(then)
     {
-        known.lock().expect("digest lock is never poisoned").insert(path.to_path_buf(), (stamp, digest));
+        let mut known = known.lock().expect("digest lock is never poisoned");
+        if known.len() >= REMEMBERED {
+            known.clear();
+        }
+        known.insert(path.to_path_buf(), (then, digest));
     }
     Ok(digest)
 }
@@ -258,6 +291,20 @@ mod tests {
         assert_eq!(file_digest(&path)?, second);
         std::fs::write(&path, b"third version")?;
         assert_ne!(file_digest(&path)?, second);
+        Ok(())
+    }
+
+    /// A version's files written after it was taken in: it gets no
+    /// address (its tiles would otherwise go under the new bytes' one).
+    #[test]
+    fn a_version_whose_files_changed_since_it_was_taken_in_has_no_address() -> std::io::Result<()> {
+        let dir = tempfile::tempdir()?;
+        let path = dir.path().join("dem.bin");
+        std::fs::write(&path, b"as read")?;
+        let key = ContentKey(Arc::default(), Arc::new(vec![(path.clone(), stamp(&path))]));
+        assert!(key.unchanged());
+        std::fs::write(&path, b"as saved")?;
+        assert!(!key.unchanged());
         Ok(())
     }
 }

@@ -92,7 +92,7 @@ impl SceneSnapshot {
                 h = mix_hash(&h.to_le_bytes(), self.slots[input].effective_version);
             }
             if self.slots[i].effective_version != h {
-                self.slots[i].content = crate::content::ContentKey::default();
+                self.slots[i].content = crate::content::ContentKey::taken_in(self.slots[i].source.as_ref());
             }
             self.slots[i].effective_version = h;
         }
