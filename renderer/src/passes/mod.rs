@@ -24,7 +24,8 @@ use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
 /// time such a pipeline or its bind group is bound, and never frees what
 /// it compiled, so every frame kept megabytes for good. It never inlines
 /// storage buffers, and they read the same everywhere else. The test below
-/// checks that no shader declares `var<storage, read>`.
+/// checks that no shader declares a uniform buffer and that no Rust source
+/// binds or makes one.
 pub fn params_binding(min_binding_size: Option<wgpu::BufferSize>) -> wgpu::BindingType {
     wgpu::BindingType::Buffer {
         ty: wgpu::BufferBindingType::Storage { read_only: true },
@@ -257,12 +258,13 @@ mod tests {
     }
 
     /// Every `.wgsl` file under `dir`, a pass added later's included.
-    fn wgsl_files(dir: &std::path::Path, found: &mut Vec<std::path::PathBuf>) -> std::io::Result<()> {
+    /// Every file under `dir` whose extension is `ext`.
+    fn files_ending(dir: &std::path::Path, ext: &str, found: &mut Vec<std::path::PathBuf>) -> std::io::Result<()> {
         for entry in std::fs::read_dir(dir)? {
             let path = entry?.path();
             if path.is_dir() {
-                wgsl_files(&path, found)?;
-            } else if path.extension().is_some_and(|e| e == "wgsl") {
+                files_ending(&path, ext, found)?;
+            } else if path.extension().is_some_and(|e| e == ext) {
                 found.push(path);
             }
         }
@@ -294,12 +296,25 @@ mod tests {
             }
         }
         let mut files = Vec::new();
-        wgsl_files(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), &mut files)
+        files_ending(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), "wgsl", &mut files)
             .map_err(|e| format!("cannot list the shaders: {e}"))?;
         for path in &files {
             let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            if text.contains("var<uniform>") {
+            let squeezed: String = text.chars().filter(|c| !c.is_whitespace()).collect();
+            if squeezed.contains("var<uniform>") {
                 return Err(format!("{} declares a uniform buffer: bind it as read-only storage", path.display()));
+            }
+        }
+        // Nor a binding or a buffer made as one in the Rust sources (this
+        // file names them only to forbid them).
+        let mut sources = Vec::new();
+        files_ending(&std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("src"), "rs", &mut sources)
+            .map_err(|e| format!("cannot list the sources: {e}"))?;
+        let forbidden = [concat!("BufferBindingType::", "Uniform"), concat!("BufferUsages::", "UNIFORM")];
+        for path in &sources {
+            let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            if let Some(what) = forbidden.iter().find(|f| text.contains(**f)) {
+                return Err(format!("{} uses {what}: bind it as read-only storage", path.display()));
             }
         }
         if files.len() < 10 {
