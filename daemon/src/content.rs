@@ -14,6 +14,7 @@ use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Condvar, Mutex, OnceLock, Weak};
 
+use relief_source::files::FileStamp;
 use xxhash_rust::xxh3::Xxh3;
 
 use crate::graph::SceneSnapshot;
@@ -31,7 +32,7 @@ const SAMPLE_EVERY: u64 = 64 << 20;
 /// it cannot be: a file that cannot be read or that changed since the
 /// version was taken in, an input without one).
 #[derive(Debug, Clone, Default)]
-pub struct ContentKey(Arc<OnceLock<Option<u128>>>, Arc<Vec<(PathBuf, Option<Stamp>)>>);
+pub struct ContentKey(Arc<OnceLock<Option<u128>>>, Arc<Vec<(PathBuf, Option<FileStamp>)>>);
 
 impl ContentKey {
     /// The key of a version just taken in, with its files' stamps as they
@@ -41,7 +42,7 @@ impl ContentKey {
     pub fn taken_in(source: Option<&Arc<dyn relief_source::Source>>) -> Self {
         let files = source.map(|s| s.info().files).unwrap_or_default();
         let stamped = files.into_iter().map(|f| {
-            let then = stamp(&f);
+            let then = FileStamp::of(&f);
             (f, then)
         });
         Self(Arc::default(), Arc::new(stamped.collect()))
@@ -54,18 +55,8 @@ impl ContentKey {
 
     /// Whether every file is as it was when the version was taken in.
     fn unchanged(&self) -> bool {
-        self.1.iter().all(|(file, then)| stamp(file) == *then)
+        self.1.iter().all(|(file, then)| FileStamp::of(file) == *then)
     }
-}
-
-/// Length, modification and change times, device and inode: what any
-/// write changes (the change time cannot be set back by a user).
-type Stamp = (u64, std::time::SystemTime, i64, i64, u64, u64);
-
-fn stamp(path: &Path) -> Option<Stamp> {
-    use std::os::unix::fs::MetadataExt;
-    let meta = std::fs::metadata(path).ok()?;
-    Some((meta.len(), meta.modified().ok()?, meta.ctime(), meta.ctime_nsec(), meta.dev(), meta.ino()))
 }
 
 /// The address of one tile: its source's, the quality it was made with
@@ -121,8 +112,9 @@ pub fn fill(snap: &SceneSnapshot) -> Vec<usize> {
 
 /// The bytes of `path`, hashed: whole up to `WHOLE_FILE_LIMIT`, else its
 /// length and modification time with a 1 MiB sample every 64 MiB. A file
-/// hashed before and not touched since (the same `Stamp`) is not read again: an edit to one file of a mosaic of
-/// hundreds re-reads that file alone. As git does with its index, a file
+/// hashed before and not touched since (the same `FileStamp`) is not read
+/// again: an edit to one file of a mosaic of hundreds re-reads that file
+/// alone. As git does with its index, a file
 /// modified less than `SETTLED` before it was hashed is hashed again next
 /// time: a second write within the clock's tick could leave the same
 /// modification time.
@@ -132,9 +124,9 @@ pub fn file_digest(path: &Path) -> std::io::Result<u128> {
     const SETTLED: Duration = Duration::from_secs(2);
     /// Files remembered at most (a scene's files; past it, forgotten).
     const REMEMBERED: usize = 100_000;
-    static KNOWN: OnceLock<Mutex<HashMap<PathBuf, (Stamp, u128)>>> = OnceLock::new();
+    static KNOWN: OnceLock<Mutex<HashMap<PathBuf, (FileStamp, u128)>>> = OnceLock::new();
     let known = KNOWN.get_or_init(Mutex::default);
-    let before = stamp(path);
+    let before = FileStamp::of(path);
     let remembered = known.lock().expect("digest lock is never poisoned").get(path).copied();
     if let (Some(before), Some((then, digest))) = (before, remembered)
         && then == before
@@ -145,9 +137,9 @@ pub fn file_digest(path: &Path) -> std::io::Result<u128> {
     let digest = hash_file(path)?;
     // Remembered only if the file was settled when read, and did not
     // change while it was.
-    let settled = before.filter(|s| s.1 + SETTLED < hashed_at);
+    let settled = before.filter(|s| s.modified().is_some_and(|m| m + SETTLED < hashed_at));
     if let Some(then) = settled
-        && stamp(path) == Some(then)
+        && FileStamp::of(path) == Some(then)
     {
         let mut known = known.lock().expect("digest lock is never poisoned");
         if known.len() >= REMEMBERED {
@@ -301,7 +293,7 @@ mod tests {
         let dir = tempfile::tempdir()?;
         let path = dir.path().join("dem.bin");
         std::fs::write(&path, b"as read")?;
-        let key = ContentKey(Arc::default(), Arc::new(vec![(path.clone(), stamp(&path))]));
+        let key = ContentKey(Arc::default(), Arc::new(vec![(path.clone(), FileStamp::of(&path))]));
         assert!(key.unchanged());
         std::fs::write(&path, b"as saved")?;
         assert!(!key.unchanged());

@@ -104,6 +104,42 @@ pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
     files
 }
 
+/// One file as a write leaves it: size, modification and change times
+/// (a user can set the first back, never the second), device and inode.
+/// Compared around reads (a writer at work) and before trusting what was
+/// worked out from the file earlier.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FileStamp {
+    len: u64,
+    modified: Option<std::time::SystemTime>,
+    changed: (i64, i64),
+    dev: u64,
+    ino: u64,
+}
+
+impl FileStamp {
+    /// No file seen (a store not yet reading one).
+    pub const NONE: Self = Self { len: 0, modified: None, changed: (0, 0), dev: 0, ino: 0 };
+
+    /// The file's stamp now; None when it cannot be read.
+    pub fn of(path: &Path) -> Option<Self> {
+        use std::os::unix::fs::MetadataExt;
+        let meta = std::fs::metadata(path).ok()?;
+        Some(Self {
+            len: meta.len(),
+            modified: meta.modified().ok(),
+            changed: (meta.ctime(), meta.ctime_nsec()),
+            dev: meta.dev(),
+            ino: meta.ino(),
+        })
+    }
+
+    /// When the file was last modified, if the system says.
+    pub fn modified(&self) -> Option<std::time::SystemTime> {
+        self.modified
+    }
+}
+
 /// What a dataset's files looked like: names, sizes, modification times
 /// and inodes. A refresh compares it; a read that sees it change while
 /// reading is discarded (a writer was at work). An empty SQLite

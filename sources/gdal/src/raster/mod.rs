@@ -36,8 +36,9 @@ use decode::Decoder;
 use halve::Halving;
 use header::apply;
 pub(crate) use header::open_dataset;
-pub(crate) use options::{FileStamp, LevelInfo, ReadOptions};
+pub(crate) use options::{LevelInfo, ReadOptions};
 pub use options::{RasterKind, Residency, VerticalUnits};
+pub(crate) use relief_source::files::FileStamp;
 pub(crate) use reload::Reloaded;
 
 /// Where one version of a raster's pixels come from, and what of them is

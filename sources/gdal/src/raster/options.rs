@@ -1,8 +1,6 @@
 //! How the manifest asks a raster to be read, what it is read as, and
 //! the little records of a file the rest compares.
 
-use std::path::Path;
-
 use super::changes::ChangeDetection;
 use crate::resample::LevelAxis;
 
@@ -152,26 +150,6 @@ pub(crate) struct ReadOptions {
     pub changes: ChangeDetection,
     /// Use the file's overviews for coarse levels.
     pub overviews: bool,
-}
-
-/// The primary file's size, modification time and inode: checked around
-/// every read of a windowed raster.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct FileStamp {
-    len: u64,
-    modified: Option<std::time::SystemTime>,
-    ino: u64,
-}
-
-impl FileStamp {
-    /// No file seen (a store not yet reading one).
-    pub(crate) const NONE: Self = Self { len: 0, modified: None, ino: 0 };
-
-    pub(crate) fn of(path: &Path) -> Option<Self> {
-        use std::os::unix::fs::MetadataExt;
-        let meta = std::fs::metadata(path).ok()?;
-        Some(Self { len: meta.len(), modified: meta.modified().ok(), ino: meta.ino() })
-    }
 }
 
 #[cfg(test)]
