@@ -92,6 +92,10 @@ pub fn globe_spec() -> RasterSpec<'static> {
     RasterSpec { width: 720, height: 360, origin_x: -180.0, origin_y: 90.0, pixel: 0.5, crs: "EPSG:4326", nodata: None }
 }
 
+/// The 20 km square of UTM 12N round `utm_surface` that analytic scenes
+/// are served on: CRS, west and south edges and side, metres.
+pub const UTM_SQUARE: (&str, f64, f64, f64) = ("EPSG:32612", 290_000.0, 5_090_000.0, 20_000.0);
+
 /// A smooth analytic surface in UTM 12N metres, around Storm Lake, Montana.
 pub fn utm_surface(x: f64, y: f64) -> f64 {
     2500.0 + 0.05 * (x - 300_000.0) - 0.02 * (y - 5_100_000.0) + 80.0 * ((x / 700.0).sin() * (y / 900.0).cos())

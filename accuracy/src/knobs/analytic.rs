@@ -62,16 +62,9 @@ pub fn utm_scene(
     config: ClipmapConfig,
     height: fn(f64, f64) -> f64,
 ) -> anyhow::Result<(Renderer, Analytic)> {
-    let grid = TileGrid::new(
-        GridKind::Projected(ProjectedGrid {
-            crs: "EPSG:32612".into(),
-            min_x: 290_000.0,
-            min_y: 5_090_000.0,
-            size: 20_000.0,
-        }),
-        256,
-    )
-    .map_err(anyhow::Error::msg)?;
+    let (crs, min_x, min_y, size) = relief_examples::UTM_SQUARE;
+    let grid = TileGrid::new(GridKind::Projected(ProjectedGrid { crs: crs.into(), min_x, min_y, size }), 256)
+        .map_err(anyhow::Error::msg)?;
     let surface = Surface::new(grid);
     let source = Analytic { surface: surface.clone(), height, max_level: 8 };
     Ok((Renderer::new(Arc::clone(gpu), surface, config)?, source))

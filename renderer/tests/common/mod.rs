@@ -78,16 +78,8 @@ pub fn utm_scene(config: ClipmapConfig) -> (Renderer, Analytic) {
 
 /// The same 20 km of UTM 12N round the analytic surface `height`.
 pub fn utm_scene_of(config: ClipmapConfig, height: fn(f64, f64) -> f64) -> (Renderer, Analytic) {
-    let grid = TileGrid::new(
-        GridKind::Projected(ProjectedGrid {
-            crs: "EPSG:32612".into(),
-            min_x: 290_000.0,
-            min_y: 5_090_000.0,
-            size: 20_000.0,
-        }),
-        256,
-    )
-    .unwrap();
+    let (crs, min_x, min_y, size) = relief_examples::UTM_SQUARE;
+    let grid = TileGrid::new(GridKind::Projected(ProjectedGrid { crs: crs.into(), min_x, min_y, size }), 256).unwrap();
     let surface = Surface::new(grid);
     let source = Analytic { surface: surface.clone(), height, max_level: 8, ready_up_to: u8::MAX };
     (Renderer::new(gpu(), surface, config).unwrap(), source)
