@@ -150,13 +150,26 @@ fn profile(
     terrain: &SceneTerrain<'_>,
     frames: usize,
 ) -> anyhow::Result<()> {
+    // The demo's effects named in RELIEF_BENCH_PROFILE_EFFECTS (commas), on
+    // top of lighting.
+    let named = std::env::var("RELIEF_BENCH_PROFILE_EFFECTS").unwrap_or_default();
+    let on = |name: &str| named.split(',').any(|n| n.trim() == name);
+    let declared = &snap.manifest.effect_settings;
+    let settings = RenderSettings {
+        atmosphere: declared.atmosphere.filter(|_| on("atmosphere")),
+        fog: declared.fog.filter(|_| on("fog")),
+        shadows: declared.shadows.filter(|_| on("shadows")),
+        water: declared.water.filter(|_| on("water")),
+        ..SETTINGS
+    };
+    let layers = SceneLayers { water: settings.water.map(|_| terrain as &dyn WaterSamples), ..SceneLayers::default() };
     let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-    renderer.render(terrain, &pose(10), &SETTINGS)?;
+    renderer.render_scene(terrain, layers, &pose(10), &settings)?;
     // Each frame's pass times only: the images go, as a viewer's do.
     let runs = (0..frames.max(1))
-        .map(|_| Ok(renderer.render(terrain, &pose(10), &SETTINGS)?.passes))
+        .map(|_| Ok(renderer.render_scene(terrain, layers, &pose(10), &settings)?.passes))
         .collect::<anyhow::Result<Vec<Vec<(&str, f64)>>>>()?;
-    println!("\n## The default still frame, {} times (for a profiler)", runs.len());
+    println!("\n## The default still frame, {} times (for a profiler), effects: {named}", runs.len());
     println!("| pass | median ms |");
     println!("|---|---|");
     for (i, (name, _)) in runs[0].iter().enumerate() {
@@ -175,10 +188,24 @@ fn still_frames(
     settings: &RenderSettings,
     at: &Pose,
 ) -> anyhow::Result<Vec<Frame>> {
+    let poses = vec![*at; 7];
+    frames_along(gpu, snap, terrain, settings, at, &poses)
+}
+
+/// Frames of `settings` from each of `poses` in turn, after one (untimed)
+/// from `first`, by one renderer.
+fn frames_along(
+    gpu: &Arc<Gpu>,
+    snap: &relief_daemon::graph::SceneSnapshot,
+    terrain: &SceneTerrain<'_>,
+    settings: &RenderSettings,
+    first: &Pose,
+    poses: &[Pose],
+) -> anyhow::Result<Vec<Frame>> {
     let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
     let layers = SceneLayers { water: settings.water.map(|_| terrain as &dyn WaterSamples), ..SceneLayers::default() };
-    renderer.render_scene(terrain, layers, at, settings)?;
-    (0..7).map(|_| Ok(renderer.render_scene(terrain, layers, at, settings)?)).collect()
+    renderer.render_scene(terrain, layers, first, settings)?;
+    poses.iter().map(|at| Ok(renderer.render_scene(terrain, layers, at, settings)?)).collect()
 }
 
 /// The default clipmap's still frame with the level blocks outside the
@@ -225,8 +252,11 @@ fn effects(
     let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
     let shadows = snap.manifest.effect_settings.shadows.context("the demo declares shadows")?;
     let water = snap.manifest.effect_settings.water.context("the demo declares water")?;
+    // Shadow maps drawn in the last still run's timed frames.
+    let maps_drawn = std::cell::Cell::new(0usize);
     let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
         let runs = still_frames(gpu, snap, terrain, &settings, at)?;
+        maps_drawn.set(runs.iter().map(|f| f.drawn.shadow_maps_drawn).sum());
         let total = median(runs.iter().map(total_ms).collect());
         let effect_ms = median(
             runs.iter()
@@ -260,17 +290,33 @@ fn effects(
             RenderSettings { atmosphere: Some(atmosphere), fog: Some(fog), water: Some(water), ..lit },
         ),
     ];
-    println!("\n### Effects: the default still frame (n 127, L 8), median of 7");
+    println!(
+        "\n### Effects: the default frame (n 127, L 8), still (median of 7) and flying 25 m a frame (median of 10)"
+    );
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
-    println!("| effects | effect passes ms | frame ms | / lighting alone |");
-    println!("|---|---|---|---|");
-    let mut alone = f64::NAN;
+    println!(
+        "a still camera under a still sun keeps its shadow maps (`shadow maps drawn` counts those drawn in the timed frames); a flying one draws them every frame"
+    );
+    println!(
+        "| effects | effect passes ms | still frame ms | / lighting alone | flying frame ms | / lighting alone | shadow maps drawn, still / flying |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let (mut alone, mut alone_flying) = (f64::NAN, f64::NAN);
     for (label, settings) in cases {
         let (total, effect_ms, _) = still(settings, &pose(10))?;
+        let still_maps = maps_drawn.get();
+        let poses: Vec<Pose> = (1..=10).map(pose).collect();
+        let flying_frames = frames_along(gpu, snap, terrain, &settings, &pose(0), &poses)?;
+        let flying = median(flying_frames.iter().map(total_ms).collect());
+        let flying_maps: usize = flying_frames.iter().map(|f| f.drawn.shadow_maps_drawn).sum();
         if settings == lit {
-            alone = total;
+            (alone, alone_flying) = (total, flying);
         }
-        println!("| {label} | {effect_ms:.1} | {total:.1} | {:.2}x |", total / alone);
+        println!(
+            "| {label} | {effect_ms:.1} | {total:.1} | {:.2}x | {flying:.1} | {:.2}x | {still_maps} / {flying_maps} |",
+            total / alone,
+            flying / alone_flying
+        );
     }
 
     println!("\n### Knobs `atmosphere_steps` and `atmosphere_downsample`, frame 1280 x 720, median of 7");

@@ -29,7 +29,13 @@ impl Gpu {
         let info = adapter.get_info();
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("relief"),
-            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            // The flat inputs the full-screen passes take (`overlay`): as many
+            // as the adapter has (lavapipe 31; the downlevel 15 would not
+            // carry the shadowed atmosphere's 17).
+            required_limits: wgpu::Limits {
+                max_inter_stage_shader_variables: adapter.limits().max_inter_stage_shader_variables,
+                ..wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits())
+            },
             ..Default::default()
         }))
         .map_err(|e| RenderError::Device(e.to_string()))?;

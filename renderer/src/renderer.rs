@@ -117,6 +117,10 @@ pub struct Drawn {
     pub instances_in_view: usize,
     pub models: usize,
     pub billboards: usize,
+    /// Shadow maps drawn this frame, and kept from the last one (the same
+    /// cascades over the same casters).
+    pub shadow_maps_drawn: usize,
+    pub shadow_maps_kept: usize,
 }
 
 /// A rendered frame.
@@ -340,6 +344,7 @@ impl Renderer {
             let pass = self.shadows.get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, &self.frame_buffer));
             self.counters.set_built(passes::SHADOWS, true);
             pass.run(&self.gpu, &self.frame_buffer, &target, shadows, &at, casters)?;
+            (drawn.shadow_maps_drawn, drawn.shadow_maps_kept) = (pass.work.drawn, pass.work.kept);
             passes.push((passes::SHADOWS, self.counters.ran(passes::SHADOWS, started)));
         }
         if water.is_none() && self.water.take().is_some() {
@@ -349,6 +354,7 @@ impl Renderer {
             let started = Instant::now();
             let at = WaterView {
                 eye: eye.unwrap_or_default(),
+                sun_light: (frame_uniform.sun, frame_uniform.light),
                 view_proj: view.view_projection(aspect),
                 eye_world: view.eye,
                 under: (pose.position[0], pose.position[1]),
@@ -490,6 +496,16 @@ impl Renderer {
                 return Err(RenderError::Request {
                     field: "shadow_map_size",
                     message: format!("{} is larger than this device's {max} texels", shadows.map_size),
+                });
+            }
+            let carried = self.gpu.device.limits().max_inter_stage_shader_variables as usize;
+            if settings.atmosphere.is_some() && carried < AtmospherePass::SHADOWED_INPUTS {
+                return Err(RenderError::Request {
+                    field: "shadows",
+                    message: format!(
+                        "shadowed air needs {} values between shader stages; this device carries {carried}: declare shadows or atmosphere, not both",
+                        AtmospherePass::SHADOWED_INPUTS
+                    ),
                 });
             }
         }

@@ -51,6 +51,42 @@ fn shadows_fall_where_the_ray_cast_says_and_away_from_the_sun() {
 }
 
 #[test]
+fn maps_are_kept_while_cascades_and_casters_stay_and_drawn_when_either_changes() {
+    let (mut renderer, source) = utm_scene_of(ClipmapConfig::default(), peaks);
+    let at = over_the_peaks();
+    renderer.render(&source, &at, &LIT).unwrap();
+    let settings = RenderSettings { shadows: Some(Shadows::DEFAULT), ..LIT };
+    let cascades = Shadows::DEFAULT.cascades as usize;
+    let counts = |f: &relief_renderer::Frame| (f.drawn.shadow_maps_drawn, f.drawn.shadow_maps_kept);
+
+    let first = renderer.render(&source, &at, &settings).unwrap();
+    assert_eq!(counts(&first), (cascades, 0), "the first frame draws every map");
+    let still = renderer.render(&source, &at, &settings).unwrap();
+    assert_eq!(counts(&still), (0, cascades), "a still camera under a still sun keeps them");
+    assert_eq!(still.rgba, first.rgba, "kept maps shade as the drawn ones did");
+
+    // The camera moves 10 m: new cascades, drawn; back: drawn again.
+    let moved = Pose { position: [at.position[0] + 10.0, at.position[1], at.position[2]], ..at };
+    assert_eq!(counts(&renderer.render(&source, &moved, &settings).unwrap()), (cascades, 0), "moved");
+    let back = renderer.render(&source, &at, &settings).unwrap();
+    assert_eq!(counts(&back), (cascades, 0), "back");
+    assert_eq!(back.rgba, first.rgba);
+
+    // The sun moves a tenth of a degree.
+    let sun = SunAngles { azimuth_deg: SUN.azimuth_deg + 0.1, ..SUN };
+    let turned = renderer.render(&source, &at, &RenderSettings { sun, ..settings }).unwrap();
+    assert_eq!(counts(&turned), (cascades, 0), "the sun moved");
+
+    // The terrain's samples are rebuilt under the view: drawn again, and
+    // (the same heights) to the same image.
+    renderer.render(&source, &at, &settings).unwrap();
+    renderer.invalidate(&source, &relief_source::Extent::new(300_000.0, 5_090_000.0, 305_000.0, 5_100_000.0));
+    let rebuilt = renderer.render(&source, &at, &settings).unwrap();
+    assert_eq!(counts(&rebuilt), (cascades, 0), "the terrain changed");
+    assert_eq!(rebuilt.rgba, first.rgba);
+}
+
+#[test]
 fn hard_suns_give_valid_images() {
     let (mut renderer, source) = utm_scene_of(ClipmapConfig::default(), peaks);
     let at = over_the_peaks();

@@ -146,6 +146,16 @@ pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderM
     })
 }
 
+/// A 64-bit digest of what a pass drew, for telling whether two frames
+/// drew the same (a collision would keep a stale shadow map one frame:
+/// one in 2^64).
+pub fn key_of(value: &impl std::hash::Hash) -> u64 {
+    use std::hash::Hasher;
+    let mut hasher = std::hash::DefaultHasher::new();
+    value.hash(&mut hasher);
+    hasher.finish()
+}
+
 /// Terrain: the clipmap levels over the coarse base, coloured by the
 /// colour layer, lit by the `lighting` effect.
 pub const TERRAIN: &str = "terrain";
@@ -240,20 +250,20 @@ mod tests {
     /// Every pass's shader put together as its pass does it.
     fn shaders() -> Vec<(&'static str, String)> {
         let framed = |source: &str| format!("{}\n{source}", include_str!("frame.wgsl"));
-        let overlay = |source: &str| framed(&format!("{}\n{source}", super::overlay::FULLSCREEN));
-        let shadowed = |source: &str| overlay(&format!("{}\n{source}", super::shadows::LOOKUP));
+        let fullscreen = super::overlay::fullscreen;
+        let overlay = |own, source: &str| framed(&format!("{}\n{source}", fullscreen(own, 0)));
+        let table = super::shadows::TABLE_VEC4S;
+        let shadowed =
+            |own, source: &str| framed(&format!("{}\n{}\n{source}", fullscreen(own, table), super::shadows::LOOKUP));
         vec![
             ("terrain", framed(&format!("const COLOR_DETAIL: i32 = 2;\n{}", include_str!("terrain/terrain.wgsl")))),
             ("buildings", framed(include_str!("buildings/buildings.wgsl"))),
             ("instances", framed(include_str!("instances/instances.wgsl"))),
-            ("shadows", shadowed(include_str!("shadows/shadows.wgsl"))),
-            ("atmosphere", shadowed(include_str!("atmosphere/atmosphere.wgsl"))),
-            (
-                "atmosphere composite",
-                format!("{}\n{}", super::overlay::FULLSCREEN, include_str!("atmosphere/composite.wgsl")),
-            ),
-            ("water", overlay(include_str!("water/water.wgsl"))),
-            ("fog", overlay(include_str!("fog/fog.wgsl"))),
+            ("shadows", shadowed(6, include_str!("shadows/shadows.wgsl"))),
+            ("atmosphere", shadowed(8, include_str!("atmosphere/atmosphere.wgsl"))),
+            ("atmosphere composite", format!("{}\n{}", fullscreen(0, 0), include_str!("atmosphere/composite.wgsl"))),
+            ("water", overlay(11, include_str!("water/water.wgsl"))),
+            ("fog", overlay(7, include_str!("fog/fog.wgsl"))),
         ]
     }
 

@@ -1,6 +1,13 @@
 //! What the full-screen effect passes share: a pipeline laid over the
 //! frame (blended by its alpha, no depth attachment), and one bind group
 //! of the frame uniform, the effect's own uniform and the frame's depth.
+//!
+//! The effect's uniform (and a second group's table, the shadow cascades)
+//! reaches the fragments as flat inputs: the vertex stage reads it for the
+//! triangle's three corners and every pixel gets it from the triangle's
+//! setup. A fragment shader that read it from its buffer would load it
+//! again in every pixel, and lavapipe loads a storage buffer one lane at a
+//! time (with the Eye's matrix, 46 of the fog's 92 ms a frame here).
 
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Mat4};
@@ -16,20 +23,23 @@ pub struct Overlay {
 }
 
 impl Overlay {
-    /// The effect `label` drawn by `source` (after `frame.wgsl`): vertex
-    /// entry `vs_fullscreen`, fragment entry `fs`, its uniform a `U` at
-    /// binding 1 and the depth at binding 2, drawn into `target` (the
-    /// frame's colour with a blend that lays it over, or a texture of the
-    /// effect's own); `group1`, when given, the layout of a second bind
-    /// group (the shadow cascades).
+    /// The effect `label` drawn by `source` (after `frame.wgsl` and
+    /// `fullscreen`): fragment entry `fs` taking an `OverlayIn`, its
+    /// uniform a `U` at binding 1 (read as `own_of(in)`) and the depth at
+    /// binding 2, drawn into `target` (the frame's colour with a blend that
+    /// lays it over, or a texture of the effect's own); `group1`, when
+    /// given, the layout of a second bind group (the shadow cascades) and
+    /// the vec4s of its table at binding 0 (`table_of(in)`), if any.
     pub fn new<U: Pod + Default>(
         device: &wgpu::Device,
         frame_buffer: &wgpu::Buffer,
         (label, source): (&str, &str),
         target: wgpu::ColorTargetState,
-        group1: Option<&wgpu::BindGroupLayout>,
+        group1: Option<(&wgpu::BindGroupLayout, usize)>,
     ) -> Self {
-        let shader = super::shader(device, label, &format!("{FULLSCREEN}\n{source}"));
+        let own = size_of::<U>() / size_of::<[f32; 4]>();
+        let table = group1.map_or(0, |(_, n)| n);
+        let shader = super::shader(device, label, &format!("{}\n{source}", fullscreen(own, table)));
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
         let uniform = |min| super::params_binding(wgpu::BufferSize::new(min));
         let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
@@ -37,7 +47,7 @@ impl Overlay {
             label: Some(label),
             entries: &[
                 entry(0, stages, uniform(frame_buffer.size())),
-                entry(1, wgpu::ShaderStages::FRAGMENT, uniform(size_of::<U>() as u64)),
+                entry(1, wgpu::ShaderStages::VERTEX, uniform(size_of::<U>() as u64)),
                 entry(
                     2,
                     wgpu::ShaderStages::FRAGMENT,
@@ -51,7 +61,7 @@ impl Overlay {
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some(label),
-            bind_group_layouts: &[Some(&layout), group1],
+            bind_group_layouts: &[Some(&layout), group1.map(|(layout, _)| layout)],
             immediate_size: 0,
         });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -142,6 +152,10 @@ pub struct Eye {
 }
 
 impl Eye {
+    pub fn inverse_view_proj(&self) -> [[f32; 4]; 4] {
+        self.inv_view_proj
+    }
+
     pub fn new(view_proj: Mat4, up: DVec3, height_m: f64) -> Self {
         Self {
             inv_view_proj: view_proj.inverse().to_cols_array_2d(),
@@ -150,15 +164,66 @@ impl Eye {
     }
 }
 
-/// One triangle over the whole screen, the eye, and a pixel's view ray.
+/// The shared part of every full-screen pass: one triangle over the whole
+/// screen whose corners carry the effect's uniform (`own` vec4s) and a
+/// second group's table (`table` vec4s) to every pixel as flat inputs, the
+/// eye, and a pixel's view ray.
+pub fn fullscreen(own: usize, table: usize) -> String {
+    use std::fmt::Write;
+    let mut s = String::from("struct OverlayIn {\n    @builtin(position) position: vec4<f32>,\n");
+    for i in 0..own {
+        let _ = writeln!(s, "    @location({i}) @interpolate(flat) own{i}: vec4<f32>,");
+    }
+    for i in 0..table {
+        let _ = writeln!(s, "    @location({}) @interpolate(flat) table{i}: vec4<f32>,", own + i);
+    }
+    s.push_str("}\n");
+    if own > 0 {
+        let _ = writeln!(s, "@group(0) @binding(1) var<storage, read> overlay_own: array<vec4<f32>, {own}>;");
+    }
+    if table > 0 {
+        let _ = writeln!(s, "@group(1) @binding(0) var<storage, read> overlay_table: array<vec4<f32>, {table}>;");
+    }
+    s.push_str("@vertex\nfn vs_fullscreen(@builtin(vertex_index) vi: u32) -> OverlayIn {\n    var out: OverlayIn;\n");
+    s.push_str("    out.position = fullscreen_corner(vi);\n");
+    for i in 0..own {
+        let _ = writeln!(s, "    out.own{i} = overlay_own[{i}];");
+    }
+    for i in 0..table {
+        let _ = writeln!(s, "    out.table{i} = overlay_table[{i}];");
+    }
+    s.push_str("    return out;\n}\n");
+    let list = |prefix: &str, n: usize| (0..n).map(|i| format!("input.{prefix}{i}")).collect::<Vec<_>>().join(", ");
+    if own > 0 {
+        let _ = writeln!(
+            s,
+            "fn own_of(input: OverlayIn) -> array<vec4<f32>, {own}> {{ return array<vec4<f32>, {own}>({}); }}",
+            list("own", own)
+        );
+    }
+    if table > 0 {
+        let _ = writeln!(
+            s,
+            "fn table_of(input: OverlayIn) -> array<vec4<f32>, {table}> {{ return array<vec4<f32>, {table}>({}); }}",
+            list("table", table)
+        );
+    }
+    format!("{s}{FULLSCREEN}")
+}
+
+/// The eye, the full-screen triangle's corners, and a pixel's view ray.
 pub const FULLSCREEN: &str = r"
 struct Eye {
     inv_view_proj: mat4x4<f32>,
     up: vec4<f32>,
 }
 
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) vi: u32) -> @builtin(position) vec4<f32> {
+// The eye from the first five vec4s of `v` (an overlay's own inputs).
+fn eye_of(v0: vec4<f32>, v1: vec4<f32>, v2: vec4<f32>, v3: vec4<f32>, v4: vec4<f32>) -> Eye {
+    return Eye(mat4x4<f32>(v0, v1, v2, v3), v4);
+}
+
+fn fullscreen_corner(vi: u32) -> vec4<f32> {
     let x = f32(i32(vi & 1u) * 4 - 1);
     let y = f32(i32(vi >> 1u) * 4 - 1);
     return vec4<f32>(x, y, 0.0, 1.0);

@@ -10,7 +10,7 @@
 // (sky and aerial perspective alike), computed for one frame pixel in
 // `downsample` to a side and laid over the frame smoothly (`composite`).
 // Where the scene casts shadows, air the cascades say the sun does not
-// reach scatters none of its light (`sun_visible`).
+// reach scatters none of its light (`sun_visible_texel`).
 // Heights come from scalar distances
 // and cosines (no f32 positions at planet scale). Over flat ground the
 // same model runs over a plane.
@@ -27,7 +27,8 @@ struct Atmosphere {
     frame_size: vec4<f32>,
 }
 
-@group(0) @binding(1) var<storage, read> atmo: Atmosphere;
+// This pixel's Atmosphere, from the overlay's flat inputs (`fs`).
+var<private> atmo: Atmosphere;
 @group(0) @binding(2) var depth: texture_depth_2d;
 
 const BETA_R = vec3<f32>(5.8e-6, 13.5e-6, 33.1e-6);
@@ -131,7 +132,11 @@ fn inside(h0: f32, mu: f32, to_ground: bool) -> vec2<f32> {
 // The ray goes through that pixel's own centre, where its depth was
 // drawn (with an even downsample the texel's centre is a pixel corner).
 @fragment
-fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs(input: OverlayIn) -> @location(0) vec4<f32> {
+    let v = own_of(input);
+    atmo = Atmosphere(eye_of(v[0], v[1], v[2], v[3], v[4]), v[5], v[6], v[7]);
+    begin_shadows(input);
+    let frag = input.position;
     let size = atmo.frame_size.yz;
     let at = min(floor(frag.xy * atmo.frame_size.x) + vec2<f32>(0.5), size - vec2<f32>(0.5));
     let ndc = ndc_of(at, size);
@@ -180,8 +185,9 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
         let sun_m = dens_m * H_M * chapman(H_M, h, mu_s);
         let tau = BETA_R * (cam_r + sun_r) + BETA_M * MIE_EXTINCTION * (cam_m + sun_m);
         // Air in the shadow of the terrain (when shadows are cast) gets no
-        // sunlight to scatter.
-        let attenuation = exp(-tau) * sun_visible(dir * t, vec3<f32>(0.0), 0);
+        // sunlight to scatter: one unfiltered texel a sample, the march's
+        // samples averaging the shadow's edge.
+        let attenuation = exp(-tau) * sun_visible_texel(dir * t);
         sum_r += attenuation * rho_r;
         sum_m += attenuation * rho_m;
     }

@@ -7,7 +7,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-use super::overlay::{Eye, FULLSCREEN, Overlay, over_frame};
+use super::overlay::{Eye, Overlay, fullscreen, over_frame};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::target::Target;
@@ -103,9 +103,15 @@ pub struct AtmosphereView<'a> {
 }
 
 /// The sun's visibility where no shadows are cast: everywhere.
-const SUN_EVERYWHERE: &str = "fn sun_visible(p: vec3<f32>, normal: vec3<f32>, radius: i32) -> f32 { return 1.0; }";
+const SUN_EVERYWHERE: &str =
+    "fn begin_shadows(input: OverlayIn) {}\nfn sun_visible_texel(p: vec3<f32>) -> f32 { return 1.0; }";
 
 impl AtmospherePass {
+    /// The flat inputs of the pass over shadow maps: its own uniform and
+    /// the cascades' table (`overlay`).
+    pub const SHADOWED_INPUTS: usize =
+        size_of::<AtmosphereUniform>() / size_of::<[f32; 4]>() + super::shadows::TABLE_VEC4S;
+
     /// The pass, reading the shadow cascades through `shadows` (their
     /// bind group's layout) when the scene casts shadows.
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer, shadows: Option<&wgpu::BindGroupLayout>) -> Self {
@@ -113,10 +119,13 @@ impl AtmospherePass {
         let source = format!("{visibility}\n{}", include_str!("atmosphere.wgsl"));
         let target =
             wgpu::ColorTargetState { format: SCATTERED_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL };
+        let shadows = shadows.map(|layout| (layout, super::shadows::TABLE_VEC4S));
         let scatter = Overlay::new::<AtmosphereUniform>(device, frame_buffer, ("atmosphere", &source), target, shadows);
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("atmosphere composite"),
-            source: wgpu::ShaderSource::Wgsl(format!("{}\n{}", FULLSCREEN, include_str!("composite.wgsl")).into()),
+            source: wgpu::ShaderSource::Wgsl(
+                format!("{}\n{}", fullscreen(0, 0), include_str!("composite.wgsl")).into(),
+            ),
         });
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,

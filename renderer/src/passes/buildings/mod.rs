@@ -96,6 +96,9 @@ pub struct BuildingsDraw {
     /// Buildings drawn, and mesh tiles asked for but not ready.
     pub drawn: usize,
     pub not_ready: usize,
+    /// The same for two draws that put the same buildings in the same
+    /// places (meshes, ranges, lifts): what a kept shadow map is keyed by.
+    pub caster_key: u64,
 }
 
 pub struct BuildingsPass {
@@ -167,7 +170,7 @@ impl BuildingsPass {
             }
         }
         let fetched = meshes.meshes(&keys);
-        let mut draw = BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0 };
+        let mut draw = BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0, caster_key: 0 };
         let mut lifts: Vec<Lift> = Vec::new();
         for (key, payload) in keys.iter().zip(fetched) {
             let Some(payload) = payload else {
@@ -214,6 +217,7 @@ impl BuildingsPass {
             lifts.truncate(most);
             draw.tiles.retain(|(_, first, _)| (*first as usize) < most);
         }
+        draw.caster_key = super::key_of(&(self.tiles_built, &draw.tiles, bytemuck::cast_slice::<Lift, u8>(&lifts)));
         if !lifts.is_empty() {
             let lifts_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("building lifts"),

@@ -19,7 +19,8 @@ struct Fog {
     color: vec4<f32>,
 }
 
-@group(0) @binding(1) var<storage, read> fog: Fog;
+// This pixel's Fog, from the overlay's flat inputs (`fs`).
+var<private> fog: Fog;
 @group(0) @binding(2) var depth: texture_depth_2d;
 
 // Optical depth along `l` metres of a ray rising `dh` metres: the
@@ -38,7 +39,10 @@ fn optical_depth(l: f32, dh: f32) -> f32 {
 }
 
 @fragment
-fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs(input: OverlayIn) -> @location(0) vec4<f32> {
+    let v = own_of(input);
+    fog = Fog(eye_of(v[0], v[1], v[2], v[3], v[4]), v[5], v[6]);
+    let frag = input.position;
     let size = vec2<f32>(textureDimensions(depth));
     let pixel = vec2<i32>(frag.xy);
     let ndc = ndc_of(frag.xy, size);

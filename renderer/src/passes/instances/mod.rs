@@ -70,6 +70,9 @@ pub struct InstancesDraw {
     /// the scene does not have.
     pub not_ready: usize,
     pub unknown_models: usize,
+    /// The same for two draws that place the same models in the same
+    /// places: what a kept shadow map is keyed by.
+    pub caster_key: u64,
 }
 
 const INSTANCE_BUFFER: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
@@ -251,6 +254,7 @@ impl InstancesPass {
             billboards_drawn: 0,
             not_ready: 0,
             unknown_models: 0,
+            caster_key: 0,
         };
         let reach = at.bands.reach_m();
         let keys = reach::keys(at, source.level(), reach);
@@ -286,6 +290,9 @@ impl InstancesPass {
                 draw.models.push((slot as u32, start..all.len() as u32));
             }
         }
+        // Models cast shadows; billboards do not.
+        draw.caster_key =
+            super::key_of(&(self.tiles_built, &draw.models, bytemuck::cast_slice::<GpuInstance, u8>(&all)));
         billboards.truncate(most - all.len());
         draw.billboards_drawn = billboards.len();
         draw.billboards = all.len() as u32..(all.len() + billboards.len()) as u32;

@@ -40,11 +40,18 @@ pub struct LightBox {
     right: DVec3,
     up: DVec3,
     toward: DVec3,
-    x: f64,
-    y: f64,
-    half: f64,
-    z_lo: f64,
-    z_hi: f64,
+    pub x: f64,
+    pub y: f64,
+    pub half: f64,
+    pub z_lo: f64,
+    pub z_hi: f64,
+}
+
+impl LightBox {
+    /// The sun's axes: right and up across its rays, towards it.
+    pub fn axes(&self) -> (DVec3, DVec3, DVec3) {
+        (self.right, self.up, self.toward)
+    }
 }
 
 impl Sees for LightBox {

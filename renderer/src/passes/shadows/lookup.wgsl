@@ -2,50 +2,87 @@
 // pass that asks whether the sun reaches a point: the shadows' own overlay
 // and the atmosphere's in-scattering.
 
-struct ShadowCascade {
-    // Eye-relative position to the map: x, y in -1..1, depth 0..1.
-    clip: mat4x4<f32>,
-    // World metres per texel (x), depth bias in map units (y).
-    params: vec4<f32>,
-}
+// The cascades, from the overlay's flat table (`begin_shadows`): the sun's
+// axes across its rays, right (0) and up (1), and towards it (2), with the
+// cascades in use (0.w), one texel in map units (1.w) and texels to a side
+// (2.w); then for each cascade its box's centre across (x, y), one over its
+// half side (z) and its metres per texel (w) (3 + i); the box's near end
+// along the sun's axis (7[i]) and map depth per metre (8[i]).
+var<private> shadow_table: array<vec4<f32>, 9>;
 
-struct ShadowCascades {
-    items: array<ShadowCascade, 4>,
-    // Cascades in use (x), one texel in map units (y).
-    info: vec4<f32>,
-}
-
-@group(1) @binding(0) var<storage, read> cascades: ShadowCascades;
 @group(1) @binding(1) var shadow_maps: texture_depth_2d_array;
 @group(1) @binding(2) var shadow_test: sampler_comparison;
 
-// How much of the sun reaches eye-relative point p: 1 lit, 0 hidden. The
-// finest cascade holding p answers, looked up 1.5 texels off the surface
-// along `normal` (zero for a point in the air), filtered over
-// (2 radius + 1)^2 bilinear comparisons. Past the last cascade, lit.
-fn sun_visible(p: vec3<f32>, normal: vec3<f32>, radius: i32) -> f32 {
-    let count = i32(cascades.info.x);
-    for (var i = 0; i < count; i = i + 1) {
-        let c = cascades.items[i];
-        let q = c.clip * vec4<f32>(p + normal * (1.5 * c.params.x), 1.0);
+// Takes this pixel's cascades from the overlay's flat inputs.
+fn begin_shadows(input: OverlayIn) {
+    shadow_table = table_of(input);
+}
+
+// Where eye-relative point p falls in the finest cascade holding it,
+// looked up 1.5 texels off the surface along `normal` (zero for a point
+// in the air): map uv (xy), the depth to test against the map's with half
+// a texel of bias (z), and the cascade (w); w is -1 past the last cascade
+// or past a map's far side (lit).
+fn shadow_place(p: vec3<f32>, normal: vec3<f32>) -> vec4<f32> {
+    let right = shadow_table[0];
+    let up = shadow_table[1];
+    let toward = shadow_table[2];
+    let count = i32(right.w);
+    let l = vec3<f32>(dot(p, right.xyz), dot(p, up.xyz), dot(p, toward.xyz));
+    let ln = vec3<f32>(dot(normal, right.xyz), dot(normal, up.xyz), dot(normal, toward.xyz));
+    for (var i = 0; i < 4; i = i + 1) {
+        if i >= count {
+            break;
+        }
+        let box = shadow_table[3 + i];
+        let depth_per_m = shadow_table[8][i];
+        let at = l + ln * (1.5 * box.w);
+        let q = vec3<f32>((at.x - box.x) * box.z, (at.y - box.y) * box.z, (at.z - shadow_table[7][i]) * depth_per_m);
         if abs(q.x) > 0.99 || abs(q.y) > 0.99 || q.z < 0.0 {
             continue;
         }
         if q.z >= 1.0 {
-            return 1.0;
+            break;
         }
-        let uv = vec2<f32>(q.x * 0.5 + 0.5, 0.5 - q.y * 0.5);
-        let reference = q.z + c.params.y;
-        var sum = 0.0;
-        var taps = 0.0;
-        for (var dy = -radius; dy <= radius; dy = dy + 1) {
-            for (var dx = -radius; dx <= radius; dx = dx + 1) {
-                let at = uv + vec2<f32>(f32(dx), f32(dy)) * cascades.info.y;
-                sum += textureSampleCompareLevel(shadow_maps, shadow_test, at, i, reference);
-                taps += 1.0;
-            }
-        }
-        return sum / taps;
+        let bias = 0.5 * box.w * depth_per_m;
+        return vec4<f32>(q.x * 0.5 + 0.5, 0.5 - q.y * 0.5, q.z + bias, f32(i));
     }
-    return 1.0;
+    return vec4<f32>(0.0, 0.0, 0.0, -1.0);
+}
+
+// How much of the sun reaches eye-relative point p: 1 lit, 0 hidden,
+// filtered over (2 radius + 1)^2 bilinear comparisons (one for radius 0,
+// the sampling done once outside any loop).
+fn sun_visible(p: vec3<f32>, normal: vec3<f32>, radius: i32) -> f32 {
+    let at = shadow_place(p, normal);
+    if at.w < 0.0 {
+        return 1.0;
+    }
+    let layer = i32(at.w);
+    if radius == 0 {
+        return textureSampleCompareLevel(shadow_maps, shadow_test, at.xy, layer, at.z);
+    }
+    var sum = 0.0;
+    var taps = 0.0;
+    for (var dy = -radius; dy <= radius; dy = dy + 1) {
+        for (var dx = -radius; dx <= radius; dx = dx + 1) {
+            let uv = at.xy + vec2<f32>(f32(dx), f32(dy)) * shadow_table[1].w;
+            sum += textureSampleCompareLevel(shadow_maps, shadow_test, uv, layer, at.z);
+            taps += 1.0;
+        }
+    }
+    return sum / taps;
+}
+
+// The same answer, 0 or 1, from the one texel under p, unfiltered: for
+// many samples a pixel averages anyway (the air's in-scattering), a
+// quarter of the filtered comparison's reads.
+fn sun_visible_texel(p: vec3<f32>) -> f32 {
+    let at = shadow_place(p, vec3<f32>(0.0));
+    if at.w < 0.0 {
+        return 1.0;
+    }
+    let side = i32(shadow_table[2].w);
+    let texel = clamp(vec2<i32>(at.xy * f32(side)), vec2<i32>(0), vec2<i32>(side - 1));
+    return select(0.0, 1.0, at.z >= textureLoad(shadow_maps, texel, i32(at.w), 0));
 }

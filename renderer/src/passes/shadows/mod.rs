@@ -2,7 +2,9 @@
 //! split by distance (`cascades.rs`); each slice's box, seen from the sun,
 //! gets a depth map into which the terrain's levels, the buildings and the
 //! instances' models are drawn by depth-only twins of their own pipelines
-//! (the frame uniform carrying the cascade's matrix). A full-screen pass
+//! (the frame uniform carrying the cascade's matrix). The maps are kept,
+//! not drawn again, while the cascades and everything drawn into them are
+//! unchanged (a still camera under a still sun). A full-screen pass
 //! then takes from each drawn pixel the sunlight the maps say is hidden
 //! (`shadows.wgsl`), and the atmosphere, when declared, reads the same maps
 //! for its in-scattering (`lookup.wgsl`). Built only for a scene that
@@ -83,25 +85,53 @@ const CASTER_DETAIL: f64 = 0.5;
 /// already taken its light.
 const LOWEST_SUN: f64 = 0.01;
 
+/// The cascades as the lookup reads them (`lookup.wgsl`'s table, flat
+/// inputs of the passes reading the maps): the sun's axes with the count,
+/// texel and map size, then each cascade's box across the sun's rays, its
+/// metres per texel, and its near end and depth scale along them.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
-struct CascadeUniform {
-    clip: [[f32; 4]; 4],
-    params: [f32; 4],
+struct CascadeTable {
+    right: [f32; 4],
+    up: [f32; 4],
+    toward: [f32; 4],
+    boxes: [[f32; 4]; Shadows::MAX_CASCADES as usize],
+    near: [f32; 4],
+    depth_per_m: [f32; 4],
 }
 
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
-struct CascadesUniform {
-    items: [CascadeUniform; Shadows::MAX_CASCADES as usize],
-    info: [f32; 4],
+/// The table's vec4s.
+pub const TABLE_VEC4S: usize = size_of::<CascadeTable>() / size_of::<[f32; 4]>();
+
+impl CascadeTable {
+    fn new(fitted: &[cascades::Cascade], map_size: u32) -> Self {
+        let mut t = Self::default();
+        if let Some(first) = fitted.first() {
+            let (right, up, toward) = first.bounds.axes();
+            let v = |a: glam::DVec3, w: f64| [a.x as f32, a.y as f32, a.z as f32, w as f32];
+            t.right = v(right, fitted.len() as f64);
+            t.up = v(up, 1.0 / f64::from(map_size));
+            t.toward = v(toward, f64::from(map_size));
+        }
+        for (i, c) in fitted.iter().enumerate() {
+            let b = &c.bounds;
+            t.boxes[i] = [b.x as f32, b.y as f32, (1.0 / b.half) as f32, c.texel_m as f32];
+            t.near[i] = b.z_lo as f32;
+            t.depth_per_m[i] = c.depth_per_m as f32;
+        }
+        t
+    }
 }
 
+/// What the shadows' overlay reads besides the cascades: the frame's
+/// inverse view-projection, the sun and the filter radius, the lighting's
+/// terms.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
 struct ShadowViewUniform {
-    eye: Eye,
-    params: [f32; 4],
+    inv_view_proj: [[f32; 4]; 4],
+    sun: [f32; 4],
+    light: [f32; 4],
 }
 
 /// The maps of one size and count, and the lookup's bind group over them.
@@ -109,6 +139,17 @@ struct Maps {
     size: u32,
     layers: Vec<wgpu::TextureView>,
     lookup: wgpu::BindGroup,
+    /// What the maps were last drawn from (`key_of` the casters' frames
+    /// and content), none before the first.
+    drawn: Option<u64>,
+}
+
+/// The last frame's maps: drawn anew, and kept as they were (the same
+/// cascades over the same casters).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct MapWork {
+    pub drawn: usize,
+    pub kept: usize,
 }
 
 /// What casts shadows in this frame: the terrain's levels, and the
@@ -147,20 +188,24 @@ pub struct ShadowsPass {
     cascades_buffer: wgpu::Buffer,
     sampler: wgpu::Sampler,
     maps: Option<Maps>,
+    /// The last frame's maps drawn and kept.
+    pub work: MapWork,
 }
 
 impl ShadowsPass {
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
-            visibility: wgpu::ShaderStages::FRAGMENT,
+            // The table is read by the vertex stage (flat inputs), the maps
+            // by the fragments.
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
             ty,
             count: None,
         };
         let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow lookup"),
             entries: &[
-                entry(0, super::params_binding(wgpu::BufferSize::new(size_of::<CascadesUniform>() as u64))),
+                entry(0, super::params_binding(wgpu::BufferSize::new(size_of::<CascadeTable>() as u64))),
                 entry(
                     1,
                     wgpu::BindingType::Texture {
@@ -191,11 +236,11 @@ impl ShadowsPass {
             frame_buffer,
             ("shadows", &source),
             over_frame(blend),
-            Some(&lookup_layout),
+            Some((&lookup_layout, TABLE_VEC4S)),
         );
         let cascades_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("shadow cascades"),
-            contents: bytemuck::bytes_of(&CascadesUniform::default()),
+            contents: bytemuck::bytes_of(&CascadeTable::default()),
             usage: super::PARAMS_USAGE,
         });
         // Lit where the point is at least as near the sun as the map's.
@@ -206,7 +251,7 @@ impl ShadowsPass {
             compare: Some(wgpu::CompareFunction::GreaterEqual),
             ..Default::default()
         });
-        Self { overlay, lookup_layout, cascades_buffer, sampler, maps: None }
+        Self { overlay, lookup_layout, cascades_buffer, sampler, maps: None, work: MapWork::default() }
     }
 
     /// The layout of the cascades' bind group, for passes that read them.
@@ -242,70 +287,85 @@ impl ShadowsPass {
             cascades::fit(at.view, at.aspect, at.sun, at.sin_elevation, (near, far), shadows.cascades, shadows.map_size)
         };
         let Casters { terrain, surface, draw, mut buildings, mut instances } = casters;
-        if let Some((pass, _)) = &mut buildings {
-            pass.prepare_casters(&gpu.device);
-        }
-        if let Some((pass, _)) = &mut instances {
-            pass.prepare_casters(&gpu.device);
-        }
-        for (cascade, layer) in fitted.iter().zip(&maps.layers) {
-            // Samples closer than half a texel add nothing the map can hold.
-            let finest_m = cascade.texel_m * CASTER_DETAIL;
-            let frame_view = (at.view, at.pose, at.pixel_angle);
-            let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, finest_m, frame_view);
-            let frame = FrameUniform { view_proj: cascade.clip.as_mat4().to_cols_array_2d(), ..at.frame };
-            gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&frame));
-            let mut encoder =
-                gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadow casters") });
-            {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("shadow casters"),
-                    color_attachments: &[],
-                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                        view: layer,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(0.0),
-                            store: wgpu::StoreOp::Store,
-                        }),
-                        stencil_ops: None,
-                    }),
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                terrain.record_casters(&mut pass, &drawn);
-                if let Some((b, draw)) = &buildings {
-                    b.record_casters(&mut pass, draw);
-                }
-                if let Some((i, draw)) = &instances {
-                    i.record_casters(&mut pass, draw);
-                }
+        // The maps as drawn last are still true when the same casters would
+        // be drawn the same way: the same cascades (matrices and frame
+        // uniform), terrain samples, buildings and models.
+        let frames: Vec<FrameUniform> = fitted
+            .iter()
+            .map(|c| FrameUniform { view_proj: c.clip.as_mat4().to_cols_array_2d(), ..at.frame })
+            .collect();
+        let key = super::key_of(&(
+            bytemuck::cast_slice::<FrameUniform, u8>(&frames),
+            terrain.epoch(),
+            buildings.as_ref().map(|(_, d)| d.caster_key),
+            instances.as_ref().map(|(_, d)| d.caster_key),
+        ));
+        let keep = maps.drawn == Some(key);
+        if !keep {
+            if let Some((pass, _)) = &mut buildings {
+                pass.prepare_casters(&gpu.device);
             }
-            gpu.queue.submit([encoder.finish()]);
+            if let Some((pass, _)) = &mut instances {
+                pass.prepare_casters(&gpu.device);
+            }
+            for ((cascade, frame), layer) in fitted.iter().zip(&frames).zip(&maps.layers) {
+                // Samples closer than half a texel add nothing the map can hold.
+                let finest_m = cascade.texel_m * CASTER_DETAIL;
+                let frame_view = (at.view, at.pose, at.pixel_angle);
+                let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, finest_m, frame_view);
+                gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(frame));
+                let mut encoder = gpu
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadow casters") });
+                {
+                    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                        label: Some("shadow casters"),
+                        color_attachments: &[],
+                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                            view: layer,
+                            depth_ops: Some(wgpu::Operations {
+                                load: wgpu::LoadOp::Clear(0.0),
+                                store: wgpu::StoreOp::Store,
+                            }),
+                            stencil_ops: None,
+                        }),
+                        timestamp_writes: None,
+                        occlusion_query_set: None,
+                        multiview_mask: None,
+                    });
+                    terrain.record_casters(&mut pass, &drawn);
+                    if let Some((b, draw)) = &buildings {
+                        b.record_casters(&mut pass, draw);
+                    }
+                    if let Some((i, draw)) = &instances {
+                        i.record_casters(&mut pass, draw);
+                    }
+                }
+                gpu.queue.submit([encoder.finish()]);
+            }
         }
+        maps.drawn = Some(key);
+        self.work =
+            if keep { MapWork { drawn: 0, kept: fitted.len() } } else { MapWork { drawn: fitted.len(), kept: 0 } };
         gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&at.frame));
-        let mut u = CascadesUniform::default();
-        for (slot, c) in u.items.iter_mut().zip(&fitted) {
-            // Half a texel of slope-free bias, in map depth.
-            let bias = 0.5 * c.texel_m * c.depth_per_m;
-            *slot = CascadeUniform {
-                clip: c.clip.as_mat4().to_cols_array_2d(),
-                params: [c.texel_m as f32, bias as f32, 0.0, 0.0],
-            };
-        }
-        u.info = [fitted.len() as f32, 1.0 / shadows.map_size as f32, 0.0, 0.0];
+        let u = CascadeTable::new(&fitted, shadows.map_size);
         gpu.queue.write_buffer(&self.cascades_buffer, 0, bytemuck::bytes_of(&u));
         if fitted.is_empty() {
             return wait(gpu);
         }
-        let view = ShadowViewUniform { eye: at.eye, params: [FILTER_RADIUS, 0.0, 0.0, 0.0] };
+        let [sx, sy, sz, _] = at.frame.sun;
+        let view = ShadowViewUniform {
+            inv_view_proj: at.eye.inverse_view_proj(),
+            sun: [sx, sy, sz, FILTER_RADIUS],
+            light: at.frame.light,
+        };
         let bind_group = self.overlay.prepare(gpu, frame_buffer, target.depth_view(), &view);
         let lookup = self.maps.as_ref().map(|m| &m.lookup);
         target.run_overlay(gpu, "shadows", |pass| self.overlay.record(pass, &bind_group, lookup))
     }
 
     /// The maps for `shadows`' size and count, made anew when they change.
-    fn maps(&mut self, gpu: &Gpu, shadows: &Shadows) -> &Maps {
+    fn maps(&mut self, gpu: &Gpu, shadows: &Shadows) -> &mut Maps {
         let kept =
             self.maps.take().filter(|m| m.size == shadows.map_size && m.layers.len() == shadows.cascades as usize);
         let maps = match kept {
@@ -361,6 +421,6 @@ impl Maps {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(sampler) },
             ],
         });
-        Self { size: shadows.map_size, layers, lookup }
+        Self { size: shadows.map_size, layers, lookup, drawn: None }
     }
 }

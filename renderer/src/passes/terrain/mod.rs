@@ -35,6 +35,9 @@ pub struct TerrainPass {
     shader: wgpu::ShaderModule,
     /// The levels' and the base's.
     caster: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
+    /// Bumped whenever a sample the device holds changes: a shadow map
+    /// drawn at one epoch is still true at the same epoch.
+    epoch: u64,
 }
 
 /// What a shadow cascade draws of the terrain: the base's cells in its
@@ -148,6 +151,7 @@ impl TerrainPass {
             layout: pipeline_layout,
             shader,
             caster: None,
+            epoch: 0,
         })
     }
 
@@ -164,6 +168,7 @@ impl TerrainPass {
     /// The scene rebuilt tiles in `area`: refresh those samples only, in
     /// the levels and in the base (which is filled anew if not ready).
     pub fn invalidate(&mut self, gpu: &Gpu, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
+        self.epoch += 1;
         self.clipmap.invalidate(surface, source, area);
         if let Some(base) = &mut self.base
             && !base.refresh(&gpu.queue, surface, source, area)
@@ -186,10 +191,13 @@ impl TerrainPass {
         cull: Option<&Frustum>,
     ) -> TerrainDraw {
         let update = self.clipmap.update(surface, source, pose, pixel_angle);
+        let mut changed = update.samples_written > 0;
         if self.base.is_none() {
             self.base = Base::fill(&gpu.device, surface, source);
+            changed |= self.base.is_some();
         }
-        self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
+        changed |= self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
+        self.epoch += u64::from(changed);
         let uniforms: Vec<LevelUniform> = Levels::uniforms(surface, &self.clipmap, &update.active, pose, view);
         gpu.queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&uniforms));
         let (base, sink) = self
@@ -275,6 +283,11 @@ impl TerrainPass {
             self.record_mesh_with(pass, base, mesh);
         }
         self.record_levels(pass, levels, &casters.levels);
+    }
+
+    /// Changes with every sample the device's levels and base hold.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
     }
 
     /// The scene no longer casts shadows: the depth-only pipeline goes.

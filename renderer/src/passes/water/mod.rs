@@ -54,11 +54,16 @@ struct WaterUniform {
     north: [f32; 4],
     place: [f32; 4],
     body: [f32; 4],
+    /// The frame's sun and light terms (`FrameUniform`'s).
+    sun: [f32; 4],
+    light: [f32; 4],
 }
 
 /// What a frame's water needs besides its knobs.
 pub struct WaterView<'a> {
     pub eye: Eye,
+    /// The frame's sun and light terms (`FrameUniform`'s).
+    pub sun_light: ([f32; 4], [f32; 4]),
     /// The frame's eye-relative view-projection.
     pub view_proj: glam::Mat4,
     /// The eye, world axes, and the grid point under it.
@@ -118,7 +123,7 @@ impl WaterPass {
             frame_buffer,
             ("water", include_str!("water.wgsl")),
             over_frame(blend),
-            Some(&layout),
+            Some((&layout, 0)),
         );
         let texture = |label, side: u32, format| super::sampled_texture(device, label, side, 1, format);
         let mask = texture("water mask", MASK_SIZE as u32, wgpu::TextureFormat::R8Unorm);
@@ -206,6 +211,8 @@ impl WaterPass {
                 at.ground_radius_m.unwrap_or(0.0) as f32,
             ],
             body: [water.color[0] as f32, water.color[1] as f32, water.color[2] as f32, water.clarity_m as f32],
+            sun: at.sun_light.0,
+            light: at.sun_light.1,
         };
         let bind_group = self.overlay.prepare(gpu, frame_buffer, target.depth_view(), &u);
         target.run_overlay(gpu, "water", |pass| {

@@ -25,9 +25,13 @@ struct Water {
     place: vec4<f32>,
     // The water's colour (rgb), its clarity in metres (w).
     body: vec4<f32>,
+    // The frame's sun and light terms (as `frame.wgsl`'s).
+    sun: vec4<f32>,
+    light: vec4<f32>,
 }
 
-@group(0) @binding(1) var<storage, read> water: Water;
+// This pixel's Water, from the overlay's flat inputs (`fs`).
+var<private> water: Water;
 @group(0) @binding(2) var depth: texture_depth_2d;
 @group(1) @binding(0) var mask: texture_2d<f32>;
 @group(1) @binding(1) var waves: texture_2d<f32>;
@@ -84,12 +88,15 @@ fn surface_t(dh: f32, mu: f32) -> f32 {
 // The sky a reflected ray sees: horizon to zenith, by the daylight.
 fn sky(r: vec3<f32>, up: vec3<f32>) -> vec3<f32> {
     let el = sqrt(max(dot(r, up), 0.0));
-    let day = frame.light.y / 0.75;
+    let day = water.light.y / 0.75;
     return mix(vec3<f32>(0.75, 0.82, 0.90), vec3<f32>(0.22, 0.42, 0.78), el) * (0.08 + 0.92 * day);
 }
 
 @fragment
-fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs(input: OverlayIn) -> @location(0) vec4<f32> {
+    let v = own_of(input);
+    water = Water(eye_of(v[0], v[1], v[2], v[3], v[4]), v[5], v[6], v[7], v[8], v[9], v[10]);
+    let frag = input.position;
     let size = vec2<f32>(textureDimensions(depth));
     let z = textureLoad(depth, vec2<i32>(frag.xy), 0);
     let ndc = ndc_of(frag.xy, size);
@@ -100,7 +107,7 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let dh = water.place.z;
     let has_level = water.north.w > 0.5;
     let mu = dot(dir, up);
-    let lit = frame.light.x + frame.light.y * max(dot(frame.sun.xyz, up), 0.0);
+    let lit = water.light.x + water.light.y * max(dot(water.sun.xyz, up), 0.0);
     let body = water.body.rgb * lit;
     let clarity = water.body.w;
     if has_level && dh < 0.0 && mask_at(vec3<f32>(0.0)) > 0.5 {
@@ -137,7 +144,7 @@ fn fs(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {
     let cos_i = clamp(dot(-dir, n), 0.0, 1.0);
     let fresnel = 0.02 + 0.98 * pow(1.0 - cos_i, 5.0);
     let r = reflect(dir, n);
-    let glint = pow(max(dot(r, frame.sun.xyz), 0.0), 400.0) * 3.0 * (frame.light.y / 0.75);
+    let glint = pow(max(dot(r, water.sun.xyz), 0.0), 400.0) * 3.0 * (water.light.y / 0.75);
     var bottom = 0.0;
     var shore = 1.0;
     if has_level && z > 0.0 {
