@@ -24,7 +24,11 @@ fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
     return select(vec3<f32>(0.0), v / l, l > 1e-20);
 }
 
-// Ambient plus diffuse sun on a surface facing `normal`.
-fn sunlight(normal: vec3<f32>) -> f32 {
-    return frame.light.x + frame.light.y * max(dot(safe_normalize(normal), frame.sun.xyz), 0.0);
+// Ambient plus diffuse sun on a surface facing `normal`, from the
+// frame's `sun` and `light` as a vertex stage hands them to its fragments
+// (flat inputs): a fragment that read them from the frame's buffer would
+// load them in every pixel, and lavapipe loads a storage buffer one lane
+// at a time.
+fn sunlight(sun: vec4<f32>, light: vec4<f32>, normal: vec3<f32>) -> f32 {
+    return light.x + light.y * max(dot(safe_normalize(normal), sun.xyz), 0.0);
 }

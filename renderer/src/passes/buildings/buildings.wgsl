@@ -19,6 +19,10 @@ struct Out {
     @builtin(position) clip: vec4<f32>,
     @location(0) normal: vec3<f32>,
     @location(1) color: vec4<f32>,
+    // The frame's sun and light terms (`sunlight`), and its centre.
+    @location(2) @interpolate(flat) sun: vec4<f32>,
+    @location(3) @interpolate(flat) light: vec4<f32>,
+    @location(4) @interpolate(flat) centre: vec4<f32>,
 }
 
 // high.w: the building's index in its tile; low.w: 1 at the foot of a wall.
@@ -36,17 +40,20 @@ fn vs_building(
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.normal = normal.xyz;
     out.color = color;
+    out.sun = frame.sun;
+    out.light = frame.light;
+    out.centre = frame.centre;
     return out;
 }
 
 @fragment
 fn fs_building(in: Out) -> @location(0) vec4<f32> {
     var light = 1.0;
-    if frame.light.z > 0.5 {
-        light = sunlight(in.normal);
+    if in.light.z > 0.5 {
+        light = sunlight(in.sun, in.light, in.normal);
     } else {
         // Unlit scenes still tell walls from roofs: a fixed sky light.
-        light = 0.55 + 0.45 * abs(dot(normalize(in.normal), normalize(-frame.centre.xyz * frame.centre.w + vec3<f32>(0.0, 0.0, 1.0 - frame.centre.w))));
+        light = 0.55 + 0.45 * abs(dot(normalize(in.normal), normalize(-in.centre.xyz * in.centre.w + vec3<f32>(0.0, 0.0, 1.0 - in.centre.w))));
     }
     return vec4<f32>(in.color.rgb * light, 1.0);
 }

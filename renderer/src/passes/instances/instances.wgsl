@@ -40,6 +40,9 @@ struct ModelOut {
     @location(0) normal: vec3<f32>,
     @location(1) color: vec4<f32>,
     @location(2) range: vec2<f32>,
+    // The frame's sun and light terms (`sunlight`).
+    @location(3) @interpolate(flat) sun: vec4<f32>,
+    @location(4) @interpolate(flat) light: vec4<f32>,
 }
 
 // glTF axes: x east, y up, z south.
@@ -59,6 +62,8 @@ fn vs_model(
     out.normal = normal.x * east + normal.y * up + normal.z * south;
     out.color = color;
     out.range = vec2<f32>(inst.east.w, inst.up.w);
+    out.sun = frame.sun;
+    out.light = frame.light;
     return out;
 }
 
@@ -68,8 +73,8 @@ fn fs_model(in: ModelOut) -> @location(0) vec4<f32> {
         discard;
     }
     var light = 1.0;
-    if frame.light.z > 0.5 {
-        light = sunlight(in.normal);
+    if in.light.z > 0.5 {
+        light = sunlight(in.sun, in.light, in.normal);
     }
     return vec4<f32>(in.color.rgb * light, in.color.a);
 }
@@ -88,6 +93,8 @@ struct BillboardOut {
     @location(3) up: vec3<f32>,
     @location(4) facing: vec3<f32>,
     @location(5) range: vec2<f32>,
+    @location(6) @interpolate(flat) sun: vec4<f32>,
+    @location(7) @interpolate(flat) light: vec4<f32>,
 }
 
 // Two triangles turning about the local vertical to face the eye.
@@ -118,6 +125,8 @@ fn vs_billboard(@builtin(vertex_index) vertex: u32, inst: Instance) -> Billboard
     out.up = up;
     out.facing = normalize(cross(right, up));
     out.range = vec2<f32>(inst.east.w, inst.up.w);
+    out.sun = frame.sun;
+    out.light = frame.light;
     return out;
 }
 
@@ -128,11 +137,11 @@ fn fs_billboard(in: BillboardOut) -> @location(0) vec4<f32> {
         discard;
     }
     var light = 1.0;
-    if frame.light.z > 0.5 {
+    if in.light.z > 0.5 {
         // Lit per texel as the model is, from the normals it was baked with.
         let baked = textureSample(normals, atlas_sampler, in.uv, in.layer);
         let n = baked.xyz / max(baked.a, 1e-3) * 2.0 - 1.0;
-        light = sunlight(n.x * in.right + n.y * in.up + n.z * in.facing);
+        light = sunlight(in.sun, in.light, n.x * in.right + n.y * in.up + n.z * in.facing);
     }
     return vec4<f32>(texel.rgb / texel.a * light, 1.0);
 }

@@ -44,6 +44,9 @@ struct Out {
     @location(3) alpha: f32,
     @location(4) valid: f32,
     @location(5) @interpolate(flat) layers: vec2<i32>,
+    // The frame's sun and light terms (`sunlight`).
+    @location(6) @interpolate(flat) sun: vec4<f32>,
+    @location(7) @interpolate(flat) light: vec4<f32>,
 }
 
 fn wrap(g: i32, n: i32) -> i32 {
@@ -162,17 +165,19 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
     out.alpha = alpha;
     out.valid = here.w;
     out.layers = vec2<i32>(lv.window.z, select(lv.window.z, lv.coarse.z, lv.coarse.w == 1));
+    out.sun = frame.sun;
+    out.light = frame.light;
     return out;
 }
 
-fn shade(base: vec4<f32>, normal: vec3<f32>) -> vec4<f32> {
+fn shade(base: vec4<f32>, normal: vec3<f32>, sun: vec4<f32>, light_terms: vec4<f32>) -> vec4<f32> {
     // Colour (premultiplied) over the light grey of samples without any:
     // a texel partly covered, beside nodata or at a polygon's edge, is
     // drawn partly grey, never darkened towards its neighbour's black.
     let albedo = base.rgb + (1.0 - base.a) * vec3<f32>(0.78, 0.78, 0.76);
     var light = 1.0;
-    if frame.light.z > 0.5 {
-        light = sunlight(normal);
+    if light_terms.z > 0.5 {
+        light = sunlight(sun, light_terms, normal);
     }
     return vec4<f32>(albedo * light, 1.0);
 }
@@ -184,7 +189,7 @@ fn fs_level(in: Out) -> @location(0) vec4<f32> {
     }
     let fine = textureSampleLevel(colors, linear, in.uv, in.layers.x, 0.0);
     let coarse = textureSampleLevel(colors, linear, in.uv_coarse, in.layers.y, 0.0);
-    return shade(mix(fine, coarse, in.alpha), in.normal);
+    return shade(mix(fine, coarse, in.alpha), in.normal, in.sun, in.light);
 }
 
 struct BaseOut {
@@ -192,6 +197,8 @@ struct BaseOut {
     @location(0) normal: vec3<f32>,
     @location(1) color: vec4<f32>,
     @location(2) valid: f32,
+    @location(3) @interpolate(flat) sun: vec4<f32>,
+    @location(4) @interpolate(flat) light: vec4<f32>,
 }
 
 // The base: a coarse grid of the whole scene with double-single positions
@@ -210,6 +217,8 @@ fn vs_base(
     out.normal = normal.xyz;
     out.color = color;
     out.valid = high.w;
+    out.sun = frame.sun;
+    out.light = frame.light;
     return out;
 }
 
@@ -218,5 +227,5 @@ fn fs_base(in: BaseOut) -> @location(0) vec4<f32> {
     if in.valid < 0.5 {
         discard;
     }
-    return shade(in.color, in.normal);
+    return shade(in.color, in.normal, in.sun, in.light);
 }
