@@ -2,7 +2,8 @@
 //! count, the share of ground pixels whose shadow disagrees with a CPU
 //! ray-cast on the analytic peaks (the renderer's own test scene and
 //! reference), with the frame time and the shadows pass's time, at
-//! 1280 x 720 on this machine's device.
+//! 1280 x 720 on this machine's device: with the maps drawn (a moving
+//! camera) and kept (a still one).
 //!
 //! `cargo bench -p relief-daemon --bench shadows`
 
@@ -23,23 +24,43 @@ const SUN: SunAngles = SunAngles { azimuth_deg: 250.0, elevation_deg: 12.0 };
 const LIGHT: (f64, f64) = (0.35, 0.75);
 const FRAMES: usize = 5;
 
+/// One setting's frames: median times with the maps kept (a still camera)
+/// and drawn (a moving one), and the last frame drawn.
+struct Timed {
+    still_ms: f64,
+    still_pass_ms: f64,
+    moving_ms: f64,
+    moving_pass_ms: f64,
+    last: Frame,
+}
+
 fn main() -> anyhow::Result<()> {
     let gpu = analytic::gpu();
     let (mut renderer, source) = utm_scene_of(ClipmapConfig::default(), peaks);
     let at = pose(302_300.0, 5_095_300.0, 3600.0, 340.0, -40.0);
     let lit_settings = RenderSettings { sun: SUN, ..RenderSettings::new(1280, 720, true) };
-    let timed = |renderer: &mut relief_renderer::Renderer,
-                 settings: &RenderSettings|
-     -> anyhow::Result<(f64, f64, Frame)> {
+    // A still camera keeps its maps; one that moved (here 1 m to and fro)
+    // draws them every frame. Both timed; the error is from the last
+    // frame, drawn from `at` itself.
+    let nudged = relief_renderer::Pose { position: [at.position[0] + 1.0, at.position[1], at.position[2]], ..at };
+    let timed = |renderer: &mut relief_renderer::Renderer, settings: &RenderSettings| -> anyhow::Result<Timed> {
+        let pass_ms = |f: &Frame| f.passes.iter().filter(|p| p.0 == "shadows").map(|p| p.1).sum::<f64>();
+        let frame_ms = |f: &Frame| f.passes.iter().map(|p| p.1).sum::<f64>();
         renderer.render(&source, &at, settings)?;
-        let frames: Vec<Frame> =
+        let still: Vec<Frame> =
             (0..FRAMES).map(|_| renderer.render(&source, &at, settings)).collect::<Result<_, _>>()?;
-        let total = median(frames.iter().map(|f| f.passes.iter().map(|p| p.1).sum()).collect());
-        let pass =
-            median(frames.iter().map(|f| f.passes.iter().filter(|p| p.0 == "shadows").map(|p| p.1).sum()).collect());
-        Ok((total, pass, frames.into_iter().last().unwrap()))
+        let moving: Vec<Frame> = (0..FRAMES)
+            .map(|k| renderer.render(&source, if k % 2 == 0 { &nudged } else { &at }, settings))
+            .collect::<Result<_, _>>()?;
+        Ok(Timed {
+            still_ms: median(still.iter().map(frame_ms).collect()),
+            still_pass_ms: median(still.iter().map(pass_ms).collect()),
+            moving_ms: median(moving.iter().map(frame_ms).collect()),
+            moving_pass_ms: median(moving.iter().map(pass_ms).collect()),
+            last: moving.into_iter().last().unwrap(),
+        })
     };
-    let (lit_ms, _, lit) = timed(&mut renderer, &lit_settings)?;
+    let Timed { still_ms: lit_ms, last: lit, .. } = timed(&mut renderer, &lit_settings)?;
     let judged = reference(&lit, peaks, PEAKS_TOP_M, SUN, LIGHT);
     println!("### Shadows: map size and cascades against a CPU ray-cast, 1280 x 720, median of {FRAMES}");
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
@@ -48,19 +69,24 @@ fn main() -> anyhow::Result<()> {
         judged.len(),
         judged.iter().filter(|j| j.in_shadow).count()
     );
-    println!("| cascades | map size | misclassified | shadows pass ms | frame ms | / without shadows |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "| cascades | map size | misclassified | shadows pass ms, maps drawn | frame ms, maps drawn | / without shadows | shadows pass ms, maps kept (still camera) | frame ms, maps kept |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
     for cascades in 1..=Shadows::MAX_CASCADES {
         for map_size in [512, 1024, 2048, 4096] {
             let shadows = Shadows { cascades, map_size, ..Shadows::DEFAULT };
-            let (total, pass, frame) =
-                timed(&mut renderer, &RenderSettings { shadows: Some(shadows), ..lit_settings })?;
-            let s = score(&judged, &lit, &frame);
+            let t = timed(&mut renderer, &RenderSettings { shadows: Some(shadows), ..lit_settings })?;
+            let s = score(&judged, &lit, &t.last);
             let default = if shadows == Shadows::DEFAULT { " (default)" } else { "" };
             println!(
-                "| {cascades} | {map_size}{default} | {:.2}% | {pass:.1} | {total:.1} | {:.2}x |",
+                "| {cascades} | {map_size}{default} | {:.2}% | {:.1} | {:.1} | {:.2}x | {:.1} | {:.1} |",
                 100.0 * s.misclassified(),
-                total / lit_ms
+                t.moving_pass_ms,
+                t.moving_ms,
+                t.moving_ms / lit_ms,
+                t.still_pass_ms,
+                t.still_ms
             );
         }
     }

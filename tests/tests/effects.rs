@@ -155,8 +155,13 @@ async fn shadows_fall_away_from_the_sun_and_cost_nothing_undeclared() {
     let west = Some(sun(270.0, 4.0));
     let (off, off_state) = frames_with("[effects]\nlighting = {}\n", &[(above, west.clone(), None)]).await;
     let knobs = pb::QualityOverrides { shadow_cascades: Some(1), shadow_map_size: Some(512), ..Default::default() };
-    let views =
-        [(above, west.clone(), None), (above, west.clone(), Some(knobs)), (above, Some(sun(270.0, -0.1)), None)];
+    let views = [
+        (above, west.clone(), None),
+        (above, west.clone(), Some(knobs)),
+        (above, Some(sun(270.0, -0.1)), None),
+        (above, west.clone(), None),
+        (above, west.clone(), None),
+    ];
     let (on, on_state) = frames_with("[effects]\nlighting = {}\nshadows = {}\n", &views).await;
 
     let idle = pass(&off[0], "shadows");
@@ -188,6 +193,13 @@ async fn shadows_fall_away_from_the_sun_and_cost_nothing_undeclared() {
     let dusk = &on[2];
     assert_eq!(dusk.image.len(), w * h * 4);
     assert!(pass(dusk, "shadows").runs >= 3);
+    // The same view again: its maps drawn, then kept (still camera, still
+    // sun, same terrain), to the same image.
+    let drawn = |f: &pb::RenderResponse| f.drawn.as_ref().map(|d| (d.shadow_maps_drawn, d.shadow_maps_kept));
+    let cascades = drawn(&on[3]).unwrap().0;
+    assert!(cascades > 0, "{:?}", on[3].drawn);
+    assert_eq!(drawn(&on[4]), Some((0, cascades)), "a still view keeps its maps");
+    assert_eq!(on[4].image, on[3].image);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -26,6 +26,12 @@ use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
 /// storage buffers, and they read the same everywhere else. The test below
 /// checks that no shader declares a uniform buffer and that no Rust source
 /// binds or makes one.
+///
+/// The price: that lavapipe loads a storage buffer one lane at a time, so
+/// fragments read none. What a pixel needs of them comes from its vertex
+/// stage as flat inputs: the sun and light terms (`frame.wgsl`'s
+/// `sunlight`), and a full-screen pass's whole uniform and the shadow
+/// cascades (`overlay::fullscreen`).
 pub fn params_binding(min_binding_size: Option<wgpu::BufferSize>) -> wgpu::BindingType {
     wgpu::BindingType::Buffer {
         ty: wgpu::BufferBindingType::Storage { read_only: true },

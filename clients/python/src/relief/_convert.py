@@ -385,6 +385,8 @@ def frame(r: pb.RenderResponse) -> Frame:
             billboards=r.drawn.billboards,
             terrain_blocks=r.drawn.terrain_blocks,
             terrain_blocks_drawn=r.drawn.terrain_blocks_drawn,
+            shadow_maps_drawn=r.drawn.shadow_maps_drawn,
+            shadow_maps_kept=r.drawn.shadow_maps_kept,
         )
         if r.HasField("drawn")
         else None,

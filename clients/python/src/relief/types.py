@@ -335,6 +335,10 @@ class FrameDrawn:
     #: draw, and those drawn: the rest lay wholly outside the view.
     terrain_blocks: int = 0
     terrain_blocks_drawn: int = 0
+    #: Shadow cascades drawn for this frame, and kept from the frame before
+    #: (the same cascades over the same casters: a still camera draws none).
+    shadow_maps_drawn: int = 0
+    shadow_maps_kept: int = 0
 
 
 @dataclass(frozen=True)
