@@ -245,6 +245,7 @@ impl Renderer {
         let frustum = settings.cull.then(|| view.frustum(aspect));
         let draw = self.terrain.prepare(&self.gpu, &self.surface, source, pose, &view, pixel_angle, frustum.as_ref());
         let frame_uniform = self.write_frame_uniform(pose, &view, settings, Some(draw.base_sink));
+        self.terrain.write_records(&self.gpu.queue, &draw, &frame_uniform);
         target.run(&self.gpu, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
         passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 

@@ -314,6 +314,7 @@ impl ShadowsPass {
                 let frame_view = (at.view, at.pose, at.pixel_angle);
                 let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, finest_m, frame_view);
                 gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(frame));
+                terrain.write_records(&gpu.queue, draw, frame);
                 let mut encoder = gpu
                     .device
                     .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadow casters") });
@@ -343,6 +344,9 @@ impl ShadowsPass {
                 }
                 gpu.queue.submit([encoder.finish()]);
             }
+        }
+        if !keep {
+            terrain.write_records(&gpu.queue, draw, &at.frame);
         }
         maps.drawn = Some(key);
         self.work =

@@ -12,6 +12,7 @@ use wgpu::util::DeviceExt;
 use crate::camera::{Pose, Sees, View};
 use crate::clipmap::{ClipLevel, Clipmap, StorageRect};
 use crate::surface::Surface;
+use crate::uniforms::FrameUniform;
 
 /// Most clipmap levels a frame draws (the shader's uniform array).
 pub const MAX_LEVELS: usize = 16;
@@ -52,6 +53,11 @@ pub struct LevelDraw {
     pub blocks_drawn: usize,
 }
 
+/// One active level as its draws' vertices read it: an instance-rate
+/// vertex record (the draw's instance is the level's slot), which the
+/// vertex stage gets without loading a storage buffer lane by lane (what
+/// lavapipe does), with the coarser level's offset and window beside it
+/// and what the levels read of the frame's uniform (`with_frame`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
 pub struct LevelUniform {
@@ -59,7 +65,40 @@ pub struct LevelUniform {
     window: [i32; 4],
     coarse: [i32; 4],
     blend: [f32; 4],
+    coarse_offset: [f32; 4],
+    coarse_window: [i32; 4],
+    view_proj: [[f32; 4]; 4],
+    centre: [f32; 4],
+    sun: [f32; 4],
+    light: [f32; 4],
 }
+
+/// `levels` with `frame`'s view-projection, centre, sun and light.
+pub fn with_frame(levels: &[LevelUniform], frame: &FrameUniform) -> Vec<LevelUniform> {
+    levels
+        .iter()
+        .map(|l| LevelUniform {
+            view_proj: frame.view_proj,
+            centre: frame.centre,
+            sun: frame.sun,
+            light: frame.light,
+            ..*l
+        })
+        .collect()
+}
+
+const LEVEL_ATTRIBUTES: [wgpu::VertexAttribute; 13] = wgpu::vertex_attr_array![
+    0 => Float32x4, 1 => Sint32x4, 2 => Sint32x4, 3 => Float32x4, 4 => Float32x4, 5 => Sint32x4,
+    6 => Float32x4, 7 => Float32x4, 8 => Float32x4, 9 => Float32x4, 10 => Float32x4, 11 => Float32x4,
+    12 => Float32x4
+];
+
+/// The levels' records as the levels' pipelines read them.
+pub const LEVEL_RECORDS: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(wgpu::VertexBufferLayout {
+    array_stride: size_of::<LevelUniform>() as u64,
+    step_mode: wgpu::VertexStepMode::Instance,
+    attributes: &LEVEL_ATTRIBUTES,
+})];
 
 /// The level textures and what each layer holds.
 pub struct Levels {
@@ -117,7 +156,7 @@ impl Levels {
     ) -> Vec<LevelUniform> {
         let mut out = vec![LevelUniform::zeroed(); MAX_LEVELS];
         let layers = clipmap.config.levels;
-        let mut coarser: Option<[i32; 4]> = None;
+        let mut coarser: Option<([f32; 4], [i32; 4])> = None;
         for (slot, &t) in active.iter().enumerate() {
             let Some(level) = clipmap.level(t) else { continue };
             let layer = (usize::from(t) % layers) as i32;
@@ -129,18 +168,22 @@ impl Levels {
                 fx += total * ((centre - fx) / total).round();
             }
             let window = [level.origin.0 as i32, level.origin.1 as i32, layer, level.n as i32];
+            let offset = [offset.x, offset.y, offset.z, 0.0];
             out[slot] = LevelUniform {
-                offset: [offset.x, offset.y, offset.z, 0.0],
+                offset,
                 window,
-                coarse: coarser.map_or([0, 0, layer, 0], |c| [c[0], c[1], c[2], 1]),
+                coarse: coarser.map_or([0, 0, layer, 0], |(_, c)| [c[0], c[1], c[2], 1]),
+                coarse_offset: coarser.map_or([0.0; 4], |(o, _)| o),
+                coarse_window: coarser.map_or([0; 4], |(_, c)| c),
                 blend: [
                     (fx - level.origin.0 as f64) as f32,
                     (fy - level.origin.1 as f64) as f32,
                     (level.n as f32 / 10.0).max(2.0),
                     0.0,
                 ],
+                ..LevelUniform::zeroed()
             };
-            coarser = Some(window);
+            coarser = Some((offset, window));
         }
         out
     }

@@ -11,12 +11,13 @@ use wgpu::util::DeviceExt;
 
 use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
-use self::levels::{LevelDraw, LevelUniform, Levels};
+use self::levels::{LEVEL_RECORDS, LevelDraw, LevelUniform, Levels};
 use crate::camera::{Frustum, Pose, Sees, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
+use crate::uniforms::FrameUniform;
 
 /// Vertices, indices and their count.
 type Mesh = (wgpu::Buffer, wgpu::Buffer, u32);
@@ -54,6 +55,8 @@ pub struct TerrainDraw {
     pub base_sink: f64,
     levels: Vec<LevelDraw>,
     pub update: UpdateStats,
+    /// The levels' records, the frame's part yet to come (`write_records`).
+    records: Vec<LevelUniform>,
 }
 
 impl TerrainDraw {
@@ -87,7 +90,6 @@ impl TerrainPass {
             label: Some("terrain"),
             entries: &[
                 entry(0, both, uniform),
-                entry(1, wgpu::ShaderStages::VERTEX, uniform),
                 entry(2, wgpu::ShaderStages::VERTEX, texture(false)),
                 entry(3, wgpu::ShaderStages::FRAGMENT, texture(true)),
                 entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
@@ -101,7 +103,7 @@ impl TerrainPass {
         let pipeline = |label, entries, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
             super::pipeline(device, label, &pipeline_layout, &shader, entries, buffers)
         };
-        let level_pipeline = pipeline("levels", ("vs_level", "fs_level"), &[]);
+        let level_pipeline = pipeline("levels", ("vs_level", "fs_level"), &LEVEL_RECORDS);
         let base_pipeline = pipeline("base", ("vs_base", "fs_base"), &super::VEC4_VERTICES);
         let layers = config.levels as u32;
         let array = |label, side: usize, format| super::sampled_texture(device, label, side as u32, layers, format);
@@ -110,7 +112,7 @@ impl TerrainPass {
         let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("levels"),
             size: (size_of::<LevelUniform>() * MAX_LEVELS) as u64,
-            usage: super::PARAMS_USAGE,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         // Repeat: the colour textures are toroidal.
@@ -134,7 +136,6 @@ impl TerrainPass {
             layout: &layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: frame_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: levels_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&positions_view) },
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&colors_view) },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&sampler) },
@@ -198,8 +199,7 @@ impl TerrainPass {
         }
         changed |= self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
         self.epoch += u64::from(changed);
-        let uniforms: Vec<LevelUniform> = Levels::uniforms(surface, &self.clipmap, &update.active, pose, view);
-        gpu.queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&uniforms));
+        let records: Vec<LevelUniform> = Levels::uniforms(surface, &self.clipmap, &update.active, pose, view);
         let (base, sink) = self
             .base
             .as_ref()
@@ -216,7 +216,14 @@ impl TerrainPass {
             cull.map(|f| (f as &dyn Sees, view.eye)),
             0.0,
         );
-        TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update }
+        TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update, records }
+    }
+
+    /// Writes the levels' records for `draw` drawn with `frame` (the
+    /// frame's uniform, or a shadow cascade's): before the draws that read
+    /// them.
+    pub fn write_records(&self, queue: &wgpu::Queue, draw: &TerrainDraw, frame: &FrameUniform) {
+        queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels::with_frame(&draw.records, frame)));
     }
 
     /// Draws the base, then the levels.
@@ -231,6 +238,7 @@ impl TerrainPass {
     fn record_levels(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, levels: &[LevelDraw]) {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_pipeline(pipeline);
+        pass.set_vertex_buffer(0, self.levels_buffer.slice(..));
         for level in levels {
             pass.set_index_buffer(self.levels.cells(level).slice(..), wgpu::IndexFormat::Uint32);
             for range in &level.ranges {
@@ -255,7 +263,7 @@ impl TerrainPass {
         if self.caster.is_none() {
             let (layout, shader) = (&self.layout, &self.shader);
             self.caster = Some((
-                super::caster_pipeline(device, "terrain casters", layout, shader, "vs_level_depth", &[]),
+                super::caster_pipeline(device, "terrain casters", layout, shader, "vs_level_depth", &LEVEL_RECORDS),
                 super::caster_pipeline(
                     device,
                     "terrain base casters",

@@ -4,10 +4,10 @@
 
 // Normals face up: a window folded over a pole runs its rows backwards.
 // Where there is none (every sample of a pole row is the pole), up itself.
-fn upward(normal: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+fn upward(normal: vec3<f32>, p: vec3<f32>, centre: vec4<f32>) -> vec3<f32> {
     var up = vec3<f32>(0.0, 0.0, 1.0);
-    if frame.centre.w > 0.5 {
-        up = normalize(p - frame.centre.xyz);
+    if centre.w > 0.5 {
+        up = normalize(p - centre.xyz);
     }
     let n = safe_normalize(normal);
     if dot(n, n) < 0.5 {
@@ -27,11 +27,40 @@ struct Level {
     blend: vec4<f32>,
 }
 
-struct Levels {
-    items: array<Level, 16>,
+// A level's draws read it, and its coarser level's place, as an
+// instance-rate vertex record (the instance is the level's slot): a
+// storage buffer would be loaded lane by lane for every vertex on
+// lavapipe.
+struct LevelIn {
+    @location(0) offset: vec4<f32>,
+    @location(1) window: vec4<i32>,
+    @location(2) coarse: vec4<i32>,
+    @location(3) blend: vec4<f32>,
+    @location(4) coarse_offset: vec4<f32>,
+    @location(5) coarse_window: vec4<i32>,
+    // The frame's view-projection (or a shadow cascade's), centre, sun and
+    // light (as `frame.wgsl`'s).
+    @location(6) view_proj0: vec4<f32>,
+    @location(7) view_proj1: vec4<f32>,
+    @location(8) view_proj2: vec4<f32>,
+    @location(9) view_proj3: vec4<f32>,
+    @location(10) centre: vec4<f32>,
+    @location(11) sun: vec4<f32>,
+    @location(12) light: vec4<f32>,
 }
 
-@group(0) @binding(1) var<storage, read> levels: Levels;
+fn view_proj_of(r: LevelIn) -> mat4x4<f32> {
+    return mat4x4<f32>(r.view_proj0, r.view_proj1, r.view_proj2, r.view_proj3);
+}
+
+fn level_of(r: LevelIn) -> Level {
+    return Level(r.offset, r.window, r.coarse, r.blend);
+}
+
+// The coarser level as far as `coarse_at` reads it.
+fn coarser_of(r: LevelIn) -> Level {
+    return Level(r.coarse_offset, r.coarse_window, vec4<i32>(0), vec4<f32>(0.0));
+}
 @group(0) @binding(2) var positions: texture_2d_array<f32>;
 @group(0) @binding(3) var colors: texture_2d_array<f32>;
 @group(0) @binding(4) var linear: sampler;
@@ -102,7 +131,7 @@ struct Placed {
 // Transition (Losasso & Hoppe): towards the coarser level's own surface
 // near the window's edge, exactly onto it at the outer ring, so no cracks;
 // alpha follows the camera continuously, so no popping.
-fn place(lv: Level, li: u32, i: i32, j: i32) -> Placed {
+fn place(lv: Level, c: Level, i: i32, j: i32) -> Placed {
     let n = lv.window.w;
     let half = f32(n - 1) * 0.5;
     let w = lv.blend.z;
@@ -115,40 +144,39 @@ fn place(lv: Level, li: u32, i: i32, j: i32) -> Placed {
     if lv.coarse.w != 1 {
         return Placed(fine, 0.0);
     }
-    let c = levels.items[li - 1u];
     return Placed(mix(fine, coarse_at(c, lv.window.x + i, lv.window.y + j), alpha), alpha);
 }
 
 // Where a level's vertex is drawn, and nothing else: for shadow maps.
 @vertex
-fn vs_level_depth(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) -> @builtin(position) vec4<f32> {
-    let lv = levels.items[li];
+fn vs_level_depth(@builtin(vertex_index) vi: u32, record: LevelIn) -> @builtin(position) vec4<f32> {
+    let lv = level_of(record);
     let n = lv.window.w;
-    return frame.view_proj * vec4<f32>(place(lv, li, i32(vi) % n, i32(vi) / n).p, 1.0);
+    return view_proj_of(record) * vec4<f32>(place(lv, coarser_of(record), i32(vi) % n, i32(vi) / n).p, 1.0);
 }
 
 @vertex
-fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) -> Out {
-    let lv = levels.items[li];
+fn vs_level(@builtin(vertex_index) vi: u32, record: LevelIn) -> Out {
+    let lv = level_of(record);
+    let c = coarser_of(record);
     let n = lv.window.w;
     let i = i32(vi) % n;
     let j = i32(vi) / n;
     let gx = lv.window.x + i;
     let gy = lv.window.y + j;
     let here = load(lv, i, j);
-    let placed = place(lv, li, i, j);
+    let placed = place(lv, c, i, j);
     let p = placed.p;
     let alpha = placed.alpha;
     var normal = normal_at(lv, i, j, 1);
     if lv.coarse.w == 1 {
-        let c = levels.items[li - 1u];
         let east = coarse_at(c, gx + 2, gy) - coarse_at(c, gx - 2, gy);
         let south = coarse_at(c, gx, gy + 2) - coarse_at(c, gx, gy - 2);
         normal = mix(normal, safe_normalize(cross(south, east)), alpha);
     }
     var out: Out;
-    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
-    out.normal = upward(normal, p);
+    out.clip = view_proj_of(record) * vec4<f32>(p, 1.0);
+    out.normal = upward(normal, p, record.centre);
     // Colour windows hold COLOR_DETAIL (d) samples per geometry sample,
     // from origin d x the window's, in textures dn a side (toroidal too).
     let d = COLOR_DETAIL;
@@ -165,8 +193,8 @@ fn vs_level(@builtin(vertex_index) vi: u32, @builtin(instance_index) li: u32) ->
     out.alpha = alpha;
     out.valid = here.w;
     out.layers = vec2<i32>(lv.window.z, select(lv.window.z, lv.coarse.z, lv.coarse.w == 1));
-    out.sun = frame.sun;
-    out.light = frame.light;
+    out.sun = record.sun;
+    out.light = record.light;
     return out;
 }
 
