@@ -65,9 +65,25 @@ fn maps_are_kept_while_cascades_and_casters_stay_and_drawn_when_either_changes()
     assert_eq!(counts(&still), (0, cascades), "a still camera under a still sun keeps them");
     assert_eq!(still.rgba, first.rgba, "kept maps shade as the drawn ones did");
 
-    // The camera moves 10 m: new cascades, drawn; back: drawn again.
-    let moved = Pose { position: [at.position[0] + 10.0, at.position[1], at.position[2]], ..at };
-    assert_eq!(counts(&renderer.render(&source, &moved, &settings).unwrap()), (cascades, 0), "moved");
+    // A camera moving a metre at a time mostly finds the same boxes (fixed
+    // in the world) and keeps the maps, which still shade as the ray-cast
+    // says; 2 km away, new boxes, drawn; back, drawn again, as first.
+    let step = |k: f64| Pose { position: [at.position[0] + k, at.position[1], at.position[2]], ..at };
+    let mut kept_steps = 0;
+    for k in 1..=5 {
+        let f = renderer.render(&source, &step(f64::from(k)), &settings).unwrap();
+        assert_eq!(f.drawn.shadow_maps_drawn + f.drawn.shadow_maps_kept, cascades);
+        kept_steps += usize::from(f.drawn.shadow_maps_drawn == 0);
+    }
+    assert!(kept_steps >= 3, "{kept_steps} of 5 one-metre steps kept the maps");
+    let moved = step(5.0);
+    let kept = renderer.render(&source, &moved, &settings).unwrap();
+    assert_eq!(counts(&kept), (0, cascades), "the same view again");
+    let lit_there = renderer.render(&source, &moved, &LIT).unwrap();
+    let s = score(&reference(&lit_there, peaks, PEAKS_TOP_M, SUN, LIGHT), &lit_there, &kept);
+    assert!(s.misclassified() < 0.02, "kept maps, 5 m on: {s:?}");
+    let far = step(2_000.0);
+    assert_eq!(counts(&renderer.render(&source, &far, &settings).unwrap()), (cascades, 0), "2 km away");
     let back = renderer.render(&source, &at, &settings).unwrap();
     assert_eq!(counts(&back), (cascades, 0), "back");
     assert_eq!(back.rgba, first.rgba);

@@ -20,11 +20,27 @@ const CASTER_RISE_M: f64 = 9_000.0;
 /// horizon would ask for any).
 const MAX_REACH_M: f64 = 400_000.0;
 
+/// Boxes are fixed in the world, not to the eye, and sized and placed on
+/// a ladder, so that a camera moving a little finds the same boxes and
+/// keeps its maps (`ShadowsPass`): each side at least `MARGIN` times what
+/// the slice needs, rounded up to a power of 2^(1/4), its centre on a grid
+/// of an eighth of the half side (within the margin, so the slice stays
+/// inside), and its ends along the sun's rays on a grid of an eighth of
+/// its length. The maps' texels are up to 1.1 x 2^(1/4) = 1.31 times those
+/// of a box fitted to the slice alone.
+const MARGIN: f64 = 1.1;
+const RUNGS_PER_DOUBLING: f64 = 4.0;
+const GRID: f64 = 8.0;
+
 /// One cascade: its box and the matrix from eye-relative positions to the
 /// shadow map (x, y in -1..1, depth 0..1 with nearer the sun greater).
 #[derive(Debug, Clone, Copy)]
 pub struct Cascade {
     pub bounds: LightBox,
+    /// The box in the world (its centre across and ends along the sun's
+    /// rays, from the world's origin), on the ladder: the same for every
+    /// eye that finds the same box.
+    pub anchored: [f64; 5],
     pub clip: DMat4,
     /// World metres per shadow-map texel.
     pub texel_m: f64,
@@ -109,10 +125,21 @@ pub fn fit(
                 let q = DVec3::new(p.dot(right), p.dot(up), p.dot(toward));
                 (lo, hi) = (lo.min(q), hi.max(q));
             }
-            // Square texels: the larger side across.
-            let half = ((hi.x - lo.x).max(hi.y - lo.y) / 2.0).max(1.0);
-            let (x, y) = (f64::midpoint(lo.x, hi.x), f64::midpoint(lo.y, hi.y));
-            let (z_lo, z_hi) = (lo.z - 1.0, hi.z + reach);
+            // Square texels: the larger side across, on the ladder.
+            let needed = ((hi.x - lo.x).max(hi.y - lo.y) / 2.0).max(1.0);
+            let half = 2f64.powf(((needed * MARGIN).log2() * RUNGS_PER_DOUBLING).ceil() / RUNGS_PER_DOUBLING);
+            // The world's light-space place of the eye: boxes on the grids
+            // there, then back relative to the eye.
+            let at = DVec3::new(view.eye.dot(right), view.eye.dot(up), view.eye.dot(toward));
+            let step = half / GRID;
+            let snap = |v: f64| (v / step).round() * step;
+            let (cx, cy) = (snap(f64::midpoint(lo.x, hi.x) + at.x), snap(f64::midpoint(lo.y, hi.y) + at.y));
+            let length = (hi.z + reach) - (lo.z - 1.0);
+            let z_step = 2f64.powf((length / GRID).log2().ceil());
+            let z_lo_world = ((lo.z - 1.0 + at.z) / z_step).floor() * z_step;
+            let z_hi_world = ((hi.z + reach + at.z) / z_step).ceil() * z_step;
+            let (x, y) = (cx - at.x, cy - at.y);
+            let (z_lo, z_hi) = (z_lo_world - at.z, z_hi_world - at.z);
             let depth_per_m = 1.0 / (z_hi - z_lo);
             let rows = [
                 DVec4::new(right.x / half, right.y / half, right.z / half, -x / half),
@@ -122,6 +149,7 @@ pub fn fit(
             ];
             Cascade {
                 bounds: LightBox { right, up, toward, x, y, half, z_lo, z_hi },
+                anchored: [cx, cy, half, z_lo_world, z_hi_world],
                 clip: DMat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose(),
                 texel_m: 2.0 * half / f64::from(map_size),
                 depth_per_m,
@@ -178,6 +206,33 @@ mod tests {
             }
             // A point off the side of the box is not seen.
             assert!(!c.bounds.sees(v.right * 1e7, 1.0));
+        }
+    }
+
+    #[test]
+    fn a_camera_moved_a_little_finds_the_same_boxes_and_one_moved_far_new_ones() {
+        let sun = DVec3::new(0.5, -0.3, 0.4).normalize();
+        let at = |dx: f64| {
+            let pose = Pose {
+                position: [dx, 0.0, 500.0],
+                heading_deg: 30.0,
+                pitch_deg: -20.0,
+                roll_deg: 0.0,
+                vertical_fov_deg: 50.0,
+            };
+            let v = View::new(DVec3::new(dx, 0.0, 500.0), [DVec3::X, DVec3::Y, DVec3::Z], &pose);
+            fit(&v, 16.0 / 9.0, sun, sun.z, (50.0, 20_000.0), 2, 1024).iter().map(|c| c.anchored).collect::<Vec<_>>()
+        };
+        let here = at(0.0);
+        // Most 1 m steps keep both boxes; none moves the far one.
+        let kept = (1..=20).filter(|&k| at(f64::from(k)) == here).count();
+        assert!(kept >= 10, "{kept} of 20 one-metre steps kept the boxes");
+        assert!((1..=20).all(|k| at(f64::from(k))[1] == here[1]));
+        assert_ne!(at(2_000.0), here);
+        // Fixed in the world: each box's half side is on the ladder.
+        for a in &here {
+            let rungs = a[2].log2() * RUNGS_PER_DOUBLING;
+            assert!((rungs - rungs.round()).abs() < 1e-9, "{a:?}");
         }
     }
 }

@@ -80,6 +80,13 @@ const FILTER_RADIUS: f32 = 0.0;
 /// many of its texels apart.
 const CASTER_DETAIL: f64 = 0.5;
 
+/// How far the sun may turn before the cascades follow it, radians: the
+/// direction of a sun given by azimuth and elevation turns with the local
+/// up as the camera moves (4 microradians for 25 m), which would make new
+/// boxes every frame; 0.1 milliradian moves a shadow 2 m at 20 km, a
+/// tenth of the default maps' finest texel there.
+const SUN_HELD_RAD: f64 = 1e-4;
+
 /// A sun lower than this (sine of its elevation) casts no maps: its
 /// shadows would stretch past any box, and the lighting's twilight has
 /// already taken its light.
@@ -190,6 +197,8 @@ pub struct ShadowsPass {
     maps: Option<Maps>,
     /// The last frame's maps drawn and kept.
     pub work: MapWork,
+    /// The sun's direction the cascades were last fitted to (`SUN_HELD_RAD`).
+    sun_held: Option<DVec3>,
 }
 
 impl ShadowsPass {
@@ -251,7 +260,7 @@ impl ShadowsPass {
             compare: Some(wgpu::CompareFunction::GreaterEqual),
             ..Default::default()
         });
-        Self { overlay, lookup_layout, cascades_buffer, sampler, maps: None, work: MapWork::default() }
+        Self { overlay, lookup_layout, cascades_buffer, sampler, maps: None, work: MapWork::default(), sun_held: None }
     }
 
     /// The layout of the cascades' bind group, for passes that read them.
@@ -276,7 +285,6 @@ impl ShadowsPass {
         at: &ShadowView<'_>,
         casters: Casters<'_>,
     ) -> Result<(), RenderError> {
-        let maps = self.maps(gpu, shadows);
         let fitted = if at.sin_elevation < LOWEST_SUN {
             Vec::new()
         } else {
@@ -284,19 +292,37 @@ impl ShadowsPass {
             // Far enough past the ground under a high eye to take in the
             // ground round it.
             let far = shadows.distance_m.max(near * 4.0);
-            cascades::fit(at.view, at.aspect, at.sun, at.sin_elevation, (near, far), shadows.cascades, shadows.map_size)
+            let sun = match self.sun_held {
+                Some(held) if held.angle_between(at.sun) < SUN_HELD_RAD => held,
+                _ => at.sun,
+            };
+            self.sun_held = Some(sun);
+            cascades::fit(at.view, at.aspect, sun, at.sin_elevation, (near, far), shadows.cascades, shadows.map_size)
         };
+        let maps = self.maps(gpu, shadows);
         let Casters { terrain, surface, draw, mut buildings, mut instances } = casters;
         // The maps as drawn last are still true when the same casters would
-        // be drawn the same way: the same cascades (matrices and frame
-        // uniform), terrain samples, buildings and models.
+        // be drawn into the same boxes: the same terrain data, buildings and
+        // models.
         let frames: Vec<FrameUniform> = fitted
             .iter()
             .map(|c| FrameUniform { view_proj: c.clip.as_mat4().to_cols_array_2d(), ..at.frame })
             .collect();
+        // The boxes are fixed in the world (`cascades`): a camera that
+        // moved a little finds the same ones, and their depths, measured in
+        // the world, still hold. The terrain's samples count by their data
+        // (a level rolling with the camera draws the same surface).
+        let boxes: Vec<[u64; 5]> = fitted.iter().map(|c| c.anchored.map(f64::to_bits)).collect();
+        let sun = fitted.first().map(|c| {
+            let (r, u, t) = c.bounds.axes();
+            [r, u, t].map(|a| a.to_array().map(f64::to_bits))
+        });
         let key = super::key_of(&(
-            bytemuck::cast_slice::<FrameUniform, u8>(&frames),
-            terrain.epoch(),
+            boxes,
+            sun,
+            shadows.map_size,
+            terrain.data_epoch(),
+            draw.update.not_ready.is_empty(),
             buildings.as_ref().map(|(_, d)| d.caster_key),
             instances.as_ref().map(|(_, d)| d.caster_key),
         ));

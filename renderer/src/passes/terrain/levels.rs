@@ -121,11 +121,9 @@ impl Levels {
     }
 
     /// Brings each active level's texture layers up to date: whole when the
-    /// layer held another level, else only the rectangles written. Whether
-    /// anything was written.
-    pub fn upload(&mut self, queue: &wgpu::Queue, clipmap: &mut Clipmap, active: &[u8]) -> bool {
+    /// layer held another level, else only the rectangles written.
+    pub fn upload(&mut self, queue: &wgpu::Queue, clipmap: &mut Clipmap, active: &[u8]) {
         let layers = clipmap.config.levels;
-        let mut wrote = false;
         for &t in active {
             let layer = usize::from(t) % layers;
             let Some(level) = clipmap.level_mut(t) else { continue };
@@ -136,7 +134,6 @@ impl Levels {
                 positions = vec![StorageRect { x: 0, y: 0, width: n, height: n }];
                 colors = vec![StorageRect { x: 0, y: 0, width: side, height: side }];
             }
-            wrote |= !positions.is_empty() || !colors.is_empty();
             for r in positions {
                 write_rect(queue, &self.positions, layer, &r, n, &level.positions);
             }
@@ -144,7 +141,6 @@ impl Levels {
                 write_rect(queue, &self.colors, layer, &r, side, &level.colors);
             }
         }
-        wrote
     }
 
     pub fn uniforms(

@@ -36,9 +36,11 @@ pub struct TerrainPass {
     shader: wgpu::ShaderModule,
     /// The levels' and the base's.
     caster: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
-    /// Bumped whenever a sample the device holds changes: a shadow map
-    /// drawn at one epoch is still true at the same epoch.
-    epoch: u64,
+    /// Bumped whenever the scene's samples change under the levels or the
+    /// base (a rebuild, the base filled): a shadow map drawn at one epoch
+    /// shows the same surface at the same epoch, whichever windows the
+    /// levels have rolled to since.
+    data_epoch: u64,
 }
 
 /// What a shadow cascade draws of the terrain: the base's cells in its
@@ -152,7 +154,7 @@ impl TerrainPass {
             layout: pipeline_layout,
             shader,
             caster: None,
-            epoch: 0,
+            data_epoch: 0,
         })
     }
 
@@ -169,7 +171,7 @@ impl TerrainPass {
     /// The scene rebuilt tiles in `area`: refresh those samples only, in
     /// the levels and in the base (which is filled anew if not ready).
     pub fn invalidate(&mut self, gpu: &Gpu, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
-        self.epoch += 1;
+        self.data_epoch += 1;
         self.clipmap.invalidate(surface, source, area);
         if let Some(base) = &mut self.base
             && !base.refresh(&gpu.queue, surface, source, area)
@@ -192,13 +194,11 @@ impl TerrainPass {
         cull: Option<&Frustum>,
     ) -> TerrainDraw {
         let update = self.clipmap.update(surface, source, pose, pixel_angle);
-        let mut changed = update.samples_written > 0;
         if self.base.is_none() {
             self.base = Base::fill(&gpu.device, surface, source);
-            changed |= self.base.is_some();
+            self.data_epoch += u64::from(self.base.is_some());
         }
-        changed |= self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
-        self.epoch += u64::from(changed);
+        self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
         let records: Vec<LevelUniform> = Levels::uniforms(surface, &self.clipmap, &update.active, pose, view);
         let (base, sink) = self
             .base
@@ -293,9 +293,9 @@ impl TerrainPass {
         self.record_levels(pass, levels, &casters.levels);
     }
 
-    /// Changes with every sample the device's levels and base hold.
-    pub fn epoch(&self) -> u64 {
-        self.epoch
+    /// Changes with the scene's samples under the levels and the base.
+    pub fn data_epoch(&self) -> u64 {
+        self.data_epoch
     }
 
     /// The scene no longer casts shadows: the depth-only pipeline goes.
