@@ -295,7 +295,7 @@ fn effects(
     );
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!(
-        "a still camera under a still sun keeps its shadow maps (`shadow maps drawn` counts those drawn in the timed frames); a flying one draws them every frame"
+        "a camera under a still sun keeps its shadow maps while their boxes, fixed in the world, still hold its view (`shadow maps drawn` counts those drawn in the timed frames)"
     );
     println!(
         "| effects | effect passes ms | still frame ms | / lighting alone | flying frame ms | / lighting alone | shadow maps drawn, still / flying |"
