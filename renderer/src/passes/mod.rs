@@ -273,6 +273,38 @@ mod tests {
         ]
     }
 
+    /// Guards the frame time on lavapipe, which loads a storage buffer one
+    /// lane at a time: no fragment stage reads one (`params_binding`); what
+    /// a pixel needs comes from its vertex stage, flat.
+    #[test]
+    fn no_fragment_stage_reads_a_storage_buffer() -> Result<(), String> {
+        for (name, source) in shaders() {
+            let module = naga::front::wgsl::parse_str(&source)
+                .map_err(|e| format!("shader '{name}': {}", e.emit_to_string(&source)))?;
+            let info =
+                naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+                    .validate(&module)
+                    .map_err(|e| format!("shader '{name}': {}", e.emit_to_string(&source)))?;
+            for (i, entry) in module.entry_points.iter().enumerate() {
+                if entry.stage != naga::ShaderStage::Fragment {
+                    continue;
+                }
+                let uses = info.get_entry_point(i);
+                for (handle, global) in module.global_variables.iter() {
+                    let storage = matches!(global.space, naga::AddressSpace::Storage { .. });
+                    if storage && uses[handle].contains(naga::valid::GlobalUse::READ) {
+                        return Err(format!(
+                            "shader '{name}': fragment stage '{}' reads storage buffer '{}'",
+                            entry.name,
+                            global.name.clone().unwrap_or_default()
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Every `.wgsl` file under `dir`, a pass added later's included.
     /// Every file under `dir` whose extension is `ext`.
     fn files_ending(dir: &std::path::Path, ext: &str, found: &mut Vec<std::path::PathBuf>) -> std::io::Result<()> {

@@ -145,7 +145,13 @@ impl AtmospherePass {
                     },
                 ),
                 entry(1, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
-                entry(2, super::params_binding(None)),
+                // Read by the vertex stage, handed to the pixels flat.
+                wgpu::BindGroupLayoutEntry {
+                    binding: 2,
+                    visibility: wgpu::ShaderStages::VERTEX,
+                    ty: super::params_binding(None),
+                    count: None,
+                },
             ],
         });
         let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -167,7 +173,7 @@ impl AtmospherePass {
             layout: Some(&layout),
             vertex: wgpu::VertexState {
                 module: &shader,
-                entry_point: Some("vs_fullscreen"),
+                entry_point: Some("vs_composite"),
                 compilation_options: wgpu::PipelineCompilationOptions::default(),
                 buffers: &[],
             },
