@@ -252,11 +252,11 @@ fn effects(
     let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
     let shadows = snap.manifest.effect_settings.shadows.context("the demo declares shadows")?;
     let water = snap.manifest.effect_settings.water.context("the demo declares water")?;
-    // Shadow maps drawn in the last still run's timed frames.
-    let maps_drawn = std::cell::Cell::new(0usize);
-    let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
+    // Frame and effect passes' medians, shadow maps drawn in the timed
+    // frames, and the last frame.
+    let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, usize, Frame)> {
         let runs = still_frames(gpu, snap, terrain, &settings, at)?;
-        maps_drawn.set(runs.iter().map(|f| f.drawn.shadow_maps_drawn).sum());
+        let maps_drawn = runs.iter().map(|f| f.drawn.shadow_maps_drawn).sum();
         let total = median(runs.iter().map(total_ms).collect());
         let effect_ms = median(
             runs.iter()
@@ -266,7 +266,7 @@ fn effects(
                 })
                 .collect(),
         );
-        Ok((total, effect_ms, runs.into_iter().last().context("frames")?))
+        Ok((total, effect_ms, maps_drawn, runs.into_iter().last().context("frames")?))
     };
     let lit = SETTINGS;
     let cases = [
@@ -303,8 +303,7 @@ fn effects(
     println!("|---|---|---|---|---|---|---|");
     let (mut alone, mut alone_flying) = (f64::NAN, f64::NAN);
     for (label, settings) in cases {
-        let (total, effect_ms, _) = still(settings, &pose(10))?;
-        let still_maps = maps_drawn.get();
+        let (total, effect_ms, still_maps, _) = still(settings, &pose(10))?;
         let poses: Vec<Pose> = (1..=10).map(pose).collect();
         let flying_frames = frames_along(gpu, snap, terrain, &settings, &pose(0), &poses)?;
         let flying = median(flying_frames.iter().map(total_ms).collect());
@@ -336,14 +335,14 @@ fn effects(
             atmosphere: Some(Atmosphere { steps, downsample, ..atmosphere }),
             ..SETTINGS
         };
-        let (_, _, reference) = still(with(Atmosphere::MAX_STEPS, 1), &view)?;
+        let (_, _, _, reference) = still(with(Atmosphere::MAX_STEPS, 1), &view)?;
         let d = Atmosphere::DEFAULT_DOWNSAMPLE;
         let settings = [2u32, 4, 8, 12, 16, 24, 36, 64]
             .map(|s| (s, d))
             .into_iter()
             .chain([1, 2, 3, 8].map(|k| (Atmosphere::DEFAULT_STEPS, k)));
         for (steps, downsample) in settings {
-            let (total, pass_ms, frame) = still(with(steps, downsample), &view)?;
+            let (total, pass_ms, _, frame) = still(with(steps, downsample), &view)?;
             let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
             for (a, b) in frame.rgba.chunks(4).zip(reference.rgba.chunks(4)) {
                 for k in 0..3 {

@@ -60,7 +60,7 @@ pub struct LightBox {
     pub y: f64,
     pub half: f64,
     pub z_lo: f64,
-    pub z_hi: f64,
+    z_hi: f64,
 }
 
 impl LightBox {

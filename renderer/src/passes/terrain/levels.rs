@@ -60,7 +60,7 @@ pub struct LevelDraw {
 /// and what the levels read of the frame's uniform (`with_frame`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
-pub struct LevelUniform {
+pub struct LevelRecord {
     offset: [f32; 4],
     window: [i32; 4],
     coarse: [i32; 4],
@@ -74,10 +74,10 @@ pub struct LevelUniform {
 }
 
 /// `levels` with `frame`'s view-projection, centre, sun and light.
-pub fn with_frame(levels: &[LevelUniform], frame: &FrameUniform) -> Vec<LevelUniform> {
+pub fn with_frame(levels: &[LevelRecord], frame: &FrameUniform) -> Vec<LevelRecord> {
     levels
         .iter()
-        .map(|l| LevelUniform {
+        .map(|l| LevelRecord {
             view_proj: frame.view_proj,
             centre: frame.centre,
             sun: frame.sun,
@@ -95,7 +95,7 @@ const LEVEL_ATTRIBUTES: [wgpu::VertexAttribute; 13] = wgpu::vertex_attr_array![
 
 /// The levels' records as the levels' pipelines read them.
 pub const LEVEL_RECORDS: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(wgpu::VertexBufferLayout {
-    array_stride: size_of::<LevelUniform>() as u64,
+    array_stride: size_of::<LevelRecord>() as u64,
     step_mode: wgpu::VertexStepMode::Instance,
     attributes: &LEVEL_ATTRIBUTES,
 })];
@@ -143,14 +143,8 @@ impl Levels {
         }
     }
 
-    pub fn uniforms(
-        surface: &Surface,
-        clipmap: &Clipmap,
-        active: &[u8],
-        pose: &Pose,
-        view: &View,
-    ) -> Vec<LevelUniform> {
-        let mut out = vec![LevelUniform::zeroed(); MAX_LEVELS];
+    pub fn records(surface: &Surface, clipmap: &Clipmap, active: &[u8], pose: &Pose, view: &View) -> Vec<LevelRecord> {
+        let mut out = vec![LevelRecord::zeroed(); MAX_LEVELS];
         let layers = clipmap.config.levels;
         let mut coarser: Option<([f32; 4], [i32; 4])> = None;
         for (slot, &t) in active.iter().enumerate() {
@@ -165,7 +159,7 @@ impl Levels {
             }
             let window = [level.origin.0 as i32, level.origin.1 as i32, layer, level.n as i32];
             let offset = [offset.x, offset.y, offset.z, 0.0];
-            out[slot] = LevelUniform {
+            out[slot] = LevelRecord {
                 offset,
                 window,
                 coarse: coarser.map_or([0, 0, layer, 0], |(_, c)| [c[0], c[1], c[2], 1]),
@@ -177,7 +171,7 @@ impl Levels {
                     (level.n as f32 / 10.0).max(2.0),
                     0.0,
                 ],
-                ..LevelUniform::zeroed()
+                ..LevelRecord::zeroed()
             };
             coarser = Some((offset, window));
         }

@@ -11,7 +11,7 @@ use wgpu::util::DeviceExt;
 
 use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
-use self::levels::{LEVEL_RECORDS, LevelDraw, LevelUniform, Levels};
+use self::levels::{LEVEL_RECORDS, LevelDraw, LevelRecord, Levels};
 use crate::camera::{Frustum, Pose, Sees, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
@@ -58,7 +58,7 @@ pub struct TerrainDraw {
     levels: Vec<LevelDraw>,
     pub update: UpdateStats,
     /// The levels' records, the frame's part yet to come (`write_records`).
-    records: Vec<LevelUniform>,
+    records: Vec<LevelRecord>,
 }
 
 impl TerrainDraw {
@@ -113,7 +113,7 @@ impl TerrainPass {
         let colors = array("level colours", config.color_detail * config.n, wgpu::TextureFormat::Rgba8Unorm);
         let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("levels"),
-            size: (size_of::<LevelUniform>() * MAX_LEVELS) as u64,
+            size: (size_of::<LevelRecord>() * MAX_LEVELS) as u64,
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -199,7 +199,7 @@ impl TerrainPass {
             self.data_epoch += u64::from(self.base.is_some());
         }
         self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
-        let records: Vec<LevelUniform> = Levels::uniforms(surface, &self.clipmap, &update.active, pose, view);
+        let records: Vec<LevelRecord> = Levels::records(surface, &self.clipmap, &update.active, pose, view);
         let (base, sink) = self
             .base
             .as_ref()
