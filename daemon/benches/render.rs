@@ -40,6 +40,12 @@ fn total_ms(frame: &Frame) -> f64 {
     frame.passes.iter().map(|(_, ms)| ms).sum()
 }
 
+/// The time of a frame's effect passes, milliseconds.
+fn effect_ms(frame: &Frame) -> f64 {
+    let effects = ["fog", "atmosphere", "shadows", "water"];
+    frame.passes.iter().filter(|p| effects.contains(&p.0)).map(|p| p.1).sum()
+}
+
 /// RMS and max of (rendered - formula) over every 4th pixel that shows
 /// the DEM (not its void), in metres (`relief_tests::surface`); 0 when
 /// none does.
@@ -208,6 +214,56 @@ fn frames_along(
     poses.iter().map(|at| Ok(renderer.render_scene(terrain, layers, at, settings)?)).collect()
 }
 
+/// Frames each `in_turns` takes turns over, for the effects table.
+const ROUNDS: usize = 15;
+
+/// One timed frame: all its passes, its effect passes, and the shadow
+/// maps it drew.
+struct Timed {
+    total: f64,
+    effects: f64,
+    maps_drawn: usize,
+}
+
+/// One renderer for each of `settings`, each first drawing from `first`
+/// (untimed), then taking turns over `poses`, one frame each: a change in
+/// the machine's load falls on every setting alike, as it would not on
+/// settings timed one after another.
+fn in_turns(
+    gpu: &Arc<Gpu>,
+    snap: &relief_daemon::graph::SceneSnapshot,
+    terrain: &SceneTerrain<'_>,
+    settings: &[RenderSettings],
+    first: &Pose,
+    poses: &[Pose],
+) -> anyhow::Result<Vec<Vec<Timed>>> {
+    let layers = |s: &RenderSettings| SceneLayers {
+        water: s.water.map(|_| terrain as &dyn WaterSamples),
+        ..SceneLayers::default()
+    };
+    let mut renderers = settings
+        .iter()
+        .map(|s| {
+            let mut renderer =
+                Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+            renderer.render_scene(terrain, layers(s), first, s)?;
+            Ok(renderer)
+        })
+        .collect::<anyhow::Result<Vec<Renderer>>>()?;
+    let mut timed: Vec<Vec<Timed>> = settings.iter().map(|_| Vec::new()).collect();
+    for at in poses {
+        for ((renderer, s), out) in renderers.iter_mut().zip(settings).zip(&mut timed) {
+            let frame = renderer.render_scene(terrain, layers(s), at, s)?;
+            out.push(Timed {
+                total: total_ms(&frame),
+                effects: effect_ms(&frame),
+                maps_drawn: frame.drawn.shadow_maps_drawn,
+            });
+        }
+    }
+    Ok(timed)
+}
+
 /// The default clipmap's still frame with the level blocks outside the
 /// view culled (the default) and with every block drawn: the same image
 /// (the renderer's tests check it), at what cost.
@@ -252,21 +308,12 @@ fn effects(
     let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
     let shadows = snap.manifest.effect_settings.shadows.context("the demo declares shadows")?;
     let water = snap.manifest.effect_settings.water.context("the demo declares water")?;
-    // Frame and effect passes' medians, shadow maps drawn in the timed
-    // frames, and the last frame.
-    let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, usize, Frame)> {
+    // Frame and effect passes' medians and the last frame.
+    let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
         let runs = still_frames(gpu, snap, terrain, &settings, at)?;
-        let maps_drawn = runs.iter().map(|f| f.drawn.shadow_maps_drawn).sum();
         let total = median(runs.iter().map(total_ms).collect());
-        let effect_ms = median(
-            runs.iter()
-                .map(|f| {
-                    let effects = ["fog", "atmosphere", "shadows", "water"];
-                    f.passes.iter().filter(|p| effects.contains(&p.0)).map(|p| p.1).sum()
-                })
-                .collect(),
-        );
-        Ok((total, effect_ms, maps_drawn, runs.into_iter().last().context("frames")?))
+        let effects = median(runs.iter().map(effect_ms).collect());
+        Ok((total, effects, runs.into_iter().last().context("frames")?))
     };
     let lit = SETTINGS;
     let cases = [
@@ -291,30 +338,31 @@ fn effects(
         ),
     ];
     println!(
-        "\n### Effects: the default frame (n 127, L 8), still (median of 7) and flying 25 m a frame (median of 10)"
+        "\n### Effects: the default frame (n 127, L 8), still (median of {ROUNDS}) and flying 25 m a frame (median of {ROUNDS})"
     );
     println!("machine: {}; device: {}", relief_tests::machine(), gpu.description);
     println!(
-        "a camera under a still sun keeps its shadow maps while their boxes, fixed in the world, still hold its view (`shadow maps drawn` counts those drawn in the timed frames)"
+        "the cases take turns, one frame each, so a change in the machine's load falls on all of them alike; a camera under a still sun keeps its shadow maps while their boxes, fixed in the world, still hold its view (`shadow maps drawn` counts those drawn in the timed frames)"
     );
     println!(
         "| effects | effect passes ms | still frame ms | / lighting alone | flying frame ms | / lighting alone | shadow maps drawn, still / flying |"
     );
     println!("|---|---|---|---|---|---|---|");
-    let (mut alone, mut alone_flying) = (f64::NAN, f64::NAN);
-    for (label, settings) in cases {
-        let (total, effect_ms, still_maps, _) = still(settings, &pose(10))?;
-        let poses: Vec<Pose> = (1..=10).map(pose).collect();
-        let flying_frames = frames_along(gpu, snap, terrain, &settings, &pose(0), &poses)?;
-        let flying = median(flying_frames.iter().map(total_ms).collect());
-        let flying_maps: usize = flying_frames.iter().map(|f| f.drawn.shadow_maps_drawn).sum();
-        if settings == lit {
-            (alone, alone_flying) = (total, flying);
-        }
+    let settings: Vec<RenderSettings> = cases.iter().map(|c| c.1).collect();
+    let still_turns = in_turns(gpu, snap, terrain, &settings, &pose(10), &vec![pose(10); ROUNDS])?;
+    let flying = in_turns(gpu, snap, terrain, &settings, &pose(0), &(1..=ROUNDS).map(pose).collect::<Vec<_>>())?;
+    let total = |timed: &[Timed]| median(timed.iter().map(|t| t.total).collect());
+    let maps = |timed: &[Timed]| timed.iter().map(|t| t.maps_drawn).sum::<usize>();
+    let (alone, alone_flying) = (total(&still_turns[0]), total(&flying[0]));
+    for ((label, _), (still, flying)) in cases.iter().zip(still_turns.iter().zip(&flying)) {
+        let effect_ms = median(still.iter().map(|t| t.effects).collect());
+        let (total_still, total_flying) = (total(still), total(flying));
         println!(
-            "| {label} | {effect_ms:.1} | {total:.1} | {:.2}x | {flying:.1} | {:.2}x | {still_maps} / {flying_maps} |",
-            total / alone,
-            flying / alone_flying
+            "| {label} | {effect_ms:.1} | {total_still:.1} | {:.2}x | {total_flying:.1} | {:.2}x | {} / {} |",
+            total_still / alone,
+            total_flying / alone_flying,
+            maps(still),
+            maps(flying)
         );
     }
 
@@ -335,14 +383,14 @@ fn effects(
             atmosphere: Some(Atmosphere { steps, downsample, ..atmosphere }),
             ..SETTINGS
         };
-        let (_, _, _, reference) = still(with(Atmosphere::MAX_STEPS, 1), &view)?;
+        let (_, _, reference) = still(with(Atmosphere::MAX_STEPS, 1), &view)?;
         let d = Atmosphere::DEFAULT_DOWNSAMPLE;
         let settings = [2u32, 4, 8, 12, 16, 24, 36, 64]
             .map(|s| (s, d))
             .into_iter()
             .chain([1, 2, 3, 8].map(|k| (Atmosphere::DEFAULT_STEPS, k)));
         for (steps, downsample) in settings {
-            let (total, pass_ms, _, frame) = still(with(steps, downsample), &view)?;
+            let (total, pass_ms, frame) = still(with(steps, downsample), &view)?;
             let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
             for (a, b) in frame.rgba.chunks(4).zip(reference.rgba.chunks(4)) {
                 for k in 0..3 {
