@@ -168,8 +168,8 @@ fn profile(
         water: declared.water.filter(|_| on("water")),
         ..SETTINGS
     };
-    let layers = SceneLayers { water: settings.water.map(|_| terrain as &dyn WaterSamples), ..SceneLayers::default() };
-    let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+    let layers = layers_of(terrain, &settings);
+    let mut renderer = default_renderer(gpu, snap)?;
     renderer.render_scene(terrain, layers, &pose(10), &settings)?;
     // Each frame's pass times only: the images go, as a viewer's do.
     let runs = (0..frames.max(1))
@@ -208,10 +208,21 @@ fn frames_along(
     first: &Pose,
     poses: &[Pose],
 ) -> anyhow::Result<Vec<Frame>> {
-    let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-    let layers = SceneLayers { water: settings.water.map(|_| terrain as &dyn WaterSamples), ..SceneLayers::default() };
+    let mut renderer = default_renderer(gpu, snap)?;
+    let layers = layers_of(terrain, settings);
     renderer.render_scene(terrain, layers, first, settings)?;
     poses.iter().map(|at| Ok(renderer.render_scene(terrain, layers, at, settings)?)).collect()
+}
+
+/// A renderer of the scene's grid with the default clipmap.
+fn default_renderer(gpu: &Arc<Gpu>, snap: &relief_daemon::graph::SceneSnapshot) -> anyhow::Result<Renderer> {
+    Ok(Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?)
+}
+
+/// The layers a frame of `settings` draws: the water layer's coverage
+/// where it declares water.
+fn layers_of<'a>(terrain: &'a SceneTerrain<'_>, settings: &RenderSettings) -> SceneLayers<'a> {
+    SceneLayers { water: settings.water.map(|_| terrain as &dyn WaterSamples), ..SceneLayers::default() }
 }
 
 /// Frames each `in_turns` takes turns over, for the effects table.
@@ -237,23 +248,18 @@ fn in_turns(
     first: &Pose,
     poses: &[Pose],
 ) -> anyhow::Result<Vec<Vec<Timed>>> {
-    let layers = |s: &RenderSettings| SceneLayers {
-        water: s.water.map(|_| terrain as &dyn WaterSamples),
-        ..SceneLayers::default()
-    };
     let mut renderers = settings
         .iter()
         .map(|s| {
-            let mut renderer =
-                Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
-            renderer.render_scene(terrain, layers(s), first, s)?;
+            let mut renderer = default_renderer(gpu, snap)?;
+            renderer.render_scene(terrain, layers_of(terrain, s), first, s)?;
             Ok(renderer)
         })
         .collect::<anyhow::Result<Vec<Renderer>>>()?;
     let mut timed: Vec<Vec<Timed>> = settings.iter().map(|_| Vec::new()).collect();
     for at in poses {
         for ((renderer, s), out) in renderers.iter_mut().zip(settings).zip(&mut timed) {
-            let frame = renderer.render_scene(terrain, layers(s), at, s)?;
+            let frame = renderer.render_scene(terrain, layers_of(terrain, s), at, s)?;
             out.push(Timed {
                 total: total_ms(&frame),
                 effects: effect_ms(&frame),
@@ -349,20 +355,20 @@ fn effects(
     );
     println!("|---|---|---|---|---|---|---|");
     let settings: Vec<RenderSettings> = cases.iter().map(|c| c.1).collect();
-    let still_turns = in_turns(gpu, snap, terrain, &settings, &pose(10), &vec![pose(10); ROUNDS])?;
+    let at_rest = in_turns(gpu, snap, terrain, &settings, &pose(10), &vec![pose(10); ROUNDS])?;
     let flying = in_turns(gpu, snap, terrain, &settings, &pose(0), &(1..=ROUNDS).map(pose).collect::<Vec<_>>())?;
     let total = |timed: &[Timed]| median(timed.iter().map(|t| t.total).collect());
     let maps = |timed: &[Timed]| timed.iter().map(|t| t.maps_drawn).sum::<usize>();
-    let (alone, alone_flying) = (total(&still_turns[0]), total(&flying[0]));
-    for ((label, _), (still, flying)) in cases.iter().zip(still_turns.iter().zip(&flying)) {
-        let effect_ms = median(still.iter().map(|t| t.effects).collect());
-        let (total_still, total_flying) = (total(still), total(flying));
+    let (alone, alone_flying) = (total(&at_rest[0]), total(&flying[0]));
+    for ((label, _), (rest, fly)) in cases.iter().zip(at_rest.iter().zip(&flying)) {
+        let effect_ms = median(rest.iter().map(|t| t.effects).collect());
+        let (total_still, total_flying) = (total(rest), total(fly));
         println!(
             "| {label} | {effect_ms:.1} | {total_still:.1} | {:.2}x | {total_flying:.1} | {:.2}x | {} / {} |",
             total_still / alone,
             total_flying / alone_flying,
-            maps(still),
-            maps(flying)
+            maps(rest),
+            maps(fly)
         );
     }
 
@@ -435,7 +441,7 @@ fn min_levels(gpu: &Arc<Gpu>, manifest: &std::path::Path) -> anyhow::Result<()> 
         let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
         let buildings =
             SceneBuildings::new(&scene.store, &snap, snap.manifest.quality).context("the demo has a town")?;
-        let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+        let mut renderer = default_renderer(gpu, &snap)?;
         renderer.render_scene(
             &terrain,
             SceneLayers { buildings: Some(&buildings), instances: None, water: None },
@@ -472,7 +478,7 @@ fn passes(gpu: &Arc<Gpu>, scene: &relief_daemon::scene::Scene, terrain: &SceneTe
     let snap = scene.snapshot();
     let buildings = SceneBuildings::new(&scene.store, &snap, snap.manifest.quality).context("the demo has a town")?;
     let town = town_view();
-    let mut renderer = Renderer::new(Arc::clone(gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default())?;
+    let mut renderer = default_renderer(gpu, &snap)?;
     // First frames fill the levels and build tiles and meshes: not timed.
     renderer.render_scene(
         terrain,

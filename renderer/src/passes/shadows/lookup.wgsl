@@ -61,7 +61,8 @@ fn finer_place(
     let q = vec3<f32>((at.x - box.x) * box.z, (at.y - box.y) * box.z, (at.z - near) * depth_per_m);
     let holds = i < count && abs(q.x) <= 0.99 && abs(q.y) <= 0.99 && q.z >= 0.0;
     let bias = 0.5 * box.w * depth_per_m;
-    let here = select(vec4<f32>(q.x * 0.5 + 0.5, 0.5 - q.y * 0.5, q.z + bias, i), vec4<f32>(0.0, 0.0, 0.0, -1.0), q.z >= 1.0);
+    let lit = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    let here = select(vec4<f32>(q.x * 0.5 + 0.5, 0.5 - q.y * 0.5, q.z + bias, i), lit, q.z >= 1.0);
     return select(place, here, holds);
 }
 
