@@ -156,6 +156,11 @@ impl Eye {
         self.inv_view_proj
     }
 
+    /// The eye's height above the datum, metres.
+    pub fn height_m(&self) -> f64 {
+        f64::from(self.up[3])
+    }
+
     pub fn new(view_proj: Mat4, up: DVec3, height_m: f64) -> Self {
         Self {
             inv_view_proj: view_proj.inverse().to_cols_array_2d(),

@@ -68,9 +68,13 @@ impl FogPass {
         daylight: f64,
     ) -> wgpu::BindGroup {
         let light = (0.08 + 0.92 * daylight) as f32;
+        // The eye's height above the base in falloff heights, and the
+        // density there (bounded as the shader bounds a ray's far end).
+        let above = (eye.height_m() - fog.base_m) / fog.falloff_m;
+        let at_eye = fog.density_per_m * (-above.clamp(-80.0, 80.0)).exp();
         let u = FogUniform {
             eye,
-            params: [fog.density_per_m as f32, fog.falloff_m as f32, fog.base_m as f32, 0.0],
+            params: [fog.density_per_m as f32, fog.falloff_m as f32, above as f32, at_eye as f32],
             color: [fog.color[0] as f32 * light, fog.color[1] as f32 * light, fog.color[2] as f32 * light, 1.0],
         };
         self.0.prepare(gpu, frame_buffer, depth, &u)
