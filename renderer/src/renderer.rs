@@ -342,7 +342,12 @@ impl Renderer {
                 buildings: self.buildings.as_mut().zip(buildings_shown.as_ref()),
                 instances: self.instances.as_mut().zip(instances_shown.as_ref()),
             };
-            let pass = self.shadows.get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, &self.frame_buffer));
+            if self.shadows.as_ref().is_some_and(|p| p.cascades != shadows.cascades) {
+                self.shadows = None;
+            }
+            let pass = self
+                .shadows
+                .get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, &self.frame_buffer, shadows.cascades));
             self.counters.set_built(passes::SHADOWS, true);
             pass.run(&self.gpu, &self.frame_buffer, &target, shadows, &at, casters)?;
             (drawn.shadow_maps_drawn, drawn.shadow_maps_kept) = (pass.work.drawn, pass.work.kept);
@@ -370,7 +375,7 @@ impl Renderer {
             pass.run(&self.gpu, &self.frame_buffer, &target, &knobs, &at)?;
             passes.push((passes::WATER, self.counters.ran(passes::WATER, started)));
         }
-        let shadowed = settings.shadows.is_some();
+        let shadowed = settings.shadows.map(|s| s.cascades);
         if (settings.atmosphere.is_none() || self.atmosphere.as_ref().is_some_and(|a| a.shadowed != shadowed))
             && self.atmosphere.take().is_some()
         {
@@ -378,7 +383,7 @@ impl Renderer {
         }
         if let Some(atmosphere) = &settings.atmosphere {
             let started = Instant::now();
-            let lookup = self.shadows.as_ref().map(ShadowsPass::lookup_layout);
+            let lookup = self.shadows.as_ref().map(|p| (p.lookup_layout(), p.cascades));
             let pass = self
                 .atmosphere
                 .get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer, lookup));

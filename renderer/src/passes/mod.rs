@@ -259,14 +259,16 @@ mod tests {
         let fullscreen = super::overlay::fullscreen;
         let overlay = |own, source: &str| framed(&format!("{}\n{source}", fullscreen(own, 0)));
         let table = super::shadows::TABLE_VEC4S;
-        let shadowed =
-            |own, source: &str| framed(&format!("{}\n{}\n{source}", fullscreen(own, table), super::shadows::LOOKUP));
+        let shadowed = |own, cascades, source: &str| {
+            framed(&format!("{}\n{}\n{source}", fullscreen(own, table), super::shadows::lookup(cascades)))
+        };
         vec![
             ("terrain", framed(&format!("const COLOR_DETAIL: i32 = 2;\n{}", include_str!("terrain/terrain.wgsl")))),
             ("buildings", framed(include_str!("buildings/buildings.wgsl"))),
             ("instances", framed(include_str!("instances/instances.wgsl"))),
-            ("shadows", shadowed(6, include_str!("shadows/shadows.wgsl"))),
-            ("atmosphere", shadowed(8, include_str!("atmosphere/atmosphere.wgsl"))),
+            ("shadows", shadowed(6, 4, include_str!("shadows/shadows.wgsl"))),
+            ("shadows of one cascade", shadowed(6, 1, include_str!("shadows/shadows.wgsl"))),
+            ("atmosphere", shadowed(8, 4, include_str!("atmosphere/atmosphere.wgsl"))),
             ("atmosphere composite", format!("{}\n{}", fullscreen(0, 0), include_str!("atmosphere/composite.wgsl"))),
             ("water", overlay(11, include_str!("water/water.wgsl"))),
             ("fog", overlay(7, include_str!("fog/fog.wgsl"))),

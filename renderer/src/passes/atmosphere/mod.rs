@@ -71,8 +71,11 @@ struct AtmosphereUniform {
     frame_size: [f32; 4],
 }
 
-/// Light and transmittance as the scattering computes them.
-const SCATTERED_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Light (tone-mapped to 0..1) and one less the transmittance, as the
+/// scattering computes them: 8 bits each, as the frame has, since
+/// lavapipe filters 8-bit texels for the composite at 1.5-2.5 ms less
+/// than half floats.
+const SCATTERED_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 /// The atmosphere pass: the scattering computed into a texture of its own
 /// (`downsample` frame pixels to a side of each texel), then laid over the
@@ -85,9 +88,9 @@ pub struct AtmospherePass {
     sampler: wgpu::Sampler,
     /// The scattering's texture, kept while its size stays.
     scattered: Option<(wgpu::Extent3d, wgpu::TextureView)>,
-    /// Built to read the shadow cascades: the sun's light is taken from
-    /// the air in shadow, so a hidden sun does not glow.
-    pub shadowed: bool,
+    /// Built to read the shadow cascades (this many): the sun's light is
+    /// taken from the air in shadow, so a hidden sun does not glow.
+    pub shadowed: Option<u32>,
 }
 
 /// What a frame's atmosphere needs besides its knobs.
@@ -113,13 +116,18 @@ impl AtmospherePass {
         size_of::<AtmosphereUniform>() / size_of::<[f32; 4]>() + super::shadows::TABLE_VEC4S;
 
     /// The pass, reading the shadow cascades through `shadows` (their
-    /// bind group's layout) when the scene casts shadows.
-    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer, shadows: Option<&wgpu::BindGroupLayout>) -> Self {
-        let visibility = if shadows.is_some() { super::shadows::LOOKUP } else { SUN_EVERYWHERE };
+    /// bind group's layout and count) when the scene casts shadows.
+    pub fn new(
+        device: &wgpu::Device,
+        frame_buffer: &wgpu::Buffer,
+        shadows: Option<(&wgpu::BindGroupLayout, u32)>,
+    ) -> Self {
+        let visibility = shadows.map_or_else(|| SUN_EVERYWHERE.to_owned(), |(_, n)| super::shadows::lookup(n));
+        let shadowed = shadows.map(|(_, n)| n);
         let source = format!("{visibility}\n{}", include_str!("atmosphere.wgsl"));
         let target =
             wgpu::ColorTargetState { format: SCATTERED_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL };
-        let shadows = shadows.map(|layout| (layout, super::shadows::TABLE_VEC4S));
+        let shadows = shadows.map(|(layout, _)| (layout, super::shadows::TABLE_VEC4S));
         let scatter = Overlay::new::<AtmosphereUniform>(device, frame_buffer, ("atmosphere", &source), target, shadows);
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("atmosphere composite"),
@@ -200,15 +208,7 @@ impl AtmospherePass {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        Self {
-            scatter,
-            composite,
-            composite_layout,
-            composite_uniform,
-            sampler,
-            scattered: None,
-            shadowed: shadows.is_some(),
-        }
+        Self { scatter, composite, composite_layout, composite_uniform, sampler, scattered: None, shadowed }
     }
 
     /// Computes the scattering for this frame into the pass's own texture,

@@ -26,6 +26,9 @@ fn begin_shadows(input: OverlayIn) {
 // finest holding p kept, with no loop and no array indexed per pixel:
 // lavapipe runs a loop's exits under masks, and the shadows' pass of the
 // default frame took 22 ms with a loop over the cascades, 14 ms this way.
+// Only the `CASCADES` the pass was built for are placed (a constant its
+// pass declares, so the others are compiled out: the default 2 of the 4
+// slots cost the shadows' pass 1-3 ms more on lavapipe).
 fn shadow_place(p: vec3<f32>, normal: vec3<f32>) -> vec4<f32> {
     let right = shadow_table[0];
     let up = shadow_table[1];
@@ -37,9 +40,15 @@ fn shadow_place(p: vec3<f32>, normal: vec3<f32>) -> vec4<f32> {
     let depth_per_m = shadow_table[8];
     // Coarsest first, so a finer cascade holding p replaces it.
     var place = vec4<f32>(0.0, 0.0, 0.0, -1.0);
-    place = finer_place(place, l, ln, shadow_table[6], near.w, depth_per_m.w, 3.0, count);
-    place = finer_place(place, l, ln, shadow_table[5], near.z, depth_per_m.z, 2.0, count);
-    place = finer_place(place, l, ln, shadow_table[4], near.y, depth_per_m.y, 1.0, count);
+    if CASCADES > 3u {
+        place = finer_place(place, l, ln, shadow_table[6], near.w, depth_per_m.w, 3.0, count);
+    }
+    if CASCADES > 2u {
+        place = finer_place(place, l, ln, shadow_table[5], near.z, depth_per_m.z, 2.0, count);
+    }
+    if CASCADES > 1u {
+        place = finer_place(place, l, ln, shadow_table[4], near.y, depth_per_m.y, 1.0, count);
+    }
     place = finer_place(place, l, ln, shadow_table[3], near.x, depth_per_m.x, 0.0, count);
     return place;
 }

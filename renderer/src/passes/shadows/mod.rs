@@ -68,8 +68,11 @@ impl Shadows {
     }
 }
 
-/// The lookup every pass reading the maps prepends (group 1).
-pub const LOOKUP: &str = include_str!("lookup.wgsl");
+/// The lookup every pass reading the maps prepends (group 1), for maps
+/// of `cascades` (the count it places points in).
+pub fn lookup(cascades: u32) -> String {
+    format!("const CASCADES: u32 = {cascades}u;\n{}", include_str!("lookup.wgsl"))
+}
 
 /// Texels either side of each looked-up one in the shadows' filter: none
 /// beyond the comparison sampler's own 2 x 2 (3 x 3 cost a third more of
@@ -197,12 +200,16 @@ pub struct ShadowsPass {
     maps: Option<Maps>,
     /// The last frame's maps drawn and kept.
     pub work: MapWork,
+    /// The cascade count the lookup was built for (`lookup`).
+    pub cascades: u32,
     /// The sun's direction the cascades were last fitted to (`SUN_HELD_RAD`).
     sun_held: Option<DVec3>,
 }
 
 impl ShadowsPass {
-    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
+    /// The pass for `cascades` maps (a pass for another count is built
+    /// anew: the lookup places points in that many).
+    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer, cascades: u32) -> Self {
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             // The table is read by the vertex stage (flat inputs), the maps
@@ -239,7 +246,7 @@ impl ShadowsPass {
                 operation: wgpu::BlendOperation::Add,
             },
         };
-        let source = format!("{LOOKUP}\n{}", include_str!("shadows.wgsl"));
+        let source = format!("{}\n{}", lookup(cascades), include_str!("shadows.wgsl"));
         let overlay = Overlay::new::<ShadowViewUniform>(
             device,
             frame_buffer,
@@ -260,7 +267,16 @@ impl ShadowsPass {
             compare: Some(wgpu::CompareFunction::GreaterEqual),
             ..Default::default()
         });
-        Self { overlay, lookup_layout, cascades_buffer, sampler, maps: None, work: MapWork::default(), sun_held: None }
+        Self {
+            overlay,
+            lookup_layout,
+            cascades_buffer,
+            sampler,
+            maps: None,
+            work: MapWork::default(),
+            cascades,
+            sun_held: None,
+        }
     }
 
     /// The layout of the cascades' bind group, for passes that read them.
