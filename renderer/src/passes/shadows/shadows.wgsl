@@ -28,8 +28,12 @@ fn fs(input: OverlayIn) -> @location(0) vec4<f32> {
     let p = unproject(shade.inv_view_proj, ndc_of(frag.xy, vec2<f32>(size)), max(z, 1e-30));
     // Derivatives before any branch (the quad's pixels run together).
     var n = safe_normalize(cross(dpdx(p), dpdy(p)));
+    // The sky, and ground facing away from the sun, keep what was drawn:
+    // discarded, not multiplied by 1, so lavapipe skips the lookup for a
+    // block of pixels that all leave (it runs both sides of a branch its
+    // pixels disagree on, and everything after one they all return from).
     if z <= 0.0 {
-        return vec4<f32>(1.0);
+        discard;
     }
     if dot(n, p) > 0.0 {
         n = -n;
@@ -37,7 +41,7 @@ fn fs(input: OverlayIn) -> @location(0) vec4<f32> {
     let ambient = shade.light.x;
     let diffuse = shade.light.y * max(dot(n, shade.sun.xyz), 0.0);
     if diffuse <= 0.0 {
-        return vec4<f32>(1.0);
+        discard;
     }
     let seen = sun_visible(p, n, i32(shade.sun.w));
     let f = (ambient + diffuse * seen) / (ambient + diffuse);
