@@ -43,7 +43,8 @@ fn total_ms(frame: &Frame) -> f64 {
 /// The time of a frame's effect passes, milliseconds.
 fn effect_ms(frame: &Frame) -> f64 {
     let effects = ["fog", "atmosphere", "shadows", "water"];
-    frame.passes.iter().filter(|p| effects.contains(&p.0)).map(|p| p.1).sum()
+    // Folded from +0: an empty `sum` of floats is -0, printed "-0.0".
+    frame.passes.iter().filter(|p| effects.contains(&p.0)).fold(0.0, |ms, p| ms + p.1)
 }
 
 /// RMS and max of (rendered - formula) over every 4th pixel that shows
