@@ -239,6 +239,10 @@ impl Renderer {
         };
         let mut passes = Vec::new();
 
+        // The terrain, buildings and instances are made ready first, the
+        // shadow maps drawn from them next, and only then is the frame's
+        // colour drawn: the lit passes receive the shadows as they draw.
+        // A pass's time is what it took in each of those steps.
         let started = Instant::now();
         let pixel_angle = pose.vertical_fov_deg.to_radians() / f64::from(settings.height);
         let aspect = f64::from(settings.width) / f64::from(settings.height);
@@ -246,8 +250,6 @@ impl Renderer {
         let draw = self.terrain.prepare(&self.gpu, &self.surface, source, pose, &view, pixel_angle, frustum.as_ref());
         let frame_uniform = self.write_frame_uniform(pose, &view, settings, Some(draw.base_sink));
         self.terrain.write_records(&self.gpu.queue, &draw, &frame_uniform);
-        target.run(&self.gpu, passes::TERRAIN, true, |pass| self.terrain.record(pass, &draw))?;
-        passes.push((passes::TERRAIN, self.counters.ran(passes::TERRAIN, started)));
 
         // Where the eye is over what this frame draws, and the sun: what
         // the later passes ask of the frame, worked out once.
@@ -257,6 +259,7 @@ impl Renderer {
         let sun = self.sun(pose, settings.sun);
         let ground_radius_m = self.surface.is_planet().then(|| view.eye.length() - pose.position[2]);
         let above_ground_m = (pose.position[2] - ground_m.unwrap_or(0.0)).abs();
+        let terrain_ms = started.elapsed().as_secs_f64() * 1e3;
 
         let (terrain_blocks, terrain_blocks_drawn) = draw.blocks();
         let mut drawn = Drawn { terrain_blocks, terrain_blocks_drawn, ..Drawn::default() };
@@ -264,6 +267,7 @@ impl Renderer {
             self.counters.set_built(passes::BUILDINGS, false);
         }
         let (mut buildings_shown, mut instances_shown) = (None, None);
+        let (mut buildings_ms, mut instances_ms) = (0.0, 0.0);
         if let Some(meshes) = layers.buildings {
             let started = Instant::now();
             let device = &self.gpu.device;
@@ -280,9 +284,8 @@ impl Renderer {
             };
             let shown = buildings.prepare(device, &self.frame_buffer, &on, meshes);
             drawn.buildings = shown.drawn;
-            target.run(&self.gpu, passes::BUILDINGS, false, |pass| buildings.record(pass, &shown))?;
-            passes.push((passes::BUILDINGS, self.counters.ran(passes::BUILDINGS, started)));
             buildings_shown = Some(shown);
+            buildings_ms = started.elapsed().as_secs_f64() * 1e3;
         }
 
         if layers.instances.is_none() && self.instances.take().is_some() {
@@ -305,17 +308,10 @@ impl Renderer {
             let shown = instances.prepare(&self.gpu, &at, tiles)?;
             (drawn.instances_in_view, drawn.models, drawn.billboards) =
                 (shown.in_view, shown.models_drawn, shown.billboards_drawn);
-            target.run(&self.gpu, passes::INSTANCES, false, |pass| instances.record(pass, &shown))?;
-            passes.push((passes::INSTANCES, self.counters.ran(passes::INSTANCES, started)));
             instances_shown = Some(shown);
+            instances_ms = started.elapsed().as_secs_f64() * 1e3;
         }
 
-        // The effects laid over the frame read one eye, worked out once
-        // (and not at all for a scene without them).
-        let water = settings.water.zip(layers.water);
-        let overlaid =
-            settings.atmosphere.is_some() || settings.fog.is_some() || settings.shadows.is_some() || water.is_some();
-        let eye = overlaid.then(|| Eye::new(view.view_projection(aspect), up, pose.position[2]));
         if settings.shadows.is_none() && self.shadows.take().is_some() {
             self.counters.set_built(passes::SHADOWS, false);
             self.terrain.drop_casters();
@@ -329,7 +325,6 @@ impl Renderer {
                 pose,
                 aspect,
                 pixel_angle,
-                eye: eye.unwrap_or_default(),
                 sun,
                 sin_elevation: sun.dot(up),
                 above_ground_m,
@@ -345,14 +340,47 @@ impl Renderer {
             if self.shadows.as_ref().is_some_and(|p| p.cascades != shadows.cascades) {
                 self.shadows = None;
             }
-            let pass = self
-                .shadows
-                .get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, &self.frame_buffer, shadows.cascades));
+            let pass = self.shadows.get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, shadows.cascades));
             self.counters.set_built(passes::SHADOWS, true);
-            pass.run(&self.gpu, &self.frame_buffer, &target, shadows, &at, casters)?;
+            pass.run(&self.gpu, &self.frame_buffer, shadows, &at, casters)?;
             (drawn.shadow_maps_drawn, drawn.shadow_maps_kept) = (pass.work.drawn, pass.work.kept);
             passes.push((passes::SHADOWS, self.counters.ran(passes::SHADOWS, started)));
         }
+
+        // The frame's colour: the lit passes, receiving the shadows where
+        // the scene casts them.
+        let device = &self.gpu.device;
+        let receiver = self.shadows.as_ref().map(|p| (p.lookup_layout(), p.cascades));
+        let lookup = self.shadows.as_ref().and_then(ShadowsPass::lookup);
+        // Each pass's time: what making it ready took, then drawing it.
+        let mut ran = |name: &'static str, ready_ms: f64, started: Instant| {
+            let ms = ready_ms + started.elapsed().as_secs_f64() * 1e3;
+            self.counters.add_run(name, ms);
+            passes.push((name, ms));
+        };
+        let started = Instant::now();
+        self.terrain.receive_shadows(device, receiver);
+        let terrain = &self.terrain;
+        target.run(&self.gpu, passes::TERRAIN, true, |pass| terrain.record(pass, &draw, lookup))?;
+        ran(passes::TERRAIN, terrain_ms, started);
+        if let (Some(buildings), Some(shown)) = (&mut self.buildings, &buildings_shown) {
+            let started = Instant::now();
+            buildings.receive_shadows(device, receiver);
+            target.run(&self.gpu, passes::BUILDINGS, false, |pass| buildings.record(pass, shown, lookup))?;
+            ran(passes::BUILDINGS, buildings_ms, started);
+        }
+        if let (Some(instances), Some(shown)) = (&mut self.instances, &instances_shown) {
+            let started = Instant::now();
+            instances.receive_shadows(device, receiver);
+            target.run(&self.gpu, passes::INSTANCES, false, |pass| instances.record(pass, shown, lookup))?;
+            ran(passes::INSTANCES, instances_ms, started);
+        }
+
+        // The effects laid over the frame read one eye, worked out once
+        // (and not at all for a scene without them).
+        let water = settings.water.zip(layers.water);
+        let overlaid = settings.atmosphere.is_some() || settings.fog.is_some() || water.is_some();
+        let eye = overlaid.then(|| Eye::new(view.view_projection(aspect), up, pose.position[2]));
         if water.is_none() && self.water.take().is_some() {
             self.counters.set_built(passes::WATER, false);
         }

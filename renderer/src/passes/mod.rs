@@ -152,6 +152,62 @@ pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderM
     })
 }
 
+/// A lit pass's shader (terrain, buildings, instances): `shader` of its
+/// source made to receive the shadows of a frame casting `cascades` maps,
+/// or none (`shadows::receiving`).
+pub fn lit_shader(device: &wgpu::Device, label: &str, source: &str, cascades: Option<u32>) -> wgpu::ShaderModule {
+    shader(device, label, &shadows::receiving(source, cascades))
+}
+
+/// One pipeline of a lit pass, as its shadow-receiving twin is made: its
+/// label, its own bind group's layout (group 0), its stages and vertex
+/// buffers.
+pub struct LitPipeline<'a> {
+    pub label: &'a str,
+    pub group0: &'a wgpu::BindGroupLayout,
+    pub stages: (&'a str, &'a str),
+    pub buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+}
+
+/// A lit pass's pipelines for frames that cast shadows: its shader built
+/// again to receive the shadows of `cascades` maps (`shadows::receiving`), the cascades' lookup bound
+/// as group 1. Made the first time a frame casts shadows, and again when
+/// the cascade count changes; gone when the scene casts none.
+pub struct Receiving {
+    pub cascades: u32,
+    pub pipelines: Vec<wgpu::RenderPipeline>,
+}
+
+impl Receiving {
+    /// `kept` while it was made for `lookup`'s cascade count, else made
+    /// anew from the pass's `source` and `pipelines`; none without a lookup.
+    pub fn update(
+        kept: Option<Self>,
+        device: &wgpu::Device,
+        lookup: Option<(&wgpu::BindGroupLayout, u32)>,
+        (label, source): (&str, &str),
+        pipelines: &[LitPipeline<'_>],
+    ) -> Option<Self> {
+        let (lookup, cascades) = lookup?;
+        if let Some(kept) = kept.filter(|r| r.cascades == cascades) {
+            return Some(kept);
+        }
+        let shader = lit_shader(device, label, source, Some(cascades));
+        let pipelines = pipelines
+            .iter()
+            .map(|p| {
+                let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(p.label),
+                    bind_group_layouts: &[Some(p.group0), Some(lookup)],
+                    immediate_size: 0,
+                });
+                pipeline(device, p.label, &layout, &shader, p.stages, p.buffers)
+            })
+            .collect();
+        Some(Self { cascades, pipelines })
+    }
+}
+
 /// A 64-bit digest of what a pass drew, for telling whether two frames
 /// drew the same (a collision would keep a stale shadow map one frame:
 /// one in 2^64).
@@ -178,14 +234,16 @@ pub const ATMOSPHERE: &str = "atmosphere";
 /// Built only for a scene that declares it.
 pub const FOG: &str = "fog";
 /// Shadows: the `shadows` effect, cascaded shadow maps drawn from the sun
-/// (terrain, buildings and instance models cast), then the sunlight taken
-/// from what they hide. Built only for a scene that declares it.
+/// (terrain, buildings and instance models cast) before the frame's
+/// colour; the lit passes take the sunlight they hide from each pixel
+/// they draw (timed in those passes). Built only for a scene that
+/// declares it.
 pub const SHADOWS: &str = "shadows";
 /// Water: the `water` effect, the water layer drawn as a surface at its
 /// level or on the terrain. Built only for a scene that declares it.
 pub const WATER: &str = "water";
 /// Every pass a renderer knows, in the order a frame runs them.
-pub const ALL: &[&str] = &[TERRAIN, BUILDINGS, INSTANCES, SHADOWS, WATER, ATMOSPHERE, FOG];
+pub const ALL: &[&str] = &[SHADOWS, TERRAIN, BUILDINGS, INSTANCES, WATER, ATMOSPHERE, FOG];
 
 /// One pass's record.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -254,7 +312,7 @@ mod tests {
     use wgpu::naga;
 
     /// Every pass's shader put together as its pass does it.
-    fn shaders() -> Vec<(&'static str, String)> {
+    fn shaders() -> Vec<(String, String)> {
         let framed = |source: &str| format!("{}\n{source}", include_str!("frame.wgsl"));
         let fullscreen = super::overlay::fullscreen;
         let overlay = |own, source: &str| framed(&format!("{}\n{source}", fullscreen(own, 0)));
@@ -262,17 +320,28 @@ mod tests {
         let shadowed = |own, cascades, source: &str| {
             framed(&format!("{}\n{}\n{source}", fullscreen(own, table), super::shadows::lookup(cascades)))
         };
-        vec![
-            ("terrain", framed(&format!("const COLOR_DETAIL: i32 = 2;\n{}", include_str!("terrain/terrain.wgsl")))),
-            ("buildings", framed(include_str!("buildings/buildings.wgsl"))),
-            ("instances", framed(include_str!("instances/instances.wgsl"))),
-            ("shadows", shadowed(6, 4, include_str!("shadows/shadows.wgsl"))),
-            ("shadows of one cascade", shadowed(6, 1, include_str!("shadows/shadows.wgsl"))),
-            ("atmosphere", shadowed(8, 4, include_str!("atmosphere/atmosphere.wgsl"))),
-            ("atmosphere composite", format!("{}\n{}", fullscreen(0, 0), include_str!("atmosphere/composite.wgsl"))),
-            ("water", overlay(11, include_str!("water/water.wgsl"))),
-            ("fog", overlay(7, include_str!("fog/fog.wgsl"))),
-        ]
+        // The lit passes without shadows and receiving them from 1 and 4 cascades.
+        let lit = |source: &str, cascades| framed(&super::shadows::receiving(source, cascades));
+        let terrain = format!("const COLOR_DETAIL: i32 = 2;\n{}", include_str!("terrain/terrain.wgsl"));
+        let mut all = Vec::new();
+        for (cascades, kind) in [(None, ""), (Some(1), " receiving 1 cascade"), (Some(4), " receiving 4 cascades")] {
+            all.push(("terrain", kind, lit(&terrain, cascades)));
+            all.push(("buildings", kind, lit(include_str!("buildings/buildings.wgsl"), cascades)));
+            all.push(("instances", kind, lit(include_str!("instances/instances.wgsl"), cascades)));
+        }
+        let mut all: Vec<(String, String)> =
+            all.into_iter().map(|(name, kind, s)| (format!("{name}{kind}"), s)).collect();
+        all.extend([
+            ("atmosphere".to_owned(), shadowed(8, 4, include_str!("atmosphere/atmosphere.wgsl"))),
+            ("atmosphere over 1 cascade".to_owned(), shadowed(8, 1, include_str!("atmosphere/atmosphere.wgsl"))),
+            (
+                "atmosphere composite".to_owned(),
+                format!("{}\n{}", fullscreen(0, 0), include_str!("atmosphere/composite.wgsl")),
+            ),
+            ("water".to_owned(), overlay(11, include_str!("water/water.wgsl"))),
+            ("fog".to_owned(), overlay(7, include_str!("fog/fog.wgsl"))),
+        ]);
+        all
     }
 
     /// Guards the frame time on lavapipe, which loads a storage buffer one

@@ -152,10 +152,6 @@ pub struct Eye {
 }
 
 impl Eye {
-    pub fn inverse_view_proj(&self) -> [[f32; 4]; 4] {
-        self.inv_view_proj
-    }
-
     /// The eye's height above the datum, metres.
     pub fn height_m(&self) -> f64 {
         f64::from(self.up[3])

@@ -23,6 +23,8 @@ struct Out {
     @location(2) @interpolate(flat) sun: vec4<f32>,
     @location(3) @interpolate(flat) light: vec4<f32>,
     @location(4) @interpolate(flat) centre: vec4<f32>,
+    // Where the point is in each shadow cascade, when the frame casts shadows.
+    #sun_at_fields 5
 }
 
 // high.w: the building's index in its tile; low.w: 1 at the foot of a wall.
@@ -43,6 +45,7 @@ fn vs_building(
     out.sun = frame.sun;
     out.light = frame.light;
     out.centre = frame.centre;
+    #sun_at_out p normal.xyz
     return out;
 }
 
@@ -50,7 +53,8 @@ fn vs_building(
 fn fs_building(in: Out) -> @location(0) vec4<f32> {
     var light = 1.0;
     if in.light.z > 0.5 {
-        light = sunlight(in.sun, in.light, in.normal);
+        #sun_at_in
+        light = sunlit(in.sun, in.light, in.normal, at);
     } else {
         // Unlit scenes still tell walls from roofs: a fixed sky light.
         light = 0.55 + 0.45 * abs(dot(normalize(in.normal), normalize(-in.centre.xyz * in.centre.w + vec3<f32>(0.0, 0.0, 1.0 - in.centre.w))));

@@ -101,6 +101,9 @@ pub struct BuildingsDraw {
     pub caster_key: u64,
 }
 
+/// The buildings' shader.
+const SOURCE: &str = include_str!("buildings.wgsl");
+
 pub struct BuildingsPass {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
@@ -109,6 +112,8 @@ pub struct BuildingsPass {
     pipeline_layout: wgpu::PipelineLayout,
     shader: wgpu::ShaderModule,
     caster: Option<wgpu::RenderPipeline>,
+    /// The pipeline's twin receiving shadows, while the scene casts them.
+    shadowed: Option<super::Receiving>,
     tiles: HashMap<TileKey, TileMesh>,
     /// Mesh tiles turned into device buffers since the pass was built.
     pub tiles_built: u64,
@@ -116,7 +121,7 @@ pub struct BuildingsPass {
 
 impl BuildingsPass {
     pub fn new(device: &wgpu::Device) -> Self {
-        let shader = super::shader(device, "buildings", include_str!("buildings.wgsl"));
+        let shader = super::lit_shader(device, "buildings", SOURCE, None);
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -144,7 +149,16 @@ impl BuildingsPass {
             ("vs_building", "fs_building"),
             &super::VEC4_VERTICES,
         );
-        Self { pipeline, layout, pipeline_layout, shader, caster: None, tiles: HashMap::new(), tiles_built: 0 }
+        Self {
+            pipeline,
+            layout,
+            pipeline_layout,
+            shader,
+            caster: None,
+            shadowed: None,
+            tiles: HashMap::new(),
+            tiles_built: 0,
+        }
     }
 
     /// Chooses and fetches the mesh tiles the clipmap's rings call for,
@@ -236,8 +250,29 @@ impl BuildingsPass {
         draw
     }
 
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw) {
-        self.record_with(pass, &self.pipeline, draw);
+    /// Makes (or drops) the pipeline receiving shadows from the maps
+    /// `lookup` describes (their layout and count), as the frame casts them.
+    pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
+        let pipelines = [super::LitPipeline {
+            label: "buildings receiving shadows",
+            group0: &self.layout,
+            stages: ("vs_building", "fs_building"),
+            buffers: &super::VEC4_VERTICES,
+        }];
+        let kept = self.shadowed.take();
+        self.shadowed = super::Receiving::update(kept, device, lookup, ("buildings", SOURCE), &pipelines);
+    }
+
+    /// Draws the buildings; with `shadows` (the cascades' lookup, after
+    /// `receive_shadows`), receiving them.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw, shadows: Option<&wgpu::BindGroup>) {
+        match (shadows, &self.shadowed) {
+            (Some(lookup), Some(shadowed)) => {
+                pass.set_bind_group(1, lookup, &[]);
+                self.record_with(pass, &shadowed.pipelines[0], draw);
+            }
+            _ => self.record_with(pass, &self.pipeline, draw),
+        }
     }
 
     /// The scene no longer casts shadows: the depth-only pipeline goes.

@@ -43,6 +43,8 @@ struct ModelOut {
     // The frame's sun and light terms (`sunlight`).
     @location(3) @interpolate(flat) sun: vec4<f32>,
     @location(4) @interpolate(flat) light: vec4<f32>,
+    // Where the point is in each shadow cascade, when the frame casts shadows.
+    #sun_at_fields 5
 }
 
 // glTF axes: x east, y up, z south.
@@ -58,12 +60,14 @@ fn vs_model(
     let south = cross(east, up);
     let local = position.x * east + position.y * up + position.z * south;
     var out: ModelOut;
-    out.clip = frame.view_proj * vec4<f32>(inst.pos.xyz + inst.pos.w * local, 1.0);
+    let p = inst.pos.xyz + inst.pos.w * local;
+    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.normal = normal.x * east + normal.y * up + normal.z * south;
     out.color = color;
     out.range = vec2<f32>(inst.east.w, inst.up.w);
     out.sun = frame.sun;
     out.light = frame.light;
+    #sun_at_out p out.normal
     return out;
 }
 
@@ -74,7 +78,8 @@ fn fs_model(in: ModelOut) -> @location(0) vec4<f32> {
     }
     var light = 1.0;
     if in.light.z > 0.5 {
-        light = sunlight(in.sun, in.light, in.normal);
+        #sun_at_in
+        light = sunlit(in.sun, in.light, in.normal, at);
     }
     return vec4<f32>(in.color.rgb * light, in.color.a);
 }
@@ -95,6 +100,8 @@ struct BillboardOut {
     @location(5) range: vec2<f32>,
     @location(6) @interpolate(flat) sun: vec4<f32>,
     @location(7) @interpolate(flat) light: vec4<f32>,
+    // Where the point is in each shadow cascade, when the frame casts shadows.
+    #sun_at_fields 8
 }
 
 // Two triangles turning about the local vertical to face the eye.
@@ -116,7 +123,8 @@ fn vs_billboard(@builtin(vertex_index) vertex: u32, inst: Instance) -> Billboard
     let b = inst.billboard;
     let local = right * (c.x * b.x) + up * mix(b.y, b.z, c.y);
     var out: BillboardOut;
-    out.clip = frame.view_proj * vec4<f32>(inst.pos.xyz + local, 1.0);
+    let p = inst.pos.xyz + local;
+    out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.uv = vec2<f32>(c.x * 0.5 + 0.5, 1.0 - c.y);
     out.layer = u32(b.w);
     // The model's axes as the billboard shows it: x to the right, y up, z
@@ -127,6 +135,9 @@ fn vs_billboard(@builtin(vertex_index) vertex: u32, inst: Instance) -> Billboard
     out.range = vec2<f32>(inst.east.w, inst.up.w);
     out.sun = frame.sun;
     out.light = frame.light;
+    // The billboard stands in for the model's volume: the point is
+    // looked up off its plane, towards the eye.
+    #sun_at_out p out.facing
     return out;
 }
 
@@ -141,7 +152,8 @@ fn fs_billboard(in: BillboardOut) -> @location(0) vec4<f32> {
         // Lit per texel as the model is, from the normals it was baked with.
         let baked = textureSample(normals, atlas_sampler, in.uv, in.layer);
         let n = baked.xyz / max(baked.a, 1e-3) * 2.0 - 1.0;
-        light = sunlight(in.sun, in.light, n.x * in.right + n.y * in.up + n.z * in.facing);
+        #sun_at_in
+        light = sunlit(in.sun, in.light, n.x * in.right + n.y * in.up + n.z * in.facing, at);
     }
     return vec4<f32>(texel.rgb / texel.a * light, 1.0);
 }

@@ -93,6 +93,9 @@ fn model_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 2] {
     ]
 }
 
+/// The instances' shader.
+const SOURCE: &str = include_str!("instances.wgsl");
+
 pub struct InstancesPass {
     model_pipeline: wgpu::RenderPipeline,
     /// What the `shadows` effect's depth-only twin of the models' pipeline
@@ -104,7 +107,11 @@ pub struct InstancesPass {
     model_layout: wgpu::BindGroupLayout,
     model_bind_group: wgpu::BindGroup,
     billboard_pipeline: wgpu::RenderPipeline,
+    billboard_layout: wgpu::BindGroupLayout,
     billboard_bind_group: wgpu::BindGroup,
+    /// The models' and billboards' twins receiving shadows, while the
+    /// scene casts them.
+    shadowed: Option<super::Receiving>,
     /// Bakes a model's normals for its billboard.
     normal_pipeline: wgpu::RenderPipeline,
     /// Billboards' colours and normals, a layer per model.
@@ -119,7 +126,7 @@ pub struct InstancesPass {
 
 impl InstancesPass {
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
-        let shader = super::shader(device, "instances", include_str!("instances.wgsl"));
+        let shader = super::lit_shader(device, "instances", SOURCE, None);
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -225,7 +232,9 @@ impl InstancesPass {
             model_layout,
             model_bind_group,
             billboard_pipeline,
+            billboard_layout,
             billboard_bind_group,
+            shadowed: None,
             normal_pipeline,
             atlas,
             normals,
@@ -307,11 +316,42 @@ impl InstancesPass {
         Ok(draw)
     }
 
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw) {
+    /// Makes (or drops) the pipelines receiving shadows from the maps
+    /// `lookup` describes (their layout and count), as the frame casts them.
+    pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
+        let model_buffers = model_buffers();
+        let pipelines = [
+            super::LitPipeline {
+                label: "instance models receiving shadows",
+                group0: &self.model_layout,
+                stages: ("vs_model", "fs_model"),
+                buffers: &model_buffers,
+            },
+            super::LitPipeline {
+                label: "instance billboards receiving shadows",
+                group0: &self.billboard_layout,
+                stages: ("vs_billboard", "fs_billboard"),
+                buffers: &[Some(INSTANCE_BUFFER)],
+            },
+        ];
+        let kept = self.shadowed.take();
+        self.shadowed = super::Receiving::update(kept, device, lookup, ("instances", SOURCE), &pipelines);
+    }
+
+    /// Draws the models, then the billboards; with `shadows` (the
+    /// cascades' lookup, after `receive_shadows`), receiving them.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw, shadows: Option<&wgpu::BindGroup>) {
         let Some(buffer) = &draw.buffer else { return };
-        self.record_models(pass, &self.model_pipeline, draw);
+        let (models, billboards) = match (shadows, &self.shadowed) {
+            (Some(lookup), Some(shadowed)) => {
+                pass.set_bind_group(1, lookup, &[]);
+                (&shadowed.pipelines[0], &shadowed.pipelines[1])
+            }
+            _ => (&self.model_pipeline, &self.billboard_pipeline),
+        };
+        self.record_models(pass, models, draw);
         if !draw.billboards.is_empty() {
-            pass.set_pipeline(&self.billboard_pipeline);
+            pass.set_pipeline(billboards);
             pass.set_bind_group(0, &self.billboard_bind_group, &[]);
             pass.set_vertex_buffer(0, buffer.slice(..));
             pass.draw(0..6, draw.billboards.clone());

@@ -4,11 +4,12 @@
 //! instances' models are drawn by depth-only twins of their own pipelines
 //! (the frame uniform carrying the cascade's matrix). The maps are kept,
 //! not drawn again, while the cascades and everything drawn into them are
-//! unchanged (a still camera under a still sun). A full-screen pass
-//! then takes from each drawn pixel the sunlight the maps say is hidden
-//! (`shadows.wgsl`), and the atmosphere, when declared, reads the same maps
-//! for its in-scattering (`lookup.wgsl`). Built only for a scene that
-//! declares it.
+//! unchanged (a still camera under a still sun). They are drawn before
+//! the frame's colour: the lit passes, built again to receive them
+//! (`receiving`, `receive.wgsl`), take from each pixel they draw the
+//! sunlight the maps say is hidden, and the atmosphere, when declared,
+//! reads the same maps for its in-scattering (`lookup`, `air.wgsl`).
+//! Built only for a scene that declares it.
 
 pub mod cascades;
 
@@ -18,13 +19,12 @@ use wgpu::util::DeviceExt;
 
 use super::buildings::{BuildingsDraw, BuildingsPass};
 use super::instances::{InstancesDraw, InstancesPass};
-use super::overlay::{Eye, Overlay, over_frame};
 use super::terrain::{TerrainDraw, TerrainPass};
 use crate::camera::{Pose, View};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
-use crate::target::{DEPTH_FORMAT, Target, wait};
+use crate::target::{DEPTH_FORMAT, wait};
 use crate::uniforms::FrameUniform;
 
 /// The shadows' knobs.
@@ -68,16 +68,65 @@ impl Shadows {
     }
 }
 
-/// The lookup every pass reading the maps prepends (group 1), for maps
-/// of `cascades` (the count it places points in).
+/// The lookup a full-screen pass reading the maps prepends (group 1, the
+/// table among its flat inputs), for maps of `cascades` (the count it
+/// places points in): the atmosphere's.
 pub fn lookup(cascades: u32) -> String {
-    format!("const CASCADES: u32 = {cascades}u;\n{}", include_str!("lookup.wgsl"))
+    format!("const CASCADES: u32 = {cascades}u;\n{}\n{}", include_str!("lookup.wgsl"), include_str!("air.wgsl"))
 }
 
-/// Texels either side of each looked-up one in the shadows' filter: none
-/// beyond the comparison sampler's own 2 x 2 (3 x 3 cost a third more of
-/// the pass for 1.05% against 1.03% misclassified, one map of 512).
-const FILTER_RADIUS: f32 = 0.0;
+/// A lit pass's shader `source` made to receive the shadows of a frame
+/// casting `cascades` maps, or none: the lookup (`receive.wgsl`, group 1)
+/// prepended, and the source's three lines that carry a point's place in
+/// the cascades from its vertex to its pixels written out for that many:
+/// `#sun_at_fields L` (the vertex output's fields, from location L),
+/// `#sun_at_out P N` (placing point P with normal N, into `out`) and
+/// `#sun_at_in` (`let at`, the places from `in`, for `sunlit`). Without
+/// shadows the fields are not there at all: unread outputs still cost
+/// lavapipe's terrain pass 3-6 ms.
+pub fn receiving(source: &str, cascades: Option<u32>) -> String {
+    use std::fmt::Write;
+    let n = cascades.unwrap_or(0);
+    let mut out = match cascades {
+        Some(n) => {
+            format!("const CASCADES: u32 = {n}u;\n{}\n{}\n", include_str!("lookup.wgsl"), include_str!("receive.wgsl"))
+        }
+        None => format!("{UNSHADOWED}\n"),
+    };
+    for line in source.lines() {
+        let indent = &line[..line.len() - line.trim_start().len()];
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["#sun_at_fields", first] => {
+                let first: u32 = first.parse().unwrap_or(0);
+                for i in 0..n {
+                    let _ = writeln!(out, "{indent}@location({}) sun_at{i}: vec4<f32>,", first + i);
+                }
+            }
+            ["#sun_at_out", point, normal] if n > 0 => {
+                let _ = writeln!(out, "{indent}let sun_at = sun_coords({point}, {normal});");
+                for i in 0..n {
+                    let _ = writeln!(out, "{indent}out.sun_at{i} = sun_at[{i}];");
+                }
+            }
+            ["#sun_at_out", ..] => {}
+            ["#sun_at_in"] => {
+                let places: Vec<String> = (0..Shadows::MAX_CASCADES)
+                    .map(|i| if i < n { format!("in.sun_at{i}") } else { "vec4<f32>(0.0)".to_owned() })
+                    .collect();
+                let _ = writeln!(out, "{indent}let at = array<vec4<f32>, 4>({});", places.join(", "));
+            }
+            _ => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    out
+}
+
+/// What a lit pass prepends without shadows: the sunlight whole.
+const UNSHADOWED: &str = "fn sunlit(sun: vec4<f32>, light: vec4<f32>, normal: vec3<f32>, c: array<vec4<f32>, 4>) -> f32 { return sunlight(sun, light, normal); }";
 
 /// The finest terrain level drawn into a map has samples at least this
 /// many of its texels apart.
@@ -133,17 +182,6 @@ impl CascadeTable {
     }
 }
 
-/// What the shadows' overlay reads besides the cascades: the frame's
-/// inverse view-projection, the sun and the filter radius, the lighting's
-/// terms.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, Pod, Zeroable, Default)]
-struct ShadowViewUniform {
-    inv_view_proj: [[f32; 4]; 4],
-    sun: [f32; 4],
-    light: [f32; 4],
-}
-
 /// The maps of one size and count, and the lookup's bind group over them.
 struct Maps {
     size: u32,
@@ -180,7 +218,6 @@ pub struct ShadowView<'a> {
     pub aspect: f64,
     /// The angle one pixel of the frame spans, radians.
     pub pixel_angle: f64,
-    pub eye: Eye,
     /// Towards the sun (world axes), and the sine of its elevation.
     pub sun: DVec3,
     pub sin_elevation: f64,
@@ -190,10 +227,9 @@ pub struct ShadowView<'a> {
     pub frame: FrameUniform,
 }
 
-/// The shadows pass: maps, the lookup's layout and uniform, and the
-/// overlay taking the hidden sunlight away.
+/// The shadows pass: the maps, and the layout and table of the lookup
+/// the passes reading them bind.
 pub struct ShadowsPass {
-    overlay: Overlay,
     lookup_layout: wgpu::BindGroupLayout,
     cascades_buffer: wgpu::Buffer,
     sampler: wgpu::Sampler,
@@ -209,7 +245,7 @@ pub struct ShadowsPass {
 impl ShadowsPass {
     /// The pass for `cascades` maps (a pass for another count is built
     /// anew: the lookup places points in that many).
-    pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer, cascades: u32) -> Self {
+    pub fn new(device: &wgpu::Device, cascades: u32) -> Self {
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             // The table is read by the vertex stage (flat inputs), the maps
@@ -233,27 +269,6 @@ impl ShadowsPass {
                 entry(2, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Comparison)),
             ],
         });
-        // Multiplies the frame by the factor the overlay answers.
-        let blend = wgpu::BlendState {
-            color: wgpu::BlendComponent {
-                src_factor: wgpu::BlendFactor::Zero,
-                dst_factor: wgpu::BlendFactor::Src,
-                operation: wgpu::BlendOperation::Add,
-            },
-            alpha: wgpu::BlendComponent {
-                src_factor: wgpu::BlendFactor::Zero,
-                dst_factor: wgpu::BlendFactor::One,
-                operation: wgpu::BlendOperation::Add,
-            },
-        };
-        let source = format!("{}\n{}", lookup(cascades), include_str!("shadows.wgsl"));
-        let overlay = Overlay::new::<ShadowViewUniform>(
-            device,
-            frame_buffer,
-            ("shadows", &source),
-            over_frame(blend),
-            Some((&lookup_layout, TABLE_VEC4S)),
-        );
         let cascades_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("shadow cascades"),
             contents: bytemuck::bytes_of(&CascadeTable::default()),
@@ -267,16 +282,7 @@ impl ShadowsPass {
             compare: Some(wgpu::CompareFunction::GreaterEqual),
             ..Default::default()
         });
-        Self {
-            overlay,
-            lookup_layout,
-            cascades_buffer,
-            sampler,
-            maps: None,
-            work: MapWork::default(),
-            cascades,
-            sun_held: None,
-        }
+        Self { lookup_layout, cascades_buffer, sampler, maps: None, work: MapWork::default(), cascades, sun_held: None }
     }
 
     /// The layout of the cascades' bind group, for passes that read them.
@@ -289,14 +295,14 @@ impl ShadowsPass {
         self.maps.as_ref().map(|m| &m.lookup)
     }
 
-    /// The frame's shadows: the cascades fitted to the view, the casters
-    /// drawn into their maps, then the hidden sunlight taken from what the
-    /// frame drew. The frame uniform is the camera's again afterwards.
+    /// The frame's shadow maps: the cascades fitted to the view and the
+    /// casters drawn into their maps (or the last frame's kept), before
+    /// the frame's colour is drawn. The frame uniform and the terrain's
+    /// records are the camera's again afterwards.
     pub fn run(
         &mut self,
         gpu: &Gpu,
         frame_buffer: &wgpu::Buffer,
-        target: &Target,
         shadows: &Shadows,
         at: &ShadowView<'_>,
         casters: Casters<'_>,
@@ -396,18 +402,7 @@ impl ShadowsPass {
         gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&at.frame));
         let u = CascadeTable::new(&fitted, shadows.map_size);
         gpu.queue.write_buffer(&self.cascades_buffer, 0, bytemuck::bytes_of(&u));
-        if fitted.is_empty() {
-            return wait(gpu);
-        }
-        let [sx, sy, sz, _] = at.frame.sun;
-        let view = ShadowViewUniform {
-            inv_view_proj: at.eye.inverse_view_proj(),
-            sun: [sx, sy, sz, FILTER_RADIUS],
-            light: at.frame.light,
-        };
-        let bind_group = self.overlay.prepare(gpu, frame_buffer, target.depth_view(), &view);
-        let lookup = self.maps.as_ref().map(|m| &m.lookup);
-        target.run_overlay(gpu, "shadows", |pass| self.overlay.record(pass, &bind_group, lookup))
+        wait(gpu)
     }
 
     /// The maps for `shadows`' size and count, made anew when they change.

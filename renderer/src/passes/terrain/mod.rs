@@ -34,6 +34,12 @@ pub struct TerrainPass {
     /// is made from, and that twin once a frame casts shadows.
     layout: wgpu::PipelineLayout,
     shader: wgpu::ShaderModule,
+    /// What the twins receiving shadows are made from (the bind group's
+    /// layout and the shader's source), and those twins (levels, base)
+    /// while the scene casts shadows.
+    group0: wgpu::BindGroupLayout,
+    source: String,
+    shadowed: Option<super::Receiving>,
     /// The levels' and the base's.
     caster: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
     /// Bumped whenever the scene's samples change under the levels or the
@@ -79,7 +85,7 @@ impl TerrainPass {
         }
         // The colour detail is a constant of the shader: a renderer serves one configuration.
         let source = format!("const COLOR_DETAIL: i32 = {};\n{}", config.color_detail, include_str!("terrain.wgsl"));
-        let shader = super::shader(device, "terrain", &source);
+        let shader = super::lit_shader(device, "terrain", &source, None);
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let uniform = super::params_binding(None);
@@ -153,6 +159,9 @@ impl TerrainPass {
             base: None,
             layout: pipeline_layout,
             shader,
+            group0: layout,
+            source,
+            shadowed: None,
             caster: None,
             data_epoch: 0,
         })
@@ -226,13 +235,42 @@ impl TerrainPass {
         queue.write_buffer(&self.levels_buffer, 0, bytemuck::cast_slice(&levels::with_frame(&draw.records, frame)));
     }
 
-    /// Draws the base, then the levels.
-    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &TerrainDraw) {
-        pass.set_bind_group(0, &self.bind_group, &[]);
+    /// Makes (or drops) the pipelines receiving shadows from the maps
+    /// `lookup` describes (their layout and count), as the frame casts them.
+    pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
+        let group0 = &self.group0;
+        let pipelines = [
+            super::LitPipeline {
+                label: "levels receiving shadows",
+                group0,
+                stages: ("vs_level", "fs_level"),
+                buffers: &LEVEL_RECORDS,
+            },
+            super::LitPipeline {
+                label: "base receiving shadows",
+                group0,
+                stages: ("vs_base", "fs_base"),
+                buffers: &super::VEC4_VERTICES,
+            },
+        ];
+        let kept = self.shadowed.take();
+        self.shadowed = super::Receiving::update(kept, device, lookup, ("terrain", &self.source), &pipelines);
+    }
+
+    /// Draws the base, then the levels; with `shadows` (the cascades'
+    /// lookup, after `receive_shadows`), receiving them.
+    pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &TerrainDraw, shadows: Option<&wgpu::BindGroup>) {
+        let (levels, base) = match (shadows, &self.shadowed) {
+            (Some(lookup), Some(shadowed)) => {
+                pass.set_bind_group(1, lookup, &[]);
+                (&shadowed.pipelines[0], &shadowed.pipelines[1])
+            }
+            _ => (&self.level_pipeline, &self.base_pipeline),
+        };
         if let Some(mesh) = &draw.base {
-            self.record_mesh(pass, mesh);
+            self.record_mesh_with(pass, base, mesh);
         }
-        self.record_levels(pass, &self.level_pipeline, &draw.levels);
+        self.record_levels(pass, levels, &draw.levels);
     }
 
     fn record_levels(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, levels: &[LevelDraw]) {

@@ -76,6 +76,8 @@ struct Out {
     // The frame's sun and light terms (`sunlight`).
     @location(6) @interpolate(flat) sun: vec4<f32>,
     @location(7) @interpolate(flat) light: vec4<f32>,
+    // Where the point is in each shadow cascade, when the frame casts shadows.
+    #sun_at_fields 8
 }
 
 fn wrap(g: i32, n: i32) -> i32 {
@@ -195,17 +197,19 @@ fn vs_level(@builtin(vertex_index) vi: u32, record: LevelIn) -> Out {
     out.layers = vec2<i32>(lv.window.z, select(lv.window.z, lv.coarse.z, lv.coarse.w == 1));
     out.sun = record.sun;
     out.light = record.light;
+    #sun_at_out p out.normal
     return out;
 }
 
-fn shade(base: vec4<f32>, normal: vec3<f32>, sun: vec4<f32>, light_terms: vec4<f32>) -> vec4<f32> {
+// `at`: where the point is in the shadow cascades (`sunlit`).
+fn shade(base: vec4<f32>, normal: vec3<f32>, sun: vec4<f32>, light_terms: vec4<f32>, at: array<vec4<f32>, 4>) -> vec4<f32> {
     // Colour (premultiplied) over the light grey of samples without any:
     // a texel partly covered, beside nodata or at a polygon's edge, is
     // drawn partly grey, never darkened towards its neighbour's black.
     let albedo = base.rgb + (1.0 - base.a) * vec3<f32>(0.78, 0.78, 0.76);
     var light = 1.0;
     if light_terms.z > 0.5 {
-        light = sunlight(sun, light_terms, normal);
+        light = sunlit(sun, light_terms, normal, at);
     }
     return vec4<f32>(albedo * light, 1.0);
 }
@@ -217,7 +221,8 @@ fn fs_level(in: Out) -> @location(0) vec4<f32> {
     }
     let fine = textureSampleLevel(colors, linear, in.uv, in.layers.x, 0.0);
     let coarse = textureSampleLevel(colors, linear, in.uv_coarse, in.layers.y, 0.0);
-    return shade(mix(fine, coarse, in.alpha), in.normal, in.sun, in.light);
+    #sun_at_in
+    return shade(mix(fine, coarse, in.alpha), in.normal, in.sun, in.light, at);
 }
 
 struct BaseOut {
@@ -227,6 +232,8 @@ struct BaseOut {
     @location(2) valid: f32,
     @location(3) @interpolate(flat) sun: vec4<f32>,
     @location(4) @interpolate(flat) light: vec4<f32>,
+    // Where the point is in each shadow cascade, when the frame casts shadows.
+    #sun_at_fields 5
 }
 
 // The base: a coarse grid of the whole scene with double-single positions
@@ -247,6 +254,7 @@ fn vs_base(
     out.valid = high.w;
     out.sun = frame.sun;
     out.light = frame.light;
+    #sun_at_out p normal.xyz
     return out;
 }
 
@@ -255,5 +263,6 @@ fn fs_base(in: BaseOut) -> @location(0) vec4<f32> {
     if in.valid < 0.5 {
         discard;
     }
-    return shade(in.color, in.normal, in.sun, in.light);
+    #sun_at_in
+    return shade(in.color, in.normal, in.sun, in.light, at);
 }
