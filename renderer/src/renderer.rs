@@ -350,6 +350,7 @@ impl Renderer {
         // The frame's colour: the lit passes, receiving the shadows where
         // the scene casts them.
         let device = &self.gpu.device;
+        // The cascades' layout and count, for the passes reading the maps.
         let receiver = self.shadows.as_ref().map(|p| (p.lookup_layout(), p.cascades));
         let lookup = self.shadows.as_ref().and_then(ShadowsPass::lookup);
         // Each pass's time: what making it ready took, then drawing it.
@@ -411,10 +412,9 @@ impl Renderer {
         }
         if let Some(atmosphere) = &settings.atmosphere {
             let started = Instant::now();
-            let lookup = self.shadows.as_ref().map(|p| (p.lookup_layout(), p.cascades));
             let pass = self
                 .atmosphere
-                .get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer, lookup));
+                .get_or_insert_with(|| AtmospherePass::new(&self.gpu.device, &self.frame_buffer, receiver));
             self.counters.set_built(passes::ATMOSPHERE, true);
             let at = AtmosphereView {
                 eye: eye.unwrap_or_default(),

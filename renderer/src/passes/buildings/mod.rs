@@ -104,6 +104,17 @@ pub struct BuildingsDraw {
 /// The buildings' shader.
 const SOURCE: &str = include_str!("buildings.wgsl");
 
+/// The buildings' lit pipeline (`group0` the pass's bind group layout), as
+/// the pass makes it and its twin receiving shadows.
+fn lit_pipeline(group0: &wgpu::BindGroupLayout) -> super::LitPipeline<'_> {
+    super::LitPipeline {
+        label: "buildings",
+        group0,
+        stages: ("vs_building", "fs_building"),
+        buffers: &super::VEC4_VERTICES,
+    }
+}
+
 pub struct BuildingsPass {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
@@ -141,14 +152,7 @@ impl BuildingsPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = super::pipeline(
-            device,
-            "buildings",
-            &pipeline_layout,
-            &shader,
-            ("vs_building", "fs_building"),
-            &super::VEC4_VERTICES,
-        );
+        let pipeline = lit_pipeline(&layout).build(device, &shader, None);
         Self {
             pipeline,
             layout,
@@ -253,26 +257,15 @@ impl BuildingsPass {
     /// Makes (or drops) the pipeline receiving shadows from the maps
     /// `lookup` describes (their layout and count), as the frame casts them.
     pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
-        let pipelines = [super::LitPipeline {
-            label: "buildings receiving shadows",
-            group0: &self.layout,
-            stages: ("vs_building", "fs_building"),
-            buffers: &super::VEC4_VERTICES,
-        }];
-        let kept = self.shadowed.take();
-        self.shadowed = super::Receiving::update(kept, device, lookup, ("buildings", SOURCE), &pipelines);
+        let pipelines = [lit_pipeline(&self.layout)];
+        super::Receiving::update(&mut self.shadowed, device, lookup, ("buildings", SOURCE), &pipelines);
     }
 
     /// Draws the buildings; with `shadows` (the cascades' lookup, after
     /// `receive_shadows`), receiving them.
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw, shadows: Option<&wgpu::BindGroup>) {
-        match (shadows, &self.shadowed) {
-            (Some(lookup), Some(shadowed)) => {
-                pass.set_bind_group(1, lookup, &[]);
-                self.record_with(pass, &shadowed.pipelines[0], draw);
-            }
-            _ => self.record_with(pass, &self.pipeline, draw),
-        }
+        let [pipeline] = super::Receiving::choose(self.shadowed.as_ref(), pass, shadows, [&self.pipeline]);
+        self.record_with(pass, pipeline, draw);
     }
 
     /// The scene no longer casts shadows: the depth-only pipeline goes.

@@ -82,14 +82,35 @@ const INSTANCE_BUFFER: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLay
 };
 
 /// A model's vertices, then the instances placing it.
-fn model_buffers() -> [Option<wgpu::VertexBufferLayout<'static>>; 2] {
+const MODEL_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 2] = [
+    Some(wgpu::VertexBufferLayout {
+        array_stride: size_of::<ModelVertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &MODEL_ATTRIBUTES,
+    }),
+    Some(INSTANCE_BUFFER),
+];
+
+/// The instances' lit pipelines, the models' and the billboards' (each
+/// with its bind group layout), as the pass makes them and their twins
+/// receiving shadows.
+fn lit_pipelines<'a>(
+    models: &'a wgpu::BindGroupLayout,
+    billboards: &'a wgpu::BindGroupLayout,
+) -> [super::LitPipeline<'a>; 2] {
     [
-        Some(wgpu::VertexBufferLayout {
-            array_stride: size_of::<ModelVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &MODEL_ATTRIBUTES,
-        }),
-        Some(INSTANCE_BUFFER),
+        super::LitPipeline {
+            label: "instance models",
+            group0: models,
+            stages: ("vs_model", "fs_model"),
+            buffers: &MODEL_BUFFERS,
+        },
+        super::LitPipeline {
+            label: "instance billboards",
+            group0: billboards,
+            stages: ("vs_billboard", "fs_billboard"),
+            buffers: &[Some(INSTANCE_BUFFER)],
+        },
     ]
 }
 
@@ -168,31 +189,16 @@ impl InstancesPass {
                 immediate_size: 0,
             })
         };
-        let model_buffers = model_buffers();
         let model_pipeline_layout = layout("instance models", &model_layout);
-        let model_pipeline = super::pipeline(
-            device,
-            "instance models",
-            &model_pipeline_layout,
-            &shader,
-            ("vs_model", "fs_model"),
-            &model_buffers,
-        );
+        let [model_pipeline, billboard_pipeline] =
+            lit_pipelines(&model_layout, &billboard_layout).map(|p| p.build(device, &shader, None));
         let normal_pipeline = super::pipeline(
             device,
             "billboard normals",
             &model_pipeline_layout,
             &shader,
             ("vs_model", "fs_model_normal"),
-            &model_buffers,
-        );
-        let billboard_pipeline = super::pipeline(
-            device,
-            "instance billboards",
-            &layout("instance billboards", &billboard_layout),
-            &shader,
-            ("vs_billboard", "fs_billboard"),
-            &[Some(INSTANCE_BUFFER)],
+            &MODEL_BUFFERS,
         );
         let (atlas, normals) = (models::atlas(device), models::atlas(device));
         let array = |t: &wgpu::Texture| {
@@ -319,36 +325,16 @@ impl InstancesPass {
     /// Makes (or drops) the pipelines receiving shadows from the maps
     /// `lookup` describes (their layout and count), as the frame casts them.
     pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
-        let model_buffers = model_buffers();
-        let pipelines = [
-            super::LitPipeline {
-                label: "instance models receiving shadows",
-                group0: &self.model_layout,
-                stages: ("vs_model", "fs_model"),
-                buffers: &model_buffers,
-            },
-            super::LitPipeline {
-                label: "instance billboards receiving shadows",
-                group0: &self.billboard_layout,
-                stages: ("vs_billboard", "fs_billboard"),
-                buffers: &[Some(INSTANCE_BUFFER)],
-            },
-        ];
-        let kept = self.shadowed.take();
-        self.shadowed = super::Receiving::update(kept, device, lookup, ("instances", SOURCE), &pipelines);
+        let pipelines = lit_pipelines(&self.model_layout, &self.billboard_layout);
+        super::Receiving::update(&mut self.shadowed, device, lookup, ("instances", SOURCE), &pipelines);
     }
 
     /// Draws the models, then the billboards; with `shadows` (the
     /// cascades' lookup, after `receive_shadows`), receiving them.
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw, shadows: Option<&wgpu::BindGroup>) {
         let Some(buffer) = &draw.buffer else { return };
-        let (models, billboards) = match (shadows, &self.shadowed) {
-            (Some(lookup), Some(shadowed)) => {
-                pass.set_bind_group(1, lookup, &[]);
-                (&shadowed.pipelines[0], &shadowed.pipelines[1])
-            }
-            _ => (&self.model_pipeline, &self.billboard_pipeline),
-        };
+        let plain = [&self.model_pipeline, &self.billboard_pipeline];
+        let [models, billboards] = super::Receiving::choose(self.shadowed.as_ref(), pass, shadows, plain);
         self.record_models(pass, models, draw);
         if !draw.billboards.is_empty() {
             pass.set_pipeline(billboards);
@@ -384,7 +370,7 @@ impl InstancesPass {
         if self.caster.is_none() {
             let (layout, shader) = (&self.model_pipeline_layout, &self.shader);
             self.caster =
-                Some(super::caster_pipeline(device, "instance casters", layout, shader, "vs_model", &model_buffers()));
+                Some(super::caster_pipeline(device, "instance casters", layout, shader, "vs_model", &MODEL_BUFFERS));
         }
     }
 

@@ -10,26 +10,12 @@ fn begin_shadows(input: OverlayIn) {
 }
 
 // Where eye-relative point p (in the air: no normal) falls in the finest
-// cascade holding it (`finer_place`). Only the `CASCADES` the pass was
-// built for are placed (a constant its pass declares, so the others are
-// compiled out: placing points in all 4 slots when the default 2 were in
-// use cost 0.5-3 ms more on lavapipe).
+// cascade holding it. Only the `CASCADES` the pass was built for are
+// placed (a constant its pass declares, so the others are compiled out:
+// placing points in all 4 slots when the default 2 were in use cost
+// 0.5-3 ms more on lavapipe).
 fn shadow_place(p: vec3<f32>) -> vec4<f32> {
-    let t = shadow_table;
-    let count = t[0].w;
-    let l = vec3<f32>(dot(p, t[0].xyz), dot(p, t[1].xyz), dot(p, t[2].xyz));
-    let ln = vec3<f32>(0.0);
-    var place = vec4<f32>(0.0, 0.0, 0.0, -1.0);
-    if CASCADES > 3u {
-        place = finer_place(place, cascade_coords(l, ln, t[6], t[7].w, t[8].w, 3.0, count), 3.0);
-    }
-    if CASCADES > 2u {
-        place = finer_place(place, cascade_coords(l, ln, t[5], t[7].z, t[8].z, 2.0, count), 2.0);
-    }
-    if CASCADES > 1u {
-        place = finer_place(place, cascade_coords(l, ln, t[4], t[7].y, t[8].y, 1.0, count), 1.0);
-    }
-    return finer_place(place, cascade_coords(l, ln, t[3], t[7].x, t[8].x, 0.0, count), 0.0);
+    return finest_place(cascade_places(shadow_table, p, vec3<f32>(0.0)));
 }
 
 // Whether the sun reaches eye-relative point p, 0 or 1, from the one

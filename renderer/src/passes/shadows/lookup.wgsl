@@ -25,6 +25,46 @@ fn cascade_coords(l: vec3<f32>, ln: vec3<f32>, box: vec4<f32>, near: f32, depth_
     return select(vec4<f32>(9.0, 9.0, -1.0, 0.0), vec4<f32>(q, 0.5 * box.w * depth_per_m), i < count);
 }
 
+// Eye-relative point p, its surface facing `n` (zero for a point in the
+// air), in each cascade of table `t` the pass was built for
+// (`cascade_coords`); the slots past `CASCADES` stay zero, are never read
+// (`finest_place`) and so are compiled out.
+fn cascade_places(t: array<vec4<f32>, 9>, p: vec3<f32>, n: vec3<f32>) -> array<vec4<f32>, 4> {
+    let count = t[0].w;
+    let axes = mat3x3<f32>(t[0].xyz, t[1].xyz, t[2].xyz);
+    let l = p * axes;
+    let ln = n * axes;
+    var c = array<vec4<f32>, 4>();
+    c[0] = cascade_coords(l, ln, t[3], t[7].x, t[8].x, 0.0, count);
+    if CASCADES > 1u {
+        c[1] = cascade_coords(l, ln, t[4], t[7].y, t[8].y, 1.0, count);
+    }
+    if CASCADES > 2u {
+        c[2] = cascade_coords(l, ln, t[5], t[7].z, t[8].z, 2.0, count);
+    }
+    if CASCADES > 3u {
+        c[3] = cascade_coords(l, ln, t[6], t[7].w, t[8].w, 3.0, count);
+    }
+    return c;
+}
+
+// The finest cascade holding the point placed at `c` (`cascade_places`):
+// map uv (xy), the depth to test (z) and the cascade (w); w -1 (lit)
+// where none holds it or it is past a map's far end.
+fn finest_place(c: array<vec4<f32>, 4>) -> vec4<f32> {
+    var place = vec4<f32>(0.0, 0.0, 0.0, -1.0);
+    if CASCADES > 3u {
+        place = finer_place(place, c[3], 3.0);
+    }
+    if CASCADES > 2u {
+        place = finer_place(place, c[2], 2.0);
+    }
+    if CASCADES > 1u {
+        place = finer_place(place, c[1], 1.0);
+    }
+    return finer_place(place, c[0], 0.0);
+}
+
 // `place` replaced by cascade `i`'s where it holds the point `q`
 // (`cascade_coords`) across its rays and in front of its near end: map
 // uv (xy), the depth to test against the map's (z) and the cascade (w);

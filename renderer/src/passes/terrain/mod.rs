@@ -19,6 +19,16 @@ use crate::gpu::Gpu;
 use crate::surface::Surface;
 use crate::uniforms::FrameUniform;
 
+/// The terrain's lit pipelines, the levels' and the base's (`group0`
+/// the terrain's bind group layout), as the pass makes them and their
+/// twins receiving shadows.
+fn lit_pipelines(group0: &wgpu::BindGroupLayout) -> [super::LitPipeline<'_>; 2] {
+    [
+        super::LitPipeline { label: "levels", group0, stages: ("vs_level", "fs_level"), buffers: &LEVEL_RECORDS },
+        super::LitPipeline { label: "base", group0, stages: ("vs_base", "fs_base"), buffers: &super::VEC4_VERTICES },
+    ]
+}
+
 /// Vertices, indices and their count.
 type Mesh = (wgpu::Buffer, wgpu::Buffer, u32);
 
@@ -108,11 +118,7 @@ impl TerrainPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = |label, entries, buffers: &[Option<wgpu::VertexBufferLayout<'_>>]| {
-            super::pipeline(device, label, &pipeline_layout, &shader, entries, buffers)
-        };
-        let level_pipeline = pipeline("levels", ("vs_level", "fs_level"), &LEVEL_RECORDS);
-        let base_pipeline = pipeline("base", ("vs_base", "fs_base"), &super::VEC4_VERTICES);
+        let [level_pipeline, base_pipeline] = lit_pipelines(&layout).map(|p| p.build(device, &shader, None));
         let layers = config.levels as u32;
         let array = |label, side: usize, format| super::sampled_texture(device, label, side as u32, layers, format);
         let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
@@ -238,35 +244,15 @@ impl TerrainPass {
     /// Makes (or drops) the pipelines receiving shadows from the maps
     /// `lookup` describes (their layout and count), as the frame casts them.
     pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
-        let group0 = &self.group0;
-        let pipelines = [
-            super::LitPipeline {
-                label: "levels receiving shadows",
-                group0,
-                stages: ("vs_level", "fs_level"),
-                buffers: &LEVEL_RECORDS,
-            },
-            super::LitPipeline {
-                label: "base receiving shadows",
-                group0,
-                stages: ("vs_base", "fs_base"),
-                buffers: &super::VEC4_VERTICES,
-            },
-        ];
-        let kept = self.shadowed.take();
-        self.shadowed = super::Receiving::update(kept, device, lookup, ("terrain", &self.source), &pipelines);
+        let pipelines = lit_pipelines(&self.group0);
+        super::Receiving::update(&mut self.shadowed, device, lookup, ("terrain", &self.source), &pipelines);
     }
 
     /// Draws the base, then the levels; with `shadows` (the cascades'
     /// lookup, after `receive_shadows`), receiving them.
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &TerrainDraw, shadows: Option<&wgpu::BindGroup>) {
-        let (levels, base) = match (shadows, &self.shadowed) {
-            (Some(lookup), Some(shadowed)) => {
-                pass.set_bind_group(1, lookup, &[]);
-                (&shadowed.pipelines[0], &shadowed.pipelines[1])
-            }
-            _ => (&self.level_pipeline, &self.base_pipeline),
-        };
+        let plain = [&self.level_pipeline, &self.base_pipeline];
+        let [levels, base] = super::Receiving::choose(self.shadowed.as_ref(), pass, shadows, plain);
         if let Some(mesh) = &draw.base {
             self.record_mesh_with(pass, base, mesh);
         }
