@@ -34,7 +34,8 @@
 //!
 //! `cargo bench -p relief-daemon --bench bigdem`; RELIEF_BIGDEM_SIDE
 //! (default 40000, a multiple of 20, at least 2560), RELIEF_BIGDEM_EDITS
-//! (default 25), RELIEF_BIGDEM_MAKE_ONLY (make the data and stop), RELIEF_BIGDEM_RASTER_MB (`[cache] raster_mb`, default 512,
+//! (default 25), RELIEF_BIGDEM_MAKE_ONLY (make the data and stop),
+//! RELIEF_BIGDEM_ONLY (the datasets to serve, commas: big, exact, mosaic), RELIEF_BIGDEM_RASTER_MB (`[cache] raster_mb`, default 512,
 //! written only while RASTER_BUDGET_OPTION is on). reliefd is the one built
 //! beside the bench (target/<profile>/reliefd).
 
@@ -618,8 +619,13 @@ fn main() -> anyhow::Result<()> {
     }
     let windows = windows(side, edits.div_ceil(2));
     let runtime = tokio::runtime::Runtime::new()?;
-    let runs = [Kind::Big, Kind::BigExact, Kind::Mosaic]
+    // RELIEF_BIGDEM_ONLY: the datasets to serve (commas: big, exact, mosaic).
+    let only = std::env::var("RELIEF_BIGDEM_ONLY").unwrap_or_default();
+    let wanted = |name: &str| only.is_empty() || only.split(',').any(|n| n.trim() == name);
+    let runs = [(Kind::Big, "big"), (Kind::BigExact, "exact"), (Kind::Mosaic, "mosaic")]
         .into_iter()
+        .filter(|(_, name)| wanted(name))
+        .map(|(kind, _)| kind)
         .map(|kind| runtime.block_on(serve(kind, &data, side, &windows, edits)))
         .collect::<anyhow::Result<Vec<Run>>>()?;
 

@@ -233,10 +233,7 @@ impl Drop for ContentKeys {
 fn run(shared: &Shared, store: &Weak<TileStore>) {
     // Hashing yields to serving: on a busy machine (a first frame, a
     // reload) the tiles come first.
-    let lowest = rustix::process::setpriority_process(Some(rustix::thread::gettid()), 19);
-    if let Err(e) = lowest {
-        tracing::debug!("the content-address thread keeps its priority: {e}");
-    }
+    crate::priority::lowest("content-address");
     loop {
         let snap = {
             let mut state = shared.state.lock().expect("content lock is never poisoned");

@@ -14,6 +14,7 @@ pub mod graph;
 pub mod manifest;
 pub mod navigate;
 pub mod png;
+mod priority;
 pub mod registry;
 pub mod scene;
 pub mod scene_tiles;

@@ -49,9 +49,12 @@ impl DiskTiles {
         fs::create_dir_all(&root)?;
         let (jobs, rx) = sync_channel(QUEUE);
         let thread_root = root.clone();
-        std::thread::Builder::new()
-            .name("relief-disk-cache".into())
-            .spawn(move || Writer::new(thread_root, budget_bytes).run(&rx))?;
+        std::thread::Builder::new().name("relief-disk-cache".into()).spawn(move || {
+            // Writing tiles yields to serving (an edit persists every
+            // tile of the source again, under its new address).
+            crate::priority::lowest("disk-cache");
+            Writer::new(thread_root, budget_bytes).run(&rx);
+        })?;
         Ok(Self { root, budget_bytes, jobs, dropped: AtomicU64::new(0) })
     }
 

@@ -232,9 +232,18 @@ impl Store {
         if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
             return Err(changing());
         }
-        let mut planes =
-            with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?;
-        let level = overview.and_then(|o| self.levels.iter().find(|l| l.overview == Some(o)));
+        let level = overview.and_then(|o| self.levels.iter().position(|l| l.overview == Some(o)));
+        let from_members = match &self.tiling {
+            Some(tiling) => tiling.read(level.unwrap_or(0), rect)?,
+            None => None,
+        };
+        let mut planes = match from_members {
+            Some(values) => vec![self.decoder.to_heights(values, None)],
+            None => {
+                with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?
+            }
+        };
+        let level = level.map(|l| &self.levels[l]);
         for hole in &self.holes {
             let hole = level.map_or(*hole, |l| hole.on_level(l));
             let (x0, x1) = (hole.x0.max(rect.x0), hole.x1.min(rect.x1));

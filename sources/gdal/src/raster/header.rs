@@ -13,6 +13,7 @@ use relief_source::SourceError;
 use super::blocks::BLOCK;
 use super::decode::Decoder;
 use super::halve::Halving;
+use super::tiling::Tiling;
 use super::warp::{self, MemFile};
 use super::{FileStamp, Fingerprint, LevelInfo, PixelRect, Raster, RasterKind, ReadOptions, Store, format_err, vrt};
 use crate::crs;
@@ -26,6 +27,7 @@ pub(super) struct Header {
     /// The warped VRT `open_path` names, kept while a version reads it.
     warp: Option<Arc<MemFile>>,
     holes: Vec<PixelRect>,
+    tiling: Option<Tiling>,
     bytes_per_pixel: usize,
     categorical: bool,
 }
@@ -123,6 +125,16 @@ impl Raster {
         let (decoder, units) = Decoder::new(&ds, kind, options, path, &mut details)?;
         let categorical = options.categorical;
         let levels = level_infos(&ds, &decoder, (width, height), options.overviews && !categorical);
+        // A mosaic of whole files placed pixel for pixel is read from them.
+        let tiling = match (&decoder, &warped) {
+            (Decoder::Height { band, .. }, None) => {
+                Tiling::plan(&members.sources, members.own_overviews, *band, &ds, path)
+            }
+            _ => None,
+        };
+        if tiling.is_some() {
+            details.insert("mosaic_reads".into(), "from the member files (the VRT places them pixel for pixel)".into());
+        }
         let overviews = levels.iter().filter(|l| l.overview.is_some()).count();
         details.insert(
             "overviews".into(),
@@ -159,6 +171,7 @@ impl Raster {
             open_path,
             warp: warped.map(|w| w.file),
             holes,
+            tiling,
             bytes_per_pixel,
             categorical,
         })
@@ -169,7 +182,7 @@ impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
-        let Self { mut raster, decoder, levels, open_path, warp, holes, bytes_per_pixel, categorical } = self;
+        let Self { mut raster, decoder, levels, open_path, warp, holes, tiling, bytes_per_pixel, categorical } = self;
         let file_stamp =
             FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
         let halving = match (raster.kind, categorical) {
@@ -188,6 +201,7 @@ impl Header {
             open_path,
             warp,
             holes,
+            tiling: tiling.map(Arc::new),
             file_stamp,
             decoder,
             bytes_per_pixel,

@@ -15,6 +15,7 @@ mod options;
 mod prefetch;
 mod reload;
 mod tiff;
+mod tiling;
 mod vrt;
 mod warp;
 
@@ -58,6 +59,8 @@ pub(crate) struct Store {
     warp: Option<Arc<warp::MemFile>>,
     /// Base pixels of missing members: nodata.
     holes: Vec<PixelRect>,
+    /// A mosaic read from its members rather than through its VRT.
+    tiling: Option<Arc<tiling::Tiling>>,
     file_stamp: FileStamp,
     decoder: Decoder,
     bytes_per_pixel: usize,
@@ -288,6 +291,7 @@ impl Store {
             open_path: PathBuf::new(),
             warp: None,
             holes: Vec::new(),
+            tiling: None,
             file_stamp: FileStamp::NONE,
             decoder: Decoder::Height { band: 1, nodata: None, scale: 1.0, offset: 0.0 },
             bytes_per_pixel: 0,
@@ -311,6 +315,7 @@ impl Store {
             open_path: self.open_path.clone(),
             warp: self.warp.clone(),
             holes: self.holes.clone(),
+            tiling: self.tiling.clone(),
             file_stamp: self.file_stamp,
             decoder: self.decoder.clone(),
             bytes_per_pixel: self.bytes_per_pixel,

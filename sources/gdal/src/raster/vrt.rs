@@ -4,12 +4,13 @@
 //! VRT without them (in GDAL's memory file system, every path absolute).
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use quick_xml::events::{BytesStart, BytesText, Event};
 use quick_xml::{Reader, Writer};
 use relief_source::SourceError;
 
-use super::{PixelRect, format_err};
+use super::{FileStamp, PixelRect, format_err};
 
 /// A raster's member files, and what GDAL should open.
 #[derive(Debug, Clone, Default)]
@@ -22,18 +23,167 @@ pub(crate) struct Members {
     /// (their `DstRect`s, rounded outwards): nodata.
     pub holes: Vec<PixelRect>,
     pub open_path: PathBuf,
+    /// The sources GDAL reads (all but those of missing members), in the
+    /// VRT's order.
+    pub sources: Vec<MemberSource>,
+    /// The VRT's bands name overview files of their own (`Overview`).
+    pub own_overviews: bool,
+}
+
+/// One source of a VRT band as the VRT places it.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct MemberSource {
+    /// The VRT band it fills (1-based).
+    pub band: usize,
+    pub file: PathBuf,
+    /// The member's band it reads (1-based).
+    pub file_band: usize,
+    /// `SourceProperties`: the member's size and data type name, when given.
+    pub file_size: Option<(usize, usize)>,
+    pub data_type: Option<String>,
+    /// `SrcRect` and `DstRect`: x offset, y offset, width, height.
+    pub src: Option<[f64; 4]>,
+    pub dst: Option<[f64; 4]>,
+    /// A `ComplexSource`'s `NODATA`: its pixels of that value leave what
+    /// is under them.
+    pub nodata: Option<f64>,
+    /// Only a `SimpleSource` or a `ComplexSource` with nothing but the
+    /// above (no scaling, lookup table, colour component or mask), in a
+    /// band that is a plain `VRTRasterBand`.
+    pub plain: bool,
+}
+
+/// What `describe` reads of a source, beside its file.
+const PLAIN_PARTS: &[&[u8]] =
+    &[b"SourceFilename", b"SourceBand", b"SourceProperties", b"SrcRect", b"DstRect", b"NODATA"];
+
+/// The placement of a source from its events (`kind`: its element's name).
+fn describe(events: &[Event<'static>], kind: &[u8], band: Option<usize>, file: PathBuf) -> MemberSource {
+    let number = |e: &BytesStart<'_>, key: &str| -> Option<f64> {
+        let a = e.try_get_attribute(key).ok().flatten()?;
+        std::str::from_utf8(&a.value).ok()?.trim().parse().ok()
+    };
+    let rect = |e: &BytesStart<'_>| -> Option<[f64; 4]> {
+        Some([number(e, "xOff")?, number(e, "yOff")?, number(e, "xSize")?, number(e, "ySize")?])
+    };
+    let mut out = MemberSource {
+        band: band.unwrap_or(0),
+        file,
+        file_band: 1,
+        file_size: None,
+        data_type: None,
+        src: None,
+        dst: None,
+        nodata: None,
+        plain: band.is_some() && (kind == b"SimpleSource" || kind == b"ComplexSource"),
+    };
+    // The element whose text comes next, and the depth inside the source.
+    let (mut open, mut depth) = (None::<Vec<u8>>, 0usize);
+    for event in events {
+        match event {
+            Event::Start(e) | Event::Empty(e) => {
+                if depth == 1 {
+                    let name = e.name().as_ref().to_vec();
+                    out.plain &=
+                        PLAIN_PARTS.contains(&name.as_slice()) && (kind == b"ComplexSource" || name != b"NODATA");
+                    match name.as_slice() {
+                        b"SrcRect" => out.src = rect(e),
+                        b"DstRect" => out.dst = rect(e),
+                        b"SourceProperties" => {
+                            out.file_size = number(e, "RasterXSize")
+                                .zip(number(e, "RasterYSize"))
+                                .map(|(w, h)| (w as usize, h as usize));
+                            out.data_type = e
+                                .try_get_attribute("DataType")
+                                .ok()
+                                .flatten()
+                                .and_then(|a| std::str::from_utf8(&a.value).ok().map(str::to_owned));
+                        }
+                        _ => {}
+                    }
+                    if matches!(event, Event::Start(_)) {
+                        open = Some(name);
+                    }
+                } else if depth == 0 {
+                    // The source element itself: any attribute (resampling) is not plain.
+                    out.plain &= e.attributes().next().is_none();
+                }
+                if matches!(event, Event::Start(_)) {
+                    depth += 1;
+                }
+            }
+            Event::Text(t) if depth == 2 => {
+                let text = t.decode().map(|t| t.trim().to_owned()).unwrap_or_default();
+                match open.as_deref() {
+                    Some(b"SourceBand") => match text.parse() {
+                        Ok(b) => out.file_band = b,
+                        Err(_) => out.plain = false,
+                    },
+                    Some(b"NODATA") => match text.parse() {
+                        Ok(v) => out.nodata = Some(v),
+                        Err(_) => out.plain = false,
+                    },
+                    _ => {}
+                }
+            }
+            Event::End(_) => {
+                depth = depth.saturating_sub(1);
+                if depth == 1 {
+                    open = None;
+                }
+            }
+            _ => {}
+        }
+    }
+    out
 }
 
 /// Elements of a VRT band that read one source file.
 const SOURCES: &[&[u8]] =
     &[b"SimpleSource", b"ComplexSource", b"AveragedSource", b"KernelFilteredSource", b"NoDataFromMaskSource"];
 
-/// The members of `path` (none unless it is a VRT).
+/// VRTs read lately, by path: the file as it was, and what it held.
+type Remembered = Vec<(PathBuf, FileStamp, Members)>;
+
+/// How many VRTs `members` remembers.
+const REMEMBERED: usize = 8;
+
+/// The members of `path` (none unless it is a VRT). A VRT unchanged since
+/// it was last read, whose members are still there and whose missing
+/// members still are not, is not parsed again (a reload after a member's
+/// edit reads the VRT again).
 pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
-    let plain = Members { open_path: path.to_path_buf(), ..Members::default() };
+    static LAST: Mutex<Remembered> = Mutex::new(Vec::new());
     if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("vrt")) {
-        return Ok(plain);
+        return Ok(Members { open_path: path.to_path_buf(), ..Members::default() });
     }
+    let stamp = FileStamp::of(path);
+    let last = || LAST.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    let known = last().iter().find(|(p, s, _)| p == path && Some(*s) == stamp).map(|(_, _, m)| m.clone());
+    if let Some(known) = known
+        && known.files.iter().all(|f| f.exists())
+        && !known.missing.iter().any(|f| f.exists())
+    {
+        return Ok(known);
+    }
+    let members = parse(path)?;
+    if let Some(stamp) = stamp
+        && FileStamp::of(path) == Some(stamp)
+    {
+        let mut last = last();
+        last.retain(|(p, _, _)| p != path);
+        if last.len() >= REMEMBERED {
+            last.remove(0);
+        }
+        last.push((path.to_path_buf(), stamp, members.clone()));
+    }
+    Ok(members)
+}
+
+/// Reads the VRT at `path`: its members, those missing, and what GDAL
+/// should open.
+fn parse(path: &Path) -> Result<Members, SourceError> {
+    let plain = Members { open_path: path.to_path_buf(), ..Members::default() };
     let Ok(text) = std::fs::read_to_string(path) else {
         return Ok(plain);
     };
@@ -49,6 +199,11 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
     let mut destination: Option<PixelRect> = None;
     let mut relative = false;
     let mut in_name = false;
+    let mut sources = Vec::new();
+    // The band being read: its number, or None when it is not a plain
+    // `VRTRasterBand` (a derived band, a pixel function).
+    let mut band: Option<usize> = None;
+    let mut own_overviews = false;
     loop {
         let event = reader.read_event().map_err(|e| bad(&e))?;
         if matches!(event, Event::Eof) {
@@ -56,8 +211,20 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
         }
         let mut event = event.into_owned();
         match &event {
+            Event::Start(e) if held.is_none() && e.name().as_ref() == b"VRTRasterBand" => {
+                let attribute = |key: &str| e.try_get_attribute(key).ok().flatten();
+                band = attribute("band")
+                    .and_then(|a| std::str::from_utf8(&a.value).ok()?.trim().parse().ok())
+                    .filter(|_| attribute("subClass").is_none());
+            }
             Event::Start(e) if held.is_none() && SOURCES.contains(&e.name().as_ref()) => {
                 held = Some((Vec::new(), 0, None));
+            }
+            // Overview files of its own. (An `OverviewList`, which
+            // gdalbuildvrt writes when every member has overviews, makes
+            // the VRT's overviews from the members': relief reads those.)
+            Event::Start(e) | Event::Empty(e) if held.is_none() && e.name().as_ref() == b"Overview" => {
+                own_overviews = true;
             }
             Event::Start(e) if e.name().as_ref() == b"SourceFilename" => {
                 relative =
@@ -125,6 +292,13 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
                         }
                         _ => {
                             destination = None;
+                            if let Some(Event::Start(start)) = events.first() {
+                                let mut source =
+                                    describe(&events, start.name().as_ref(), band, file.clone().unwrap_or_default());
+                                // A /vsi path or a URL: GDAL reads it, relief does not.
+                                source.plain &= file.as_ref().is_some_and(|f| f.exists());
+                                sources.push(source);
+                            }
                             if let Some(f) = file.filter(|f| f.exists() && !files.contains(f)) {
                                 files.push(f);
                             }
@@ -139,7 +313,7 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
         }
     }
     if missing.is_empty() {
-        return Ok(Members { files, missing, holes, open_path: path.to_path_buf() });
+        return Ok(Members { files, missing, holes, open_path: path.to_path_buf(), sources, own_overviews });
     }
     if files.is_empty() {
         let names: Vec<String> = missing.iter().map(|p| p.display().to_string()).collect();
@@ -148,5 +322,5 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
     let copy = PathBuf::from(format!("/vsimem/relief/{}-{}.vrt", std::process::id(), super::blocks::new_uid()));
     gdal::vsi::create_mem_file(&copy, writer.into_inner())
         .map_err(|e| format_err(format!("cannot write the VRT without its missing files: {e}"), path))?;
-    Ok(Members { files, missing, holes, open_path: copy })
+    Ok(Members { files, missing, holes, open_path: copy, sources, own_overviews })
 }

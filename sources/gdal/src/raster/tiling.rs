@@ -1,0 +1,332 @@
+//! A VRT mosaic read file by file. A mosaic as `gdalbuildvrt` writes it
+//! places every member pixel for pixel; its members' own pixels, and their
+//! own overviews for the VRT's implicit ones, are then what a read through
+//! the VRT gives, without it. Two costs go: GDAL's VRT machinery on every
+//! block (a coarse level over 400 files is 400 reads of parts of files),
+//! and opening the VRT again for every new version on every thread: a
+//! member's handle is kept while the member is unchanged, so a reload
+//! after one member's edit opens that member alone.
+//!
+//! Anything else a VRT may do (scaling, lookup tables, resampling, masks,
+//! overlaps with transparency aside, other data types, overviews of its
+//! own) leaves the raster read through GDAL's VRT, as before.
+
+use std::cell::RefCell;
+use std::path::{Path, PathBuf};
+
+use gdal::Dataset;
+use relief_source::SourceError;
+
+use super::decode::read_window;
+use super::vrt::MemberSource;
+use super::{FileStamp, PixelRect, format_err};
+
+/// Member handles each thread keeps (an open GeoTIFF is a file descriptor
+/// and its directory in memory).
+const HANDLES_PER_THREAD: usize = 32;
+
+/// How to read one band of a mosaic from its members.
+#[derive(Debug)]
+pub(crate) struct Tiling {
+    members: Vec<Member>,
+    /// What a pixel no member covers holds: the VRT band's nodata, else 0.
+    fill: f32,
+    /// The VRT's overviews are its members' (it has none of its own).
+    member_overviews: bool,
+    /// The mosaic's size in base pixels.
+    size: (usize, usize),
+}
+
+#[derive(Debug)]
+struct Member {
+    path: PathBuf,
+    /// The file as this version of the mosaic found it.
+    stamp: FileStamp,
+    band: usize,
+    /// Its pixels, in the mosaic's base pixels.
+    at: PixelRect,
+    /// Its pixels of this value leave what is under them.
+    nodata: Option<f64>,
+}
+
+impl Tiling {
+    /// The plan for band `band` of the VRT `vrt` (opened from `path`), whose
+    /// sources are `sources`; None when the VRT does more than place whole
+    /// files of the band's data type pixel for pixel.
+    pub(super) fn plan(
+        sources: &[MemberSource],
+        own_overviews: bool,
+        band: usize,
+        vrt: &Dataset,
+        path: &Path,
+    ) -> Option<Self> {
+        let vrt_band = vrt.rasterband(band).ok()?;
+        let flags = vrt_band.mask_flags().ok()?;
+        if !(flags.is_all_valid() || flags.is_nodata()) {
+            return None;
+        }
+        let data_type = vrt_band.band_type().name();
+        let size = vrt.raster_size();
+        let whole = |v: f64| (v >= 0.0 && v.fract() == 0.0).then_some(v as usize);
+        let mut members = Vec::new();
+        for source in sources.iter().filter(|s| s.band == band) {
+            let (Some(src), Some(dst)) = (source.src, source.dst) else { return None };
+            let [sx, sy, sw, sh] = src.map(whole);
+            let [dx, dy, dw, dh] = dst.map(whole);
+            let (dx, dy, w, h) = (dx?, dy?, dw?, dh?);
+            let placed_whole = sx == Some(0) && sy == Some(0) && sw == Some(w) && sh == Some(h);
+            if !source.plain
+                || !placed_whole
+                || source.file_size != Some((w, h))
+                || source.data_type.as_deref() != Some(data_type.as_str())
+                || dx + w > size.0
+                || dy + h > size.1
+            {
+                return None;
+            }
+            members.push(Member {
+                path: source.file.clone(),
+                stamp: FileStamp::of(&source.file)?,
+                band: source.file_band,
+                at: PixelRect { x0: dx, y0: dy, x1: dx + w, y1: dy + h },
+                nodata: source.nodata,
+            });
+        }
+        if members.is_empty() {
+            return None;
+        }
+        let own_overviews = own_overviews || PathBuf::from(format!("{}.ovr", path.display())).exists();
+        Some(Self {
+            members,
+            fill: vrt_band.no_data_value().map_or(0.0, |v| v as f32),
+            member_overviews: !own_overviews,
+            size,
+        })
+    }
+
+    /// Where the member `path` lies in the mosaic's base pixels (its
+    /// origin) and its size, when it is one member placed once.
+    pub(super) fn placement(&self, path: &Path) -> Option<((f64, f64), (usize, usize))> {
+        let mut placed = self.members.iter().filter(|m| m.path == path);
+        let member = placed.next().filter(|_| placed.next().is_none())?;
+        let at = &member.at;
+        Some(((at.x0 as f64, at.y0 as f64), (at.width(), at.height())))
+    }
+
+    /// The values (as the files hold them) of `rect` of the level `level`
+    /// halvings above the base, from the members: the base from their own
+    /// pixels, a coarser level from their overviews of exactly its size.
+    /// None when a member cannot give that level so (the caller reads
+    /// through the VRT). A member changed since the plan fails the read as
+    /// `Changing`.
+    pub(super) fn read(&self, level: usize, rect: PixelRect) -> Result<Option<Vec<f32>>, SourceError> {
+        if level > 0 && !self.member_overviews {
+            return Ok(None);
+        }
+        let factor = 1usize << level;
+        let mut values = vec![self.fill; rect.width() * rect.height()];
+        for member in &self.members {
+            let Some(at) = member.on_level(factor, self.size) else { return Ok(None) };
+            let part = PixelRect {
+                x0: at.x0.max(rect.x0),
+                y0: at.y0.max(rect.y0),
+                x1: at.x1.min(rect.x1),
+                y1: at.y1.min(rect.y1),
+            };
+            if part.x0 >= part.x1 || part.y0 >= part.y1 {
+                continue;
+            }
+            let inside =
+                PixelRect { x0: part.x0 - at.x0, y0: part.y0 - at.y0, x1: part.x1 - at.x0, y1: part.y1 - at.y0 };
+            let Some(read) = member.read(level, (at.width(), at.height()), inside)? else { return Ok(None) };
+            let nodata = member.nodata.map(|v| v as f32);
+            for (row, y) in (part.y0..part.y1).enumerate() {
+                let from = &read[row * inside.width()..(row + 1) * inside.width()];
+                let to = (y - rect.y0) * rect.width() + (part.x0 - rect.x0);
+                for (out, &v) in values[to..to + inside.width()].iter_mut().zip(from) {
+                    let transparent = nodata.is_some_and(|nd| v == nd || (nd.is_nan() && v.is_nan()));
+                    if !transparent {
+                        *out = v;
+                    }
+                }
+            }
+        }
+        Ok(Some(values))
+    }
+}
+
+impl Member {
+    /// Its pixels on a level `factor` base pixels a pixel, when its edges
+    /// fall on that level's pixel edges (or the mosaic's own edge).
+    fn on_level(&self, factor: usize, size: (usize, usize)) -> Option<PixelRect> {
+        let at = &self.at;
+        let fits = |start: usize, end: usize, whole: usize| {
+            start.is_multiple_of(factor) && (end.is_multiple_of(factor) || end == whole)
+        };
+        (fits(at.x0, at.x1, size.0) && fits(at.y0, at.y1, size.1)).then(|| PixelRect {
+            x0: at.x0 / factor,
+            y0: at.y0 / factor,
+            x1: at.x1.div_ceil(factor),
+            y1: at.y1.div_ceil(factor),
+        })
+    }
+
+    /// `rect` of its band (level 0) or of its overview of `size` pixels;
+    /// None when it has no overview of that size.
+    fn read(&self, level: usize, size: (usize, usize), rect: PixelRect) -> Result<Option<Vec<f32>>, SourceError> {
+        let changing = || SourceError::Changing { path: self.path.clone() };
+        if FileStamp::of(&self.path) != Some(self.stamp) {
+            return Err(changing());
+        }
+        let values = with_member(self, |ds| {
+            let band = ds.rasterband(self.band).map_err(|e| format_err(e, &self.path))?;
+            if level == 0 {
+                return read_window(&band, rect, &self.path).map(Some);
+            }
+            let count = band.overview_count().unwrap_or(0).max(0) as usize;
+            let overview = (0..count).filter_map(|i| band.overview(i).ok()).find(|o| o.size() == size);
+            overview.map(|o| read_window(&o, rect, &self.path)).transpose()
+        })?;
+        if FileStamp::of(&self.path) != Some(self.stamp) {
+            return Err(changing());
+        }
+        Ok(values)
+    }
+}
+
+thread_local! {
+    static MEMBERS: RefCell<Vec<(PathBuf, FileStamp, Dataset)>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on this thread's handle of `member` as its stamp says (a
+/// member written since is opened afresh, never read through a handle that
+/// may hold its old directory or blocks).
+fn with_member<T>(member: &Member, f: impl FnOnce(&Dataset) -> Result<T, SourceError>) -> Result<T, SourceError> {
+    MEMBERS.with(|handles| {
+        let mut handles = handles.borrow_mut();
+        let at = handles.iter().position(|(p, s, _)| *s == member.stamp && *p == member.path);
+        let entry = match at {
+            Some(at) => handles.remove(at),
+            None => {
+                if handles.len() >= HANDLES_PER_THREAD {
+                    handles.remove(0);
+                }
+                (member.path.clone(), member.stamp, super::open_dataset(&member.path)?)
+            }
+        };
+        // Most recently used last.
+        handles.push(entry);
+        f(&handles.last().expect("just pushed").2)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use gdal::DriverManager;
+    use gdal::raster::{Buffer, RasterCreationOptions};
+
+    use super::*;
+    use crate::raster::vrt;
+
+    const NODATA: i16 = -32768;
+
+    /// An Int16 member of `side` pixels at pixel (x, y) of a 1e-3 degree
+    /// grid, tiled and compressed, with AVERAGE overviews 2, 4, 8, and a
+    /// nodata hole: values vary with place so misplacement shows.
+    fn member(path: &Path, (x, y): (usize, usize), side: usize, seed: i32) -> Result<(), Box<dyn std::error::Error>> {
+        let driver = DriverManager::get_driver_by_name("GTiff")?;
+        let options =
+            RasterCreationOptions::from_iter(["TILED=YES", "BLOCKXSIZE=64", "BLOCKYSIZE=64", "COMPRESS=DEFLATE"]);
+        let mut ds = driver.create_with_band_type_with_options::<i16, _>(path, side, side, 1, &options)?;
+        ds.set_geo_transform(&[10.0 + x as f64 * 1e-3, 1e-3, 0.0, 46.0 - y as f64 * 1e-3, 0.0, -1e-3])?;
+        let mut band = ds.rasterband(1)?;
+        band.set_no_data_value(Some(f64::from(NODATA)))?;
+        let values: Vec<i16> = (0..side * side)
+            .map(|k| {
+                let (i, j) = ((k % side) as i32, (k / side) as i32);
+                let hole = (10..20).contains(&i) && (30..45).contains(&j);
+                if hole { NODATA } else { (seed + 7 * i - 3 * j + (i * j) % 11) as i16 }
+            })
+            .collect();
+        band.write((0, 0), (side, side), &mut Buffer::new((side, side), values))?;
+        ds.build_overviews("AVERAGE", &[2, 4, 8], &[])?;
+        Ok(())
+    }
+
+    fn build_vrt(dir: &Path, files: &[PathBuf]) -> PathBuf {
+        let vrt = dir.join("mosaic.vrt");
+        let status = std::process::Command::new("gdalbuildvrt")
+            .arg("-q")
+            .arg(&vrt)
+            .args(files)
+            .status()
+            .expect("gdalbuildvrt (gdal-bin) is installed");
+        assert!(status.success());
+        vrt
+    }
+
+    /// Every level the plan reads from the members, against the same
+    /// rectangles read through GDAL's VRT (the base and each overview).
+    fn assert_same_as_the_vrt(vrt: &Path, expect_levels: usize) -> Result<(), Box<dyn std::error::Error>> {
+        let members = vrt::members(vrt)?;
+        let ds = Dataset::open(vrt)?;
+        let tiling = Tiling::plan(&members.sources, members.own_overviews, 1, &ds, vrt).ok_or("no plan")?;
+        let band = ds.rasterband(1)?;
+        let mut levels = 0;
+        for level in 0..=band.overview_count()? as usize {
+            let through = if level == 0 { ds.rasterband(1)? } else { band.overview(level - 1)? };
+            let (w, h) = through.size();
+            // The whole level, and a window across members' edges.
+            for rect in
+                [PixelRect { x0: 0, y0: 0, x1: w, y1: h }, PixelRect { x0: w / 3, y0: h / 4, x1: w - 1, y1: h / 2 + 3 }]
+            {
+                let direct = tiling.read(level, rect)?.ok_or(format!("level {level} not read from the members"))?;
+                let size = (rect.width(), rect.height());
+                let expected = through.read_as::<i16>((rect.x0 as isize, rect.y0 as isize), size, size, None)?;
+                let expected: Vec<f32> = expected.data().iter().map(|&v| f32::from(v)).collect();
+                assert_eq!(direct, expected, "level {level}, {rect:?}");
+            }
+            levels += 1;
+        }
+        assert_eq!(levels, expect_levels, "the VRT's levels");
+        Ok(())
+    }
+
+    #[test]
+    fn a_mosaic_read_from_its_members_equals_its_vrt_at_every_level() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let mut files = Vec::new();
+        // GDAL 3.6 shows a VRT's implicit overviews down to 256 pixels:
+        // members of 1024 give three.
+        for (n, (i, j)) in [(0, 0), (1, 0), (0, 1), (1, 1)].into_iter().enumerate() {
+            let path = dir.path().join(format!("m{n}.tif"));
+            member(&path, (i * 1024, j * 1024), 1024, 100 * n as i32)?;
+            files.push(path);
+        }
+        assert_same_as_the_vrt(&build_vrt(dir.path(), &files), 4)
+    }
+
+    #[test]
+    fn overlapping_members_show_through_each_others_nodata() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let (a, b) = (dir.path().join("a.tif"), dir.path().join("b.tif"));
+        member(&a, (0, 0), 128, 0)?;
+        // Half over the first, its hole over the first's pixels.
+        member(&b, (64, 8), 128, 500)?;
+        assert_same_as_the_vrt(&build_vrt(dir.path(), &[a, b]), 1)
+    }
+
+    #[test]
+    fn a_vrt_that_does_more_than_place_files_is_read_through_gdal() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let a = dir.path().join("a.tif");
+        member(&a, (0, 0), 64, 0)?;
+        let vrt = build_vrt(dir.path(), &[a]);
+        let text = std::fs::read_to_string(&vrt)?.replace("<NODATA>", "<ScaleRatio>2</ScaleRatio><NODATA>");
+        std::fs::write(&vrt, text)?;
+        let members = vrt::members(&vrt)?;
+        let ds = Dataset::open(&vrt)?;
+        assert!(Tiling::plan(&members.sources, members.own_overviews, 1, &ds, &vrt).is_none());
+        Ok(())
+    }
+}
