@@ -98,7 +98,7 @@ fn a_flat_projected_scene_reconstructs_its_surface() {
 
 /// Every kept level equals a level filled from scratch at the same window:
 /// the same world positions (f32 offsets from different anchors agree to
-/// millimetres) and the same colours.
+/// millimetres), the same normals and the same colours.
 fn assert_matches_scratch(renderer: &Renderer, source: &Analytic) {
     for &t in renderer.clipmap().active() {
         let level = renderer.clipmap().level(t).unwrap();
@@ -113,6 +113,12 @@ fn assert_matches_scratch(renderer: &Renderer, source: &Analytic) {
                 "level {t} sample {k}: {pa} vs {pb}"
             );
             assert_eq!(a[3], b[3]);
+            // Normals worked out where samples changed and along a moved
+            // edge: the same as all worked out at once, to a milliradian.
+            let (na, nb) = (level.normals[k], scratch.normals[k]);
+            let dot: f32 = (0..3).map(|c| na[c] * nb[c]).sum();
+            let both_none = na == [0.0; 4] && nb == [0.0; 4];
+            assert!(both_none || dot > 1.0 - 5e-7, "level {t} normal {k}: {na:?} vs {nb:?}");
         }
         let window = level.color_window();
         assert_eq!(window, scratch.color_window());

@@ -10,7 +10,7 @@ use glam::DVec3;
 use wgpu::util::DeviceExt;
 
 use crate::camera::{Pose, Sees, View};
-use crate::clipmap::{ClipLevel, Clipmap, StorageRect};
+use crate::clipmap::{ClipLevel, Clipmap, Dirty, StorageRect};
 use crate::surface::Surface;
 use crate::uniforms::FrameUniform;
 
@@ -103,6 +103,7 @@ pub const LEVEL_RECORDS: [Option<wgpu::VertexBufferLayout<'static>>; 1] = [Some(
 /// The level textures and what each layer holds.
 pub struct Levels {
     pub positions: wgpu::Texture,
+    pub normals: wgpu::Texture,
     pub colors: wgpu::Texture,
     /// Which tile level each texture layer holds now.
     layer_holds: Vec<Option<u8>>,
@@ -111,8 +112,8 @@ pub struct Levels {
 }
 
 impl Levels {
-    pub fn new(positions: wgpu::Texture, colors: wgpu::Texture, layers: usize) -> Self {
-        Self { positions, colors, layer_holds: vec![None; layers], index_cache: HashMap::new() }
+    pub fn new(positions: wgpu::Texture, normals: wgpu::Texture, colors: wgpu::Texture, layers: usize) -> Self {
+        Self { positions, normals, colors, layer_holds: vec![None; layers], index_cache: HashMap::new() }
     }
 
     /// The index buffer of a level drawn as `draw` says.
@@ -128,16 +129,19 @@ impl Levels {
             let layer = usize::from(t) % layers;
             let Some(level) = clipmap.level_mut(t) else { continue };
             let (n, side) = (level.n, level.color_detail * level.n);
-            let (mut positions, mut colors) = level.take_dirty();
+            let mut dirty = level.take_dirty();
             if self.layer_holds[layer] != Some(t) {
                 self.layer_holds[layer] = Some(t);
-                positions = vec![StorageRect { x: 0, y: 0, width: n, height: n }];
-                colors = vec![StorageRect { x: 0, y: 0, width: side, height: side }];
+                let whole = |side| vec![StorageRect { x: 0, y: 0, width: side, height: side }];
+                dirty = Dirty { positions: whole(n), normals: whole(n), colors: whole(side) };
             }
-            for r in positions {
+            for r in dirty.positions {
                 write_rect(queue, &self.positions, layer, &r, n, &level.positions);
             }
-            for r in colors {
+            for r in dirty.normals {
+                write_rect(queue, &self.normals, layer, &r, n, &level.normals);
+            }
+            for r in dirty.colors {
                 write_rect(queue, &self.colors, layer, &r, side, &level.colors);
             }
         }

@@ -110,6 +110,7 @@ impl TerrainPass {
                 entry(0, both, uniform),
                 entry(2, wgpu::ShaderStages::VERTEX, texture(false)),
                 entry(3, wgpu::ShaderStages::FRAGMENT, texture(true)),
+                entry(5, wgpu::ShaderStages::VERTEX, texture(false)),
                 entry(4, wgpu::ShaderStages::FRAGMENT, wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering)),
             ],
         });
@@ -122,6 +123,7 @@ impl TerrainPass {
         let layers = config.levels as u32;
         let array = |label, side: usize, format| super::sampled_texture(device, label, side as u32, layers, format);
         let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
+        let normals = array("level normals", config.n, wgpu::TextureFormat::Rgba32Float);
         let colors = array("level colours", config.color_detail * config.n, wgpu::TextureFormat::Rgba8Unorm);
         let levels_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("levels"),
@@ -144,7 +146,8 @@ impl TerrainPass {
                 ..Default::default()
             })
         };
-        let (positions_view, colors_view) = (array_view(&positions), array_view(&colors));
+        let (positions_view, normals_view, colors_view) =
+            (array_view(&positions), array_view(&normals), array_view(&colors));
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("terrain"),
             layout: &layout,
@@ -153,6 +156,7 @@ impl TerrainPass {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&positions_view) },
                 wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&colors_view) },
                 wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::Sampler(&sampler) },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&normals_view) },
             ],
         });
         Ok(Self {
@@ -160,7 +164,7 @@ impl TerrainPass {
             level_pipeline,
             base_pipeline,
             levels_buffer,
-            levels: Levels::new(positions, colors, config.levels),
+            levels: Levels::new(positions, normals, colors, config.levels),
             bind_group,
             base: None,
             layout: pipeline_layout,

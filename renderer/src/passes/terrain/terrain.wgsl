@@ -64,6 +64,9 @@ fn coarser_of(r: LevelIn) -> Level {
 @group(0) @binding(2) var positions: texture_2d_array<f32>;
 @group(0) @binding(3) var colors: texture_2d_array<f32>;
 @group(0) @binding(4) var linear: sampler;
+// Each level's normals, worked out on the CPU where samples change
+// (`clipmap/normals.rs`): cross(south, east) of a sample's neighbours.
+@group(0) @binding(5) var normals: texture_2d_array<f32>;
 
 struct Out {
     @builtin(position) clip: vec4<f32>,
@@ -91,11 +94,21 @@ fn load(lv: Level, i: i32, j: i32) -> vec4<f32> {
     return textureLoad(positions, vec2<i32>(wrap(lv.window.x + ii, n), wrap(lv.window.y + jj, n)), lv.window.z, 0);
 }
 
-// Up from the samples round (i, j), `d` apart: cross(south, east).
-fn normal_at(lv: Level, i: i32, j: i32, d: i32) -> vec3<f32> {
-    let east = load(lv, i + d, j).xyz - load(lv, i - d, j).xyz;
-    let south = load(lv, i, j + d).xyz - load(lv, i, j - d).xyz;
-    return safe_normalize(cross(south, east));
+// The stored normal of a level's sample by its global index.
+fn normal_of(lv: Level, gx: i32, gy: i32) -> vec3<f32> {
+    let n = lv.window.w;
+    return textureLoad(normals, vec2<i32>(wrap(gx, n), wrap(gy, n)), lv.window.z, 0).xyz;
+}
+
+// The coarser level's normal under fine sample (gx, gy), as `coarse_at`
+// takes its surface: its own sample's where both indices are even, else
+// the mean of the two ends of the coarse edge (or diagonal) it lies on.
+fn coarse_normal(c: Level, gx: i32, gy: i32) -> vec3<f32> {
+    let x0 = gx >> 1u;
+    let y0 = gy >> 1u;
+    let x1 = x0 + (gx & 1);
+    let y1 = y0 + (gy & 1);
+    return safe_normalize(normal_of(c, x0, y0) + normal_of(c, x1, y1));
 }
 
 // A sample of a level by its global index (storage is toroidal: the
@@ -170,11 +183,9 @@ fn vs_level(@builtin(vertex_index) vi: u32, record: LevelIn) -> Out {
     let placed = place(lv, c, i, j);
     let p = placed.p;
     let alpha = placed.alpha;
-    var normal = normal_at(lv, i, j, 1);
+    var normal = normal_of(lv, gx, gy);
     if lv.coarse.w == 1 {
-        let east = coarse_at(c, gx + 2, gy) - coarse_at(c, gx - 2, gy);
-        let south = coarse_at(c, gx, gy + 2) - coarse_at(c, gx, gy - 2);
-        normal = mix(normal, safe_normalize(cross(south, east)), alpha);
+        normal = mix(normal, coarse_normal(c, gx, gy), alpha);
     }
     var out: Out;
     out.clip = view_proj_of(record) * vec4<f32>(p, 1.0);

@@ -13,6 +13,8 @@ use relief_source::Extent;
 use crate::camera::Pose;
 use crate::surface::Surface;
 
+mod normals;
+
 /// The validity of a sample off a flat grid: so far below the 0.5 the
 /// fragment shader keeps that a cell touching one is dropped whole
 /// (interpolation reaches 0.5 within a millionth of the cell).
@@ -175,6 +177,8 @@ pub struct ClipLevel {
     /// Toroidal n x n: xyz relative to the anchor; w is 1 where there is
     /// terrain and `OFF_GRID` off a flat grid.
     pub positions: Vec<[f32; 4]>,
+    /// Toroidal n x n: each sample's normal (xyz; `normals.rs`).
+    pub normals: Vec<[f32; 4]>,
     /// Colour samples per geometry sample along a side (`ClipmapConfig::color_detail`).
     pub color_detail: usize,
     /// Toroidal (color_detail n) squared: colour samples of tile level
@@ -182,6 +186,9 @@ pub struct ClipLevel {
     pub colors: Vec<[u8; 4]>,
     dirty: Vec<StorageRect>,
     color_dirty: Vec<StorageRect>,
+    normal_dirty: Vec<StorageRect>,
+    /// The window's origin when its edge normals were last worked out.
+    normals_origin: Option<(i64, i64)>,
     /// A refresh found its data not ready: the whole window is fetched again
     /// on the next move.
     stale: bool,
@@ -216,9 +223,12 @@ impl ClipLevel {
             anchor: DVec3::ZERO,
             anchor_sample: (0, 0),
             positions: vec![[0.0; 4]; n * n],
+            normals: vec![[0.0; 4]; n * n],
             colors: vec![[0; 4]; side * side],
             dirty: Vec::new(),
             color_dirty: Vec::new(),
+            normal_dirty: Vec::new(),
+            normals_origin: None,
             stale: false,
             samples_written: 0,
             full_refills: 0,
@@ -326,6 +336,7 @@ impl ClipLevel {
 
     fn store(&mut self, surface: &Surface, fetched: Fetched) {
         let n = self.n;
+        let written: Vec<Rect> = fetched.heights.iter().map(|(rect, _)| rect.clone()).collect();
         for (rect, heights) in fetched.heights {
             let width = (rect.x.end - rect.x.start) as usize;
             for (k, gy) in rect.y.clone().enumerate() {
@@ -346,6 +357,7 @@ impl ClipLevel {
                 }
             }
         }
+        self.renormal(&written);
         let side = self.color_detail * n;
         for (rect, colors) in fetched.colors {
             let width = (rect.x.end - rect.x.start) as usize;
@@ -363,11 +375,22 @@ impl ClipLevel {
         }
     }
 
-    /// The storage rectangles written since the last call: positions, then
-    /// colours.
-    pub fn take_dirty(&mut self) -> (Vec<StorageRect>, Vec<StorageRect>) {
-        (std::mem::take(&mut self.dirty), std::mem::take(&mut self.color_dirty))
+    /// The storage rectangles written since the last call.
+    pub fn take_dirty(&mut self) -> Dirty {
+        Dirty {
+            positions: std::mem::take(&mut self.dirty),
+            normals: std::mem::take(&mut self.normal_dirty),
+            colors: std::mem::take(&mut self.color_dirty),
+        }
     }
+}
+
+/// A level's storage rectangles written since they were last taken.
+#[derive(Debug, Default)]
+pub struct Dirty {
+    pub positions: Vec<StorageRect>,
+    pub normals: Vec<StorageRect>,
+    pub colors: Vec<StorageRect>,
 }
 
 /// What one update did.
