@@ -112,7 +112,7 @@ fn countries(dir: &Path, source: &str) -> anyhow::Result<(f64, f64, f64)> {
     let manifest = relief_examples::write_manifest(
         dir,
         &format!(
-            "[scene]\nname = \"countries\"\n\n[[source]]\nid = \"countries\"\n{source}\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"countries\"]\nstroke = \"none\"\nfill = \"#ff0000ff\"\n\n[layers]\ncolor = \"drawn\"\n\n[cache]\nmemory_mb = 4096\n"
+            "[scene]\nname = \"countries\"\n\n[[source]]\nid = \"countries\"\n{source}\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"countries\"]\nstroke = \"none\"\nfill = \"#ff0000ff\"\n\n[layers]\ncolor = \"drawn\"\n\n[cache]\nmemory_mb = 4096\ndisk_mb = 0\n"
         ),
     )?;
     let mut loads = Vec::new();

@@ -7,6 +7,11 @@
 //! 2. Accuracy knobs: for each resampling kernel, and for each
 //!    reprojection error threshold, time per tile against error.
 //!
+//! Every scene here has no disk tile cache (`disk_mb = 0`): a run after
+//! the first would otherwise read the first one's tiles back from it.
+//! On the 3.2 GB raster a last row times decoding alone, the floor under
+//! any build that reads its blocks through GDAL.
+//!
 //! `cargo bench -p relief-daemon --bench pyramid` (RELIEF_BENCH_MAX_LEVEL, default 10).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
@@ -48,6 +53,8 @@ struct Inputs {
     label: String,
     byte_range: Option<(f64, f64)>,
     runs: usize,
+    /// Also time decoding alone (an Int16 file with overviews).
+    decode_floor: bool,
 }
 
 fn throughput(inputs: &Inputs, max_level: u8) {
@@ -57,7 +64,7 @@ fn throughput(inputs: &Inputs, max_level: u8) {
     let manifest = fixtures::write_manifest(
         dir.path(),
         &format!(
-            "[scene]\nname = \"bench\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npaths = [{}]\n\n[quality]\nresampling = \"bilinear\"\n",
+            "[scene]\nname = \"bench\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npaths = [{}]\n\n[quality]\nresampling = \"bilinear\"\n\n[cache]\ndisk_mb = 0\n",
             paths.join(", ")
         ),
     )
@@ -130,6 +137,20 @@ fn throughput(inputs: &Inputs, max_level: u8) {
         peer_tiles = count_files(&out, "png");
     }
 
+    // Decoding alone, the floor under any build that reads this file's
+    // blocks through GDAL: every block of the levels the finest tiles read
+    // (and coarser), each once.
+    let floor = inputs.decode_floor.then(|| {
+        let scene = load(&manifest);
+        let snap = scene.snapshot();
+        let keys = pyramid_keys(&scene, 0, max_level);
+        let finest = keys.iter().map(|(_, k)| *k).max_by_key(|k| k.level).expect("keys");
+        let step = snap.grid.lattice(finest, relief_source::SampleKind::Corner).step_x;
+        scene.store.build(&snap, &keys, &snap.manifest.quality);
+        let info = snap.slots[0].source.as_ref().expect("the DEM").info();
+        let read = info.details.get("bytes_read").and_then(|b| b.parse::<u64>().ok()).unwrap_or(0);
+        (decode_floor(&hgts[0], step), read)
+    });
     let (r, rw, p, l) = (median(relief_s), median(relief_write_s), median(peer_s), median(load_s));
     println!("\n## Pyramid build: levels 0..={max_level} of {}, median of {runs} cold runs", inputs.label);
     println!("machine: {}", machine());
@@ -150,6 +171,69 @@ fn throughput(inputs: &Inputs, max_level: u8) {
         "| gdal2tiles.py --processes=2, 8-bit PNG | {peer_tiles} | {p:.3} | {:.0} | 1.0x |",
         peer_tiles as f64 / p
     );
+    if let Some((floor, read)) = floor {
+        println!(
+            "| decoding alone: {} blocks of the file's levels from 1/{} ({:.0} MB of pixels; relief's build read {:.0} MB), GDALReadBlock on {THREADS} threads | - | {:.3} | - | at most {:.1}x |",
+            floor.blocks,
+            floor.factor,
+            floor.bytes as f64 / 1e6,
+            read as f64 / 1e6,
+            floor.seconds,
+            (tiles as f64 / floor.seconds) / (peer_tiles as f64 / p)
+        );
+    }
+}
+
+/// What decoding alone took.
+struct Floor {
+    /// The finest level decoded: 1/factor of the base.
+    factor: usize,
+    blocks: usize,
+    bytes: u64,
+    seconds: f64,
+}
+
+/// Decodes every block of the Int16 file's overviews at least as coarse as
+/// the level relief reads for samples `step` apart (its CRS units), each
+/// once, through `GDALReadBlock` (no cache: the decode alone), on THREADS
+/// threads with a handle each.
+fn decode_floor(path: &Path, step: f64) -> Floor {
+    let ds = gdal::Dataset::open(path).expect("the big raster opens");
+    let band = ds.rasterband(1).expect("band 1");
+    assert_eq!(band.band_type(), gdal::raster::GdalDataType::Int16, "the floor reads Int16");
+    let pixel = ds.geo_transform().expect("georeferenced")[1].abs();
+    // As the gdal source picks its mip: pixels at most the samples' spacing.
+    let factor = 1usize << ((step / pixel).log2().floor().max(0.0) as u32);
+    let width = band.size().0;
+    let mut jobs: Vec<(usize, usize, usize)> = Vec::new();
+    let mut bytes = 0u64;
+    for o in 0..band.overview_count().expect("overview count").max(0) as usize {
+        let over = band.overview(o).expect("overview");
+        let ((w, h), (bw, bh)) = (over.size(), over.block_size());
+        if w > width.div_ceil(factor) {
+            continue;
+        }
+        for by in 0..h.div_ceil(bh) {
+            for bx in 0..w.div_ceil(bw) {
+                jobs.push((o, bx, by));
+                bytes += (bw * bh * 2) as u64;
+            }
+        }
+    }
+    let started = Instant::now();
+    std::thread::scope(|scope| {
+        for t in 0..THREADS {
+            let jobs = &jobs;
+            scope.spawn(move || {
+                let ds = gdal::Dataset::open(path).expect("opens");
+                let band = ds.rasterband(1).expect("band 1");
+                for &(o, bx, by) in jobs.iter().skip(t).step_by(THREADS) {
+                    band.overview(o).expect("overview").read_block::<i16>((bx, by)).expect("block decodes");
+                }
+            });
+        }
+    });
+    Floor { factor, blocks: jobs.len(), bytes, seconds: started.elapsed().as_secs_f64() }
 }
 
 fn count_files(dir: &Path, ext: &str) -> usize {
@@ -171,7 +255,7 @@ fn kernels() {
     fixtures::write_dem(&dir.path().join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).expect("fixture");
     let manifest = fixtures::write_manifest(
         dir.path(),
-        "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n",
+        "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[cache]\ndisk_mb = 0\n",
     )
     .expect("manifest");
     println!(
@@ -224,7 +308,7 @@ fn reprojection() {
     fixtures::write_dem(&dir.path().join("utm.tif"), &fixtures::utm_spec(), fixtures::utm_surface).expect("fixture");
     let manifest = fixtures::write_manifest(
         dir.path(),
-        "[scene]\nname = \"utm-on-the-planet\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"utm.tif\"\n",
+        "[scene]\nname = \"utm-on-the-planet\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"utm.tif\"\n\n[cache]\ndisk_mb = 0\n",
     )
     .expect("manifest");
     println!(
@@ -279,6 +363,7 @@ fn main() {
             label: "N43E006 + N43E007 (2 x 1201 x 1201 Int16)".into(),
             byte_range: None,
             runs: RUNS,
+            decode_floor: false,
         };
         throughput(&inputs, max_level);
     } else {
@@ -294,6 +379,7 @@ fn main() {
             label: "the bigdem bench's 40,000 x 40,000 Int16 tiled GeoTIFF (3.2 GB of samples, with overviews)".into(),
             byte_range: Some((0.0, 3000.0)),
             runs: 1,
+            decode_floor: true,
         };
         throughput(&inputs, level);
     } else {

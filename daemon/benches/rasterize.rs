@@ -44,7 +44,7 @@ fn relief(
     let manifest = relief_examples::write_manifest(
         dir,
         &format!(
-            "[scene]\nname = \"countries\"\n\n[[source]]\nid = \"countries\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"countries\"]\nstroke = \"none\"\nfill = \"#ff0000ff\"\nantialias = {antialias}\n\n[layers]\ncolor = \"drawn\"\n\n[cache]\nmemory_mb = 4096\n",
+            "[scene]\nname = \"countries\"\n\n[[source]]\nid = \"countries\"\nkind = \"shapefile\"\npath = \"{}\"\n\n[[source]]\nid = \"drawn\"\nkind = \"rasterize\"\ninputs = [\"countries\"]\nstroke = \"none\"\nfill = \"#ff0000ff\"\nantialias = {antialias}\n\n[layers]\ncolor = \"drawn\"\n\n[cache]\nmemory_mb = 4096\ndisk_mb = 0\n",
             countries.display()
         ),
     )?;
