@@ -124,7 +124,14 @@ impl Signatures {
                 }
                 // A member the mosaic reads itself is where its VRT places it.
                 if let Some((offset, size)) = raster.store.tiling.as_ref().and_then(|t| t.placement(path)) {
-                    return Ok(Part { path: path.clone(), stamp, offset, scale: (1.0, 1.0), size, levels: levels(path, mode)? });
+                    return Ok(Part {
+                        path: path.clone(),
+                        stamp,
+                        offset,
+                        scale: (1.0, 1.0),
+                        size,
+                        levels: levels(path, mode)?,
+                    });
                 }
                 let ds = open_dataset(path)?;
                 let gt = ds.geo_transform().map_err(|_| format_err("mosaic member has no geotransform", path))?;
