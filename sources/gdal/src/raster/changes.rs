@@ -7,6 +7,7 @@
 //! (base level only). Two versions' signatures differ exactly where their
 //! blocks may.
 
+use std::collections::HashMap;
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
@@ -112,15 +113,16 @@ impl Signatures {
                 }],
             });
         }
+        // The last signatures by file (hundreds of members: no search through them all for each).
+        let before: HashMap<&Path, &Part> =
+            previous.map(|p| p.parts.iter().map(|part| (part.path.as_path(), part)).collect()).unwrap_or_default();
         let parts = raster
             .members
             .par_iter()
             .map(|(path, _)| {
                 let stamp = FileStamp::of(path);
-                if let Some(same) = previous
-                    .and_then(|p| p.parts.iter().find(|p| p.path == *path && p.stamp == stamp && stamp.is_some()))
-                {
-                    return Ok(same.clone());
+                if let Some(same) = before.get(path.as_path()).filter(|p| p.stamp == stamp && stamp.is_some()) {
+                    return Ok((*same).clone());
                 }
                 // A member the mosaic reads itself is where its VRT places it.
                 if let Some((offset, size)) = raster.store.tiling.as_ref().and_then(|t| t.placement(path)) {

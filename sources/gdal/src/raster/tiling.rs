@@ -12,6 +12,7 @@
 //! own) leaves the raster read through GDAL's VRT, as before.
 
 use std::cell::RefCell;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use gdal::Dataset;
@@ -35,6 +36,8 @@ pub(crate) struct Tiling {
     member_overviews: bool,
     /// The mosaic's size in base pixels.
     size: (usize, usize),
+    /// Members by file, where a file is placed once.
+    placed_once: HashMap<PathBuf, usize>,
 }
 
 #[derive(Debug)]
@@ -96,8 +99,19 @@ impl Tiling {
             return None;
         }
         let own_overviews = own_overviews || PathBuf::from(format!("{}.ovr", path.display())).exists();
+        let mut placed_once = HashMap::new();
+        let mut twice = Vec::new();
+        for (i, m) in members.iter().enumerate() {
+            if placed_once.insert(m.path.clone(), i).is_some() {
+                twice.push(m.path.clone());
+            }
+        }
+        for path in twice {
+            placed_once.remove(&path);
+        }
         Some(Self {
             members,
+            placed_once,
             fill: vrt_band.no_data_value().map_or(0.0, |v| v as f32),
             member_overviews: !own_overviews,
             size,
@@ -107,9 +121,7 @@ impl Tiling {
     /// Where the member `path` lies in the mosaic's base pixels (its
     /// origin) and its size, when it is one member placed once.
     pub(super) fn placement(&self, path: &Path) -> Option<((f64, f64), (usize, usize))> {
-        let mut placed = self.members.iter().filter(|m| m.path == path);
-        let member = placed.next().filter(|_| placed.next().is_none())?;
-        let at = &member.at;
+        let at = &self.members[*self.placed_once.get(path)?].at;
         Some(((at.x0 as f64, at.y0 as f64), (at.width(), at.height())))
     }
 
