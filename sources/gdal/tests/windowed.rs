@@ -385,6 +385,8 @@ fn a_vrt_mosaic_edit_dirties_only_its_files_area() {
     let options = [("read", text("windowed"))];
     let source = open(&vrt, &options);
     assert_eq!(source.info().files.len(), 5, "the VRT and its members: {:?}", source.info().files);
+    // gdalbuildvrt places whole files pixel for pixel: read from them.
+    assert!(source.info().details.contains_key("mosaic_reads"), "{:?}", source.info().details);
     tiles(&source, &keys(&source, 10));
     std::thread::sleep(std::time::Duration::from_millis(20));
     // Edit the south-east quadrant (10.25..10.5 E, 45..45.25 N).

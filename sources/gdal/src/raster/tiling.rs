@@ -36,6 +36,8 @@ pub(crate) struct Tiling {
     member_overviews: bool,
     /// The mosaic's size in base pixels.
     size: (usize, usize),
+    /// The band's data type, as GDAL names it: every member's too.
+    data_type: String,
     /// Members by file, where a file is placed once.
     placed_once: HashMap<PathBuf, usize>,
 }
@@ -115,6 +117,7 @@ impl Tiling {
             fill: vrt_band.no_data_value().map_or(0.0, |v| v as f32),
             member_overviews: !own_overviews,
             size,
+            data_type,
         })
     }
 
@@ -150,7 +153,9 @@ impl Tiling {
             }
             let inside =
                 PixelRect { x0: part.x0 - at.x0, y0: part.y0 - at.y0, x1: part.x1 - at.x0, y1: part.y1 - at.y0 };
-            let Some(read) = member.read(level, (at.width(), at.height()), inside)? else { return Ok(None) };
+            let Some(read) = member.read(level, (at.width(), at.height()), inside, &self.data_type)? else {
+                return Ok(None);
+            };
             let nodata = member.nodata.map(|v| v as f32);
             for (row, y) in (part.y0..part.y1).enumerate() {
                 let from = &read[row * inside.width()..(row + 1) * inside.width()];
@@ -184,14 +189,25 @@ impl Member {
     }
 
     /// `rect` of its band (level 0) or of its overview of `size` pixels;
-    /// None when it has no overview of that size.
-    fn read(&self, level: usize, size: (usize, usize), rect: PixelRect) -> Result<Option<Vec<f32>>, SourceError> {
+    /// None when it has no overview of that size, or when the file is not
+    /// as the VRT describes it (another size or data type: GDAL's VRT then
+    /// converts, and reads it).
+    fn read(
+        &self,
+        level: usize,
+        size: (usize, usize),
+        rect: PixelRect,
+        data_type: &str,
+    ) -> Result<Option<Vec<f32>>, SourceError> {
         let changing = || SourceError::Changing { path: self.path.clone() };
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
         }
         let values = with_member(self, |ds| {
             let band = ds.rasterband(self.band).map_err(|e| format_err(e, &self.path))?;
+            if band.size() != (self.at.width(), self.at.height()) || band.band_type().name() != data_type {
+                return Ok(None);
+            }
             if level == 0 {
                 return read_window(&band, rect, &self.path).map(Some);
             }
@@ -326,6 +342,21 @@ mod tests {
         // Half over the first, its hole over the first's pixels.
         member(&b, (64, 8), 128, 500)?;
         assert_same_as_the_vrt(&build_vrt(dir.path(), &[a, b]), 1)
+    }
+
+    #[test]
+    fn a_member_no_longer_as_its_vrt_describes_is_left_to_gdal() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let a = dir.path().join("a.tif");
+        member(&a, (0, 0), 64, 0)?;
+        let vrt = build_vrt(dir.path(), std::slice::from_ref(&a));
+        let members = vrt::members(&vrt)?;
+        let ds = Dataset::open(&vrt)?;
+        // Written again at another size after the VRT was built.
+        member(&a, (0, 0), 48, 0)?;
+        let tiling = Tiling::plan(&members.sources, members.own_overviews, 1, &ds, &vrt).ok_or("no plan")?;
+        assert_eq!(tiling.read(0, PixelRect { x0: 0, y0: 0, x1: 8, y1: 8 })?, None);
+        Ok(())
     }
 
     #[test]
