@@ -178,6 +178,44 @@ impl Raster {
     }
 }
 
+impl Raster {
+    /// The header of this raster's next version when only mosaic members
+    /// changed: a mosaic read from its members whose VRT is unchanged and
+    /// names the same members, none newly missing or back. GDAL's VRT is
+    /// then not opened again (its frame, CRS, decoder and levels are as
+    /// they were). None otherwise: read the header afresh.
+    pub(super) fn header_again(&self, options: &ReadOptions) -> Result<Option<Header>, SourceError> {
+        let store = &self.store;
+        let Some(tiling) = &store.tiling else { return Ok(None) };
+        if FileStamp::of(&self.path) != Some(store.file_stamp) {
+            return Ok(None);
+        }
+        let members = vrt::members(&self.path)?;
+        let same_files = members.files.len() == self.members.len()
+            && members.files.iter().zip(&self.members).all(|(a, (b, _))| a == b);
+        if !same_files || members.missing != self.missing {
+            return Ok(None);
+        }
+        let stamped: Vec<(PathBuf, Option<FileStamp>)> =
+            members.files.into_iter().map(|p| (FileStamp::of(&p), p)).map(|(s, p)| (p, s)).collect();
+        let Some(tiling) = tiling.restamped(&stamped) else { return Ok(None) };
+        let mut raster = self.clone();
+        raster.fingerprint = Fingerprint::of(&self.path, "raster")?;
+        raster.members = stamped;
+        Ok(Some(Header {
+            raster,
+            decoder: store.decoder.clone(),
+            levels: store.levels.clone(),
+            open_path: store.open_path.clone(),
+            warp: None,
+            holes: store.holes.clone(),
+            tiling: Some(tiling),
+            bytes_per_pixel: store.bytes_per_pixel,
+            categorical: options.categorical,
+        }))
+    }
+}
+
 impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.

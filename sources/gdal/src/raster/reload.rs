@@ -52,7 +52,10 @@ impl Raster {
     /// above change only there.
     pub(crate) fn reload(&self, options: &ReadOptions) -> Result<Reloaded, SourceError> {
         let t = std::time::Instant::now();
-        let header = Self::header(&self.path, options)?;
+        let header = match self.header_again(options)? {
+            Some(header) => header,
+            None => Self::header(&self.path, options)?,
+        };
         let fresh = &header.raster;
         let same_frame = fresh.size == self.size
             && fresh.geo == self.geo

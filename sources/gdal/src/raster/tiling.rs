@@ -121,6 +121,31 @@ impl Tiling {
         })
     }
 
+    /// The same plan for the members as `stamped` finds them now (a
+    /// mosaic whose VRT is unchanged); None when a member is not there.
+    pub(super) fn restamped(&self, stamped: &[(PathBuf, Option<FileStamp>)]) -> Option<Self> {
+        let now: HashMap<&Path, Option<FileStamp>> = stamped.iter().map(|(p, s)| (p.as_path(), *s)).collect();
+        let members = self
+            .members
+            .iter()
+            .map(|m| {
+                let stamp = match now.get(m.path.as_path()) {
+                    Some(stamp) => *stamp,
+                    None => FileStamp::of(&m.path),
+                };
+                Some(Member { stamp: stamp?, path: m.path.clone(), ..*m })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(Self {
+            members,
+            fill: self.fill,
+            member_overviews: self.member_overviews,
+            size: self.size,
+            data_type: self.data_type.clone(),
+            placed_once: self.placed_once.clone(),
+        })
+    }
+
     /// Where the member `path` lies in the mosaic's base pixels (its
     /// origin) and its size, when it is one member placed once.
     pub(super) fn placement(&self, path: &Path) -> Option<((f64, f64), (usize, usize))> {
