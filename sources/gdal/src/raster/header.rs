@@ -64,7 +64,7 @@ impl Raster {
                 // their holes are in the file's pixels, not the warp's.
                 (open_dataset_named(&w.file.path, path)?, &band_options, w.file.path.clone(), Vec::new())
             }
-            None => (ds, options, members.open_path, members.holes),
+            None => (ds, options, members.open_path.clone(), members.holes.clone()),
         };
         let (width, height) = ds.raster_size();
         let geo = ds.geo_transform().map_err(|_| format_err("raster has no georeferencing (no geotransform)", path))?;
@@ -127,9 +127,7 @@ impl Raster {
         let levels = level_infos(&ds, &decoder, (width, height), options.overviews && !categorical);
         // A mosaic of whole files placed pixel for pixel is read from them.
         let tiling = match (&decoder, &warped) {
-            (Decoder::Height { band, .. }, None) => {
-                Tiling::plan(&members.sources, members.own_overviews, *band, &ds, path)
-            }
+            (Decoder::Height { band, .. }, None) => Tiling::plan(&members, *band, &ds, path),
             _ => None,
         };
         if tiling.is_some() {

@@ -19,7 +19,7 @@ use gdal::Dataset;
 use relief_source::SourceError;
 
 use super::decode::read_window;
-use super::vrt::MemberSource;
+use super::vrt::Members;
 use super::{FileStamp, PixelRect, format_err};
 
 /// Member handles each thread keeps (an open GeoTIFF is a file descriptor
@@ -58,13 +58,11 @@ impl Tiling {
     /// The plan for band `band` of the VRT `vrt` (opened from `path`), whose
     /// sources are `sources`; None when the VRT does more than place whole
     /// files of the band's data type pixel for pixel.
-    pub(super) fn plan(
-        sources: &[MemberSource],
-        own_overviews: bool,
-        band: usize,
-        vrt: &Dataset,
-        path: &Path,
-    ) -> Option<Self> {
+    pub(super) fn plan(members: &Members, band: usize, vrt: &Dataset, path: &Path) -> Option<Self> {
+        if members.hides_nodata {
+            return None;
+        }
+        let (sources, own_overviews) = (&members.sources, members.own_overviews);
         let vrt_band = vrt.rasterband(band).ok()?;
         let flags = vrt_band.mask_flags().ok()?;
         if !(flags.is_all_valid() || flags.is_nodata()) {
@@ -323,7 +321,7 @@ mod tests {
     fn assert_same_as_the_vrt(vrt: &Path, expect_levels: usize) -> Result<(), Box<dyn std::error::Error>> {
         let members = vrt::members(vrt)?;
         let ds = Dataset::open(vrt)?;
-        let tiling = Tiling::plan(&members.sources, members.own_overviews, 1, &ds, vrt).ok_or("no plan")?;
+        let tiling = Tiling::plan(&members, 1, &ds, vrt).ok_or("no plan")?;
         let band = ds.rasterband(1)?;
         let mut levels = 0;
         for level in 0..=band.overview_count()? as usize {
@@ -379,7 +377,7 @@ mod tests {
         let ds = Dataset::open(&vrt)?;
         // Written again at another size after the VRT was built.
         member(&a, (0, 0), 48, 0)?;
-        let tiling = Tiling::plan(&members.sources, members.own_overviews, 1, &ds, &vrt).ok_or("no plan")?;
+        let tiling = Tiling::plan(&members, 1, &ds, &vrt).ok_or("no plan")?;
         assert_eq!(tiling.read(0, PixelRect { x0: 0, y0: 0, x1: 8, y1: 8 })?, None);
         Ok(())
     }
@@ -390,11 +388,17 @@ mod tests {
         let a = dir.path().join("a.tif");
         member(&a, (0, 0), 64, 0)?;
         let vrt = build_vrt(dir.path(), &[a]);
-        let text = std::fs::read_to_string(&vrt)?.replace("<NODATA>", "<ScaleRatio>2</ScaleRatio><NODATA>");
-        std::fs::write(&vrt, text)?;
-        let members = vrt::members(&vrt)?;
-        let ds = Dataset::open(&vrt)?;
-        assert!(Tiling::plan(&members.sources, members.own_overviews, 1, &ds, &vrt).is_none());
+        let plain = std::fs::read_to_string(&vrt)?;
+        let odd = [
+            plain.replace("<NODATA>", "<ScaleRatio>2</ScaleRatio><NODATA>"),
+            plain.replace("<ColorInterp>", "<HideNoDataValue>1</HideNoDataValue><ColorInterp>"),
+        ];
+        for text in odd {
+            std::fs::write(&vrt, &text)?;
+            let members = vrt::members(&vrt)?;
+            let ds = Dataset::open(&vrt)?;
+            assert!(Tiling::plan(&members, 1, &ds, &vrt).is_none(), "{text}");
+        }
         Ok(())
     }
 }

@@ -28,6 +28,8 @@ pub(crate) struct Members {
     pub sources: Vec<MemberSource>,
     /// The VRT's bands name overview files of their own (`Overview`).
     pub own_overviews: bool,
+    /// A band hides its nodata value (`HideNoDataValue`).
+    pub hides_nodata: bool,
 }
 
 /// One source of a VRT band as the VRT places it.
@@ -204,6 +206,7 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
     // `VRTRasterBand` (a derived band, a pixel function).
     let mut band: Option<usize> = None;
     let mut own_overviews = false;
+    let mut hides_nodata = false;
     loop {
         let event = reader.read_event().map_err(|e| bad(&e))?;
         if matches!(event, Event::Eof) {
@@ -225,6 +228,10 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
             // the VRT's overviews from the members': relief reads those.)
             Event::Start(e) | Event::Empty(e) if held.is_none() && e.name().as_ref() == b"Overview" => {
                 own_overviews = true;
+            }
+            // Its nodata value fills the band but is not reported.
+            Event::Start(e) if held.is_none() && e.name().as_ref() == b"HideNoDataValue" => {
+                hides_nodata = true;
             }
             Event::Start(e) if e.name().as_ref() == b"SourceFilename" => {
                 relative =
@@ -313,7 +320,15 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
         }
     }
     if missing.is_empty() {
-        return Ok(Members { files, missing, holes, open_path: path.to_path_buf(), sources, own_overviews });
+        return Ok(Members {
+            files,
+            missing,
+            holes,
+            open_path: path.to_path_buf(),
+            sources,
+            own_overviews,
+            hides_nodata,
+        });
     }
     if files.is_empty() {
         let names: Vec<String> = missing.iter().map(|p| p.display().to_string()).collect();
@@ -322,5 +337,5 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
     let copy = PathBuf::from(format!("/vsimem/relief/{}-{}.vrt", std::process::id(), super::blocks::new_uid()));
     gdal::vsi::create_mem_file(&copy, writer.into_inner())
         .map_err(|e| format_err(format!("cannot write the VRT without its missing files: {e}"), path))?;
-    Ok(Members { files, missing, holes, open_path: copy, sources, own_overviews })
+    Ok(Members { files, missing, holes, open_path: copy, sources, own_overviews, hides_nodata })
 }
