@@ -174,9 +174,7 @@ impl Raster {
             categorical,
         })
     }
-}
 
-impl Raster {
     /// The header of this raster's next version when only mosaic members
     /// changed: a mosaic read from its members whose VRT is unchanged and
     /// names the same members, none newly missing or back. GDAL's VRT is
@@ -194,8 +192,14 @@ impl Raster {
         if !same_files || members.missing != self.missing {
             return Ok(None);
         }
-        let stamped: Vec<(PathBuf, Option<FileStamp>)> =
-            members.files.into_iter().map(|p| (FileStamp::of(&p), p)).map(|(s, p)| (p, s)).collect();
+        let stamped: Vec<(PathBuf, Option<FileStamp>)> = members
+            .files
+            .into_iter()
+            .map(|p| {
+                let stamp = FileStamp::of(&p);
+                (p, stamp)
+            })
+            .collect();
         let Some(tiling) = tiling.restamped(&stamped) else { return Ok(None) };
         let mut raster = self.clone();
         raster.fingerprint = Fingerprint::of(&self.path, "raster")?;
