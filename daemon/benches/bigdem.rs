@@ -25,7 +25,10 @@
 //!   WaitForGeneration returning. Edits come in pairs, a 50 m bump and then
 //!   its removal, so the cached data holds the same heights after every run
 //!   (an odd count gets one more, untimed, removal; the files grow a little,
-//!   as GDAL appends rewritten blocks). A dataset whose edit brings no
+//!   as GDAL appends rewritten blocks). The tiles reliefd hands to its
+//!   disk store during the edits and in the 3 s after are counted (it
+//!   writes a source's cached tiles once the scene has been still for 2 s,
+//!   not again under every save's new address). A dataset whose edit brings no
 //!   generation within WaitForGeneration's 20 s is reported as such and its
 //!   remaining edits are skipped.
 //!
@@ -412,6 +415,13 @@ fn windows(side: usize, n: usize) -> Vec<Window> {
 
 // ---------------------------------------------------------------- serving
 
+/// Tiles reliefd has handed to its disk store so far (the state's counter).
+async fn disk_writes(channel: &Channel) -> anyhow::Result<u64> {
+    let state = SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner();
+    let counters = state.counters.unwrap_or_default();
+    Ok(counters.outer_stores.iter().find(|o| o.name == "disk").map_or(0, |o| o.writes))
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
     Big,
@@ -432,6 +442,8 @@ struct Run {
     /// From the edited file's close (GDAL done writing) to the generation.
     saved_ms: Vec<f64>,
     rebuilt: Vec<u64>,
+    /// Tiles handed to the disk store during the edits, and in the 3 s after.
+    disk_writes: (u64, u64),
     /// Why the edits stopped early, if they did.
     edits_stopped: Option<String>,
     stop_note: Option<String>,
@@ -539,6 +551,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
     let (rss_mb, hwm_mb) = memory_mb(daemon.pid());
 
     // Edits: pairs of a bump and its removal on the same window.
+    let disk_before = disk_writes(&channel).await?;
     let events = Events::follow(channel.clone()).await?;
     let mut generation =
         SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner().generation;
@@ -585,6 +598,11 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
             println!("reliefd: {line}");
         }
     }
+    // What the edits handed to the disk store, then in the 3 s after
+    // (reliefd writes a source's cached tiles once the scene is still).
+    let disk_during = disk_writes(&channel).await? - disk_before;
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let disk_after = disk_writes(&channel).await? - disk_before - disk_during;
     let stop_note = daemon.stop(&[]).err().map(|e| format!("{e:#}"));
     Ok(Run {
         label,
@@ -599,6 +617,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
         rebuilt,
         edits_stopped,
         stop_note,
+        disk_writes: (disk_during, disk_after),
     })
 }
 
@@ -646,9 +665,9 @@ fn main() -> anyhow::Result<()> {
         budget_mb + 300
     );
     println!(
-        "| dataset | size on disk MB | start to first frame ms | flight frame ms (median) | VmRSS after flight MB | VmHWM MB | edit to generation p50 ms | p95 ms | save to generation p50 ms | p95 ms | edits | tiles rebuilt per edit (mean) |"
+        "| dataset | size on disk MB | start to first frame ms | flight frame ms (median) | VmRSS after flight MB | VmHWM MB | edit to generation p50 ms | p95 ms | save to generation p50 ms | p95 ms | edits | tiles rebuilt per edit (mean) | tiles to disk during the edits / 3 s after |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for r in &runs {
         let mut sorted = r.edits_ms.clone();
         sorted.sort_by(f64::total_cmp);
@@ -670,7 +689,7 @@ fn main() -> anyhow::Result<()> {
             )
         };
         println!(
-            "| {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {p50} | {p95} | {s50} | {s95} | {} | {rebuilt} |",
+            "| {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} | {p50} | {p95} | {s50} | {s95} | {} | {rebuilt} | {} / {} |",
             r.label,
             r.size_bytes as f64 / 1e6,
             r.first_frame_ms,
@@ -678,6 +697,8 @@ fn main() -> anyhow::Result<()> {
             r.rss_mb,
             r.hwm_mb,
             sorted.len(),
+            r.disk_writes.0,
+            r.disk_writes.1,
         );
     }
     for r in &runs {

@@ -9,6 +9,7 @@
 //! at the lowest priority after each load and generation (`ContentKeys`);
 //! until a source's is ready its tiles simply skip the outer stores.
 
+use std::collections::HashSet;
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
@@ -192,8 +193,9 @@ fn build_id() -> u128 {
 /// The background thread that fills in addresses: snapshots are handed to
 /// it as they are published, and it takes the latest (an older one's new
 /// slots are the latest's too, or gone). Tiles made before their source's
-/// address was known are handed to the outer stores once it is. The
-/// thread ends when this handle is dropped.
+/// address was known are handed to the outer stores once it is and the
+/// scene has been still for `STILL`. The thread ends when this handle is
+/// dropped.
 pub struct ContentKeys {
     shared: Arc<Shared>,
 }
@@ -230,27 +232,63 @@ impl Drop for ContentKeys {
     }
 }
 
+/// How long the scene must go without a new generation before the tiles
+/// made before their source's address was known go to the outer stores:
+/// every save gives the edited source a new address, under which all its
+/// cached tiles (carried and rebuilt) would otherwise be written again, at
+/// every save of a burst.
+const STILL: std::time::Duration = std::time::Duration::from_secs(2);
+
 fn run(shared: &Shared, store: &Weak<TileStore>) {
     // Hashing yields to serving: on a busy machine (a first frame, a
     // reload) the tiles come first.
     crate::priority::lowest("content-address");
+    // Sources addressed and not yet persisted, by id and address: they go
+    // out once the scene has been still for `STILL`, if the latest
+    // snapshot still has them.
+    let mut pending: HashSet<(String, u128)> = HashSet::new();
+    let mut latest: Option<Arc<SceneSnapshot>> = None;
     loop {
-        let snap = {
+        let next = {
             let mut state = shared.state.lock().expect("content lock is never poisoned");
             loop {
                 if state.1 {
                     return;
                 }
                 if let Some(snap) = state.0.take() {
-                    break snap;
+                    break Some(snap);
                 }
-                state = shared.ready.wait(state).expect("content lock is never poisoned");
+                if pending.is_empty() {
+                    state = shared.ready.wait(state).expect("content lock is never poisoned");
+                    continue;
+                }
+                let (woken, waited) = shared.ready.wait_timeout(state, STILL).expect("content lock is never poisoned");
+                state = woken;
+                if waited.timed_out() && state.0.is_none() && !state.1 {
+                    break None;
+                }
             }
         };
-        let found = fill(&snap);
-        let Some(store) = store.upgrade() else { return };
-        for index in found {
-            store.persist(&snap.slots[index]);
+        match next {
+            Some(snap) => {
+                for index in fill(&snap) {
+                    let slot = &snap.slots[index];
+                    if let Some(address) = slot.content.get() {
+                        pending.insert((slot.spec.id.clone(), address));
+                    }
+                }
+                latest = Some(snap);
+            }
+            None => {
+                let Some(store) = store.upgrade() else { return };
+                let slots = latest.as_ref().map(|snap| snap.slots.as_slice()).unwrap_or_default();
+                for slot in slots {
+                    if slot.content.get().is_some_and(|a| pending.contains(&(slot.spec.id.clone(), a))) {
+                        store.persist(slot);
+                    }
+                }
+                pending.clear();
+            }
         }
     }
 }
@@ -294,6 +332,82 @@ mod tests {
         assert!(key.unchanged());
         std::fs::write(&path, b"as saved")?;
         assert!(!key.unchanged());
+        Ok(())
+    }
+
+    /// A source whose tiles are flat at their level (no files: its address
+    /// comes from its kind, options and the grid).
+    #[derive(Debug)]
+    struct Flat;
+
+    impl relief_source::Source for Flat {
+        fn id(&self) -> &'static str {
+            "flat"
+        }
+        fn kind(&self) -> &'static str {
+            "test"
+        }
+        fn output(&self) -> relief_source::PayloadKind {
+            relief_source::PayloadKind::Height
+        }
+        fn generate(
+            &self,
+            key: relief_source::TileKey,
+            ctx: &relief_source::GenerateContext<'_>,
+        ) -> Result<relief_source::Payload, relief_source::SourceError> {
+            let n = ctx.grid.tile_size() as usize + 1;
+            let heights = vec![f32::from(key.level); n * n];
+            Ok(relief_source::Payload::Height(relief_source::HeightTile { size: n, heights }))
+        }
+    }
+
+    /// A snapshot of the flat source whose address is yet to be worked out.
+    fn flat_snapshot(generation: u64) -> Arc<SceneSnapshot> {
+        let manifest = crate::manifest::Manifest::parse("[scene]\nname = \"t\"\n", Path::new("/t/scene.toml"))
+            .expect("the manifest parses");
+        let slot = crate::graph::Slot {
+            spec: relief_source::SourceSpec { id: "flat".into(), kind: "test".into(), ..Default::default() },
+            source: Some(Arc::new(Flat)),
+            error: None,
+            version: 1,
+            effective_version: 7,
+            inputs: vec![],
+            active: true,
+            content: ContentKey::default(),
+        };
+        let grid = relief_source::TileGrid::geodetic(64).expect("a grid");
+        Arc::new(SceneSnapshot { generation, manifest: Arc::new(manifest), grid, slots: vec![slot] })
+    }
+
+    /// Snapshots coming faster than `STILL` (a burst of saves, each a new
+    /// version to address): the tiles made before go to the disk store
+    /// once, when the snapshots stop, not once for each.
+    #[test]
+    fn tiles_go_to_the_outer_stores_once_the_scene_is_still() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let disk = crate::backing::disk::DiskTiles::open(dir.path().to_path_buf(), 64 << 20)?;
+        let backings = crate::backing::Backings::new(vec![Arc::new(disk)]);
+        let store = Arc::new(TileStore::new(64 << 20, 2).with_backings(backings));
+        let first = flat_snapshot(1);
+        let keys: Vec<(usize, relief_source::TileKey)> =
+            (0..4).map(|x| (0, relief_source::TileKey { level: 3, x, y: 2 })).collect();
+        let built = store.build(&first, &keys, &first.manifest.quality);
+        assert!(built.iter().all(Result::is_ok));
+        let writes = || store.backing_counters().iter().map(|c| c.writes).sum::<u64>();
+        let keys_thread = ContentKeys::start(Arc::downgrade(&store));
+        keys_thread.fill(first);
+        for generation in 2..=5 {
+            std::thread::sleep(Duration::from_millis(200));
+            assert_eq!(writes(), 0, "written while snapshots still came (generation {generation})");
+            keys_thread.fill(flat_snapshot(generation));
+        }
+        let started = std::time::Instant::now();
+        while writes() == 0 && started.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert!(started.elapsed() >= STILL / 2, "written {:?} after the last snapshot", started.elapsed());
+        std::thread::sleep(STILL + Duration::from_millis(500));
+        assert_eq!(writes(), keys.len() as u64, "each tile once");
         Ok(())
     }
 }
