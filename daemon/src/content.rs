@@ -335,50 +335,6 @@ mod tests {
         Ok(())
     }
 
-    /// A source whose tiles are flat at their level (no files: its address
-    /// comes from its kind, options and the grid).
-    #[derive(Debug)]
-    struct Flat;
-
-    impl relief_source::Source for Flat {
-        fn id(&self) -> &'static str {
-            "flat"
-        }
-        fn kind(&self) -> &'static str {
-            "test"
-        }
-        fn output(&self) -> relief_source::PayloadKind {
-            relief_source::PayloadKind::Height
-        }
-        fn generate(
-            &self,
-            key: relief_source::TileKey,
-            ctx: &relief_source::GenerateContext<'_>,
-        ) -> Result<relief_source::Payload, relief_source::SourceError> {
-            let n = ctx.grid.tile_size() as usize + 1;
-            let heights = vec![f32::from(key.level); n * n];
-            Ok(relief_source::Payload::Height(relief_source::HeightTile { size: n, heights }))
-        }
-    }
-
-    /// A snapshot of the flat source whose address is yet to be worked out.
-    fn flat_snapshot(generation: u64) -> Arc<SceneSnapshot> {
-        let manifest = crate::manifest::Manifest::parse("[scene]\nname = \"t\"\n", Path::new("/t/scene.toml"))
-            .expect("the manifest parses");
-        let slot = crate::graph::Slot {
-            spec: relief_source::SourceSpec { id: "flat".into(), kind: "test".into(), ..Default::default() },
-            source: Some(Arc::new(Flat)),
-            error: None,
-            version: 1,
-            effective_version: 7,
-            inputs: vec![],
-            active: true,
-            content: ContentKey::default(),
-        };
-        let grid = relief_source::TileGrid::geodetic(64).expect("a grid");
-        Arc::new(SceneSnapshot { generation, manifest: Arc::new(manifest), grid, slots: vec![slot] })
-    }
-
     /// Snapshots coming faster than `STILL` (a burst of saves, each a new
     /// version to address): the tiles made before go to the disk store
     /// once, when the snapshots stop, not once for each.
@@ -388,7 +344,7 @@ mod tests {
         let disk = crate::backing::disk::DiskTiles::open(dir.path().to_path_buf(), 64 << 20)?;
         let backings = crate::backing::Backings::new(vec![Arc::new(disk)]);
         let store = Arc::new(TileStore::new(64 << 20, 2).with_backings(backings));
-        let first = flat_snapshot(1);
+        let first = Arc::new(crate::testing::flat_snapshot(1));
         let keys: Vec<(usize, relief_source::TileKey)> =
             (0..4).map(|x| (0, relief_source::TileKey { level: 3, x, y: 2 })).collect();
         let built = store.build(&first, &keys, &first.manifest.quality);
@@ -399,7 +355,7 @@ mod tests {
         for generation in 2..=5 {
             std::thread::sleep(Duration::from_millis(200));
             assert_eq!(writes(), 0, "written while snapshots still came (generation {generation})");
-            keys_thread.fill(flat_snapshot(generation));
+            keys_thread.fill(Arc::new(crate::testing::flat_snapshot(generation)));
         }
         let started = std::time::Instant::now();
         while writes() == 0 && started.elapsed() < Duration::from_secs(10) {

@@ -20,6 +20,8 @@ pub mod scene;
 pub mod scene_tiles;
 pub mod service;
 pub mod sun;
+#[cfg(test)]
+mod testing;
 pub mod tiles;
 pub mod view;
 pub mod watcher;

@@ -316,52 +316,10 @@ impl InputTiles for Inputs<'_> {
 
 #[cfg(test)]
 mod tests {
-    use std::path::Path;
-
-    use relief_source::{HeightTile, PayloadKind, Source, SourceSpec, TileGrid};
-
     use super::*;
-    use crate::graph::Slot;
-    use crate::manifest::Manifest;
-
-    /// A source whose tiles are flat at their level, so results are known.
-    #[derive(Debug)]
-    struct Flat;
-
-    impl Source for Flat {
-        fn id(&self) -> &'static str {
-            "flat"
-        }
-        fn kind(&self) -> &'static str {
-            "test"
-        }
-        fn output(&self) -> PayloadKind {
-            PayloadKind::Height
-        }
-        fn generate(&self, key: TileKey, ctx: &GenerateContext<'_>) -> Result<Payload, SourceError> {
-            let n = ctx.grid.tile_size() as usize + 1;
-            Ok(Payload::Height(HeightTile { size: n, heights: vec![f32::from(key.level); n * n] }))
-        }
-    }
 
     fn snapshot() -> SceneSnapshot {
-        let manifest = Manifest::parse("[scene]\nname = \"t\"\n", Path::new("/t/scene.toml")).unwrap();
-        let slot = Slot {
-            spec: SourceSpec { id: "flat".into(), kind: "test".into(), ..SourceSpec::default() },
-            source: Some(Arc::new(Flat)),
-            error: None,
-            version: 1,
-            effective_version: 7,
-            inputs: vec![],
-            active: true,
-            content: crate::content::ContentKey::default(),
-        };
-        SceneSnapshot {
-            generation: 1,
-            manifest: Arc::new(manifest),
-            grid: TileGrid::geodetic(64).unwrap(),
-            slots: vec![slot],
-        }
+        crate::testing::flat_snapshot(1)
     }
 
     #[test]
