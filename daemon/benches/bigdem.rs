@@ -44,6 +44,8 @@
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -55,7 +57,6 @@ use gdal::{Dataset, DatasetOptions, DriverManager, GdalOpenFlags};
 use rayon::prelude::*;
 use relief_examples::Lcg;
 use relief_proto::v1 as pb;
-use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_tests::daemon::Reliefd;
 use relief_tests::edit::{self, Events};
@@ -417,8 +418,7 @@ fn windows(side: usize, n: usize) -> Vec<Window> {
 
 /// Tiles reliefd has handed to its disk store so far (the state's counter).
 async fn disk_writes(channel: &Channel) -> anyhow::Result<u64> {
-    let state = SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner();
-    let counters = state.counters.unwrap_or_default();
+    let counters = common::state(channel).await?.counters.unwrap_or_default();
     Ok(counters.outer_stores.iter().find(|o| o.name == "disk").map_or(0, |o| o.writes))
 }
 
@@ -553,8 +553,7 @@ async fn serve(kind: Kind, data: &Data, side: usize, windows: &[Window], edits: 
     // Edits: pairs of a bump and its removal on the same window.
     let disk_before = disk_writes(&channel).await?;
     let events = Events::follow(channel.clone()).await?;
-    let mut generation =
-        SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner().generation;
+    let mut generation = common::state(&channel).await?.generation;
     let (mut edits_ms, mut rebuilt, mut edits_stopped) = (Vec::new(), Vec::new(), None);
     let mut saved_ms = Vec::new();
     for k in 0..edits.next_multiple_of(2) {

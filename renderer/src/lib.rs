@@ -19,9 +19,7 @@ mod target;
 mod uniforms;
 
 pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
-pub use clipmap::{
-    COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Dirty, Rect, StorageRect, TerrainSamples, UpdateStats,
-};
+pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
 pub use detail::{Detail, Detailed};
 pub use error::RenderError;
 pub use gpu::Gpu;

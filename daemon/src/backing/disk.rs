@@ -50,8 +50,7 @@ impl DiskTiles {
         let (jobs, rx) = sync_channel(QUEUE);
         let thread_root = root.clone();
         std::thread::Builder::new().name("relief-disk-cache".into()).spawn(move || {
-            // Writing tiles yields to serving (an edit persists every
-            // tile of the source again, under its new address).
+            // Writing tiles yields to serving.
             crate::priority::lowest("disk-cache");
             Writer::new(thread_root, budget_bytes).run(&rx);
         })?;

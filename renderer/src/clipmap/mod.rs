@@ -130,6 +130,16 @@ fn spans(range: &Range<i64>, n: usize) -> Vec<(usize, usize)> {
     if start + len <= n { vec![(start, len)] } else { vec![(start, n - start), (0, start + len - n)] }
 }
 
+/// The storage rectangles of `rect` (global indices, each side at most
+/// `side`) in a toroidal `side` x `side` array.
+fn storage_rects(rect: &Rect, side: usize) -> Vec<StorageRect> {
+    let columns = spans(&rect.x, side);
+    spans(&rect.y, side)
+        .into_iter()
+        .flat_map(|(y, height)| columns.iter().map(move |&(x, width)| StorageRect { x, y, width, height }))
+        .collect()
+}
+
 /// The samples entering a square window of `size` when its origin moves
 /// from `old` to `new`: the whole columns that came in, then the rows that
 /// came in across the remaining columns (an L).
@@ -248,6 +258,12 @@ impl ClipLevel {
         self.tile_level + self.color_detail.trailing_zeros() as u8
     }
 
+    /// Where global sample (gx, gy) is stored (toroidally, n x n).
+    pub(crate) fn slot(&self, gx: i64, gy: i64) -> usize {
+        let n = self.n as i64;
+        (gy.rem_euclid(n) * n + gx.rem_euclid(n)) as usize
+    }
+
     /// The colour window: samples of the colour level over the same ground.
     pub fn color_window(&self) -> Rect {
         let r = self.color_detail as i64;
@@ -340,22 +356,17 @@ impl ClipLevel {
         for (rect, heights) in fetched.heights {
             let width = (rect.x.end - rect.x.start) as usize;
             for (k, gy) in rect.y.clone().enumerate() {
-                let row = gy.rem_euclid(n as i64) as usize * n;
                 for (m, gx) in rect.x.clone().enumerate() {
                     let h = heights[k * width + m];
                     let (x, y) = surface.sample_point(self.tile_level, gx, gy);
                     let on = surface.on_grid(self.tile_level, gx, gy);
                     let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }) - self.anchor;
-                    let slot = row + gx.rem_euclid(n as i64) as usize;
+                    let slot = self.slot(gx, gy);
                     self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { OFF_GRID }];
                 }
             }
             self.samples_written += (width * rect.y.clone().count()) as u64;
-            for (y, height) in spans(&rect.y, n) {
-                for (x, width) in spans(&rect.x, n) {
-                    self.dirty.push(StorageRect { x, y, width, height });
-                }
-            }
+            self.dirty.extend(storage_rects(&rect, n));
         }
         self.renormal(&written);
         let side = self.color_detail * n;
@@ -367,11 +378,7 @@ impl ClipLevel {
                     self.colors[row + cx.rem_euclid(side as i64) as usize] = premultiplied(colors[k * width + m]);
                 }
             }
-            for (y, height) in spans(&rect.y, side) {
-                for (x, width) in spans(&rect.x, side) {
-                    self.color_dirty.push(StorageRect { x, y, width, height });
-                }
-            }
+            self.color_dirty.extend(storage_rects(&rect, side));
         }
     }
 

@@ -9,7 +9,7 @@
 
 use glam::Vec3;
 
-use super::{ClipLevel, Rect, spans};
+use super::{ClipLevel, Rect, storage_rects};
 
 impl ClipLevel {
     /// Works out again the normals that the samples written in `written`
@@ -40,18 +40,8 @@ impl ClipLevel {
                     self.normals[slot] = [normal.x, normal.y, normal.z, 0.0];
                 }
             }
-            for (y, height) in spans(&rect.y, n) {
-                for (x, width) in spans(&rect.x, n) {
-                    self.normal_dirty.push(super::StorageRect { x, y, width, height });
-                }
-            }
+            self.normal_dirty.extend(storage_rects(&rect, n));
         }
-    }
-
-    /// Where global sample (gx, gy) is stored.
-    fn slot(&self, gx: i64, gy: i64) -> usize {
-        let n = self.n as i64;
-        (gy.rem_euclid(n) * n + gx.rem_euclid(n)) as usize
     }
 
     /// The stored position of global sample (gx, gy), clamped into the window.

@@ -10,15 +10,10 @@ use crate::camera::Pose;
 use crate::clipmap::{ClipLevel, Clipmap};
 use crate::surface::Surface;
 
-fn wrap(g: i64, n: i64) -> usize {
-    g.rem_euclid(n) as usize
-}
-
 /// A level's stored sample by global index, as a world point; None off the
 /// grid.
 fn sample(level: &ClipLevel, gx: i64, gy: i64) -> Option<DVec3> {
-    let n = level.n as i64;
-    let p = level.positions[wrap(gy, n) * level.n + wrap(gx, n)];
+    let p = level.positions[level.slot(gx, gy)];
     (p[3] >= 0.5).then(|| level.anchor + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
 }
 

@@ -249,9 +249,8 @@ fn in_view(level: &ClipLevel, block: &Block, frustum: &dyn Sees, eye: DVec3) -> 
     let [i0, i1, j0, j1] = block.cells;
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for j in j0.saturating_sub(BLEND_REACH)..=(j1 + BLEND_REACH).min(n - 1) {
-        let row = (level.origin.1 + j as i64).rem_euclid(n as i64) as usize * n;
         for i in i0.saturating_sub(BLEND_REACH)..=(i1 + BLEND_REACH).min(n - 1) {
-            let p = level.positions[row + (level.origin.0 + i as i64).rem_euclid(n as i64) as usize];
+            let p = level.positions[level.slot(level.origin.0 + i as i64, level.origin.1 + j as i64)];
             if p[3] >= 0.5 {
                 let p = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
                 (lo, hi) = (lo.min(p), hi.max(p));

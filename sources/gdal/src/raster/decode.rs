@@ -124,6 +124,22 @@ impl Decoder {
         }
     }
 
+    /// Heights in metres from a height band's values as the file holds
+    /// them: nodata, NaN or masked out (`mask` 0) become NaN. Any other
+    /// decoder hands the values back.
+    pub(crate) fn to_heights(&self, mut raw: Vec<f32>, mask: Option<&[f32]>) -> Vec<f32> {
+        let Self::Height { nodata, scale, offset, .. } = self else { return raw };
+        for (i, v) in raw.iter_mut().enumerate() {
+            let masked = mask.is_some_and(|m| m[i] == 0.0);
+            if masked || v.is_nan() || *nodata == Some(*v) {
+                *v = f32::NAN;
+            } else if *scale != 1.0 || *offset != 0.0 {
+                *v = (f64::from(*v) * scale + offset) as f32;
+            }
+        }
+        raw
+    }
+
     /// Decodes `rect` of the base level (`overview` None) or of overview
     /// number `overview`. Any block that fails to decode fails the read.
     pub(crate) fn read(
@@ -197,24 +213,6 @@ impl Decoder {
                 Ok(planes)
             }
         }
-    }
-}
-
-impl Decoder {
-    /// Heights in metres from a height band's values as the file holds
-    /// them: nodata, NaN or masked out (`mask` 0) become NaN. Any other
-    /// decoder hands the values back.
-    pub(crate) fn to_heights(&self, mut raw: Vec<f32>, mask: Option<&[f32]>) -> Vec<f32> {
-        let Self::Height { nodata, scale, offset, .. } = self else { return raw };
-        for (i, v) in raw.iter_mut().enumerate() {
-            let masked = mask.is_some_and(|m| m[i] == 0.0);
-            if masked || v.is_nan() || *nodata == Some(*v) {
-                *v = f32::NAN;
-            } else if *scale != 1.0 || *offset != 0.0 {
-                *v = (f64::from(*v) * scale + offset) as f32;
-            }
-        }
-        raw
     }
 }
 

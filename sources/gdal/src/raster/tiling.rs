@@ -27,7 +27,7 @@ use super::{FileStamp, PixelRect, format_err};
 const HANDLES_PER_THREAD: usize = 32;
 
 /// How to read one band of a mosaic from its members.
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 pub(crate) struct Tiling {
     members: Vec<Member>,
     /// What a pixel no member covers holds: the VRT band's nodata, else 0.
@@ -42,7 +42,7 @@ pub(crate) struct Tiling {
     placed_once: HashMap<PathBuf, usize>,
 }
 
-#[derive(Debug)]
+#[derive(Debug, Clone)]
 struct Member {
     path: PathBuf,
     /// The file as this version of the mosaic found it.
@@ -123,25 +123,14 @@ impl Tiling {
     /// mosaic whose VRT is unchanged); None when a member is not there.
     pub(super) fn restamped(&self, stamped: &[(PathBuf, Option<FileStamp>)]) -> Option<Self> {
         let now: HashMap<&Path, Option<FileStamp>> = stamped.iter().map(|(p, s)| (p.as_path(), *s)).collect();
-        let members = self
-            .members
-            .iter()
-            .map(|m| {
-                let stamp = match now.get(m.path.as_path()) {
-                    Some(stamp) => *stamp,
-                    None => FileStamp::of(&m.path),
-                };
-                Some(Member { stamp: stamp?, path: m.path.clone(), ..*m })
-            })
-            .collect::<Option<Vec<_>>>()?;
-        Some(Self {
-            members,
-            fill: self.fill,
-            member_overviews: self.member_overviews,
-            size: self.size,
-            data_type: self.data_type.clone(),
-            placed_once: self.placed_once.clone(),
-        })
+        let mut next = self.clone();
+        for member in &mut next.members {
+            member.stamp = match now.get(member.path.as_path()) {
+                Some(stamp) => (*stamp)?,
+                None => FileStamp::of(&member.path)?,
+            };
+        }
+        Some(next)
     }
 
     /// Where the member `path` lies in the mosaic's base pixels (its
