@@ -237,7 +237,11 @@ impl Store {
             Some(tiling) => tiling.read(level.unwrap_or(0), rect)?,
             None => None,
         };
-        let mut planes = match from_members {
+        let decoded_here = || {
+            let info = &self.levels[level.unwrap_or(0)];
+            self.native.as_ref()?.read((info.width, info.height), rect)
+        };
+        let mut planes = match from_members.or_else(decoded_here) {
             Some(values) => vec![self.decoder.to_heights(values, None)],
             None => {
                 with_dataset(self.version, &self.open_path, |ds| self.decoder.read(ds, overview, rect, &self.path))?

@@ -234,7 +234,7 @@ fn tiff_levels(path: &Path, images: &[tiff::Image], mode: ChangeDetection) -> Re
         .map(|i| (path, i))
         .chain(overviews.iter().filter(|i| reduced(i)).map(|i| (external.as_path(), i)))
     {
-        out.push(image_level(file, image, mode == ChangeDetection::Exact || !image.compressed)?);
+        out.push(image_level(file, image, mode == ChangeDetection::Exact || !image.compressed())?);
     }
     if out.is_empty() {
         return Err(format_err("TIFF holds no image", path));

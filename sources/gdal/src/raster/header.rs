@@ -13,6 +13,7 @@ use relief_source::SourceError;
 use super::blocks::BLOCK;
 use super::decode::Decoder;
 use super::halve::Halving;
+use super::native::Native;
 use super::tiling::Tiling;
 use super::warp::{self, MemFile};
 use super::{FileStamp, Fingerprint, LevelInfo, PixelRect, Raster, RasterKind, ReadOptions, Store, format_err, vrt};
@@ -28,6 +29,7 @@ pub(super) struct Header {
     warp: Option<Arc<MemFile>>,
     holes: Vec<PixelRect>,
     tiling: Option<Tiling>,
+    native: Option<Native>,
     bytes_per_pixel: usize,
     categorical: bool,
 }
@@ -133,6 +135,14 @@ impl Raster {
         if tiling.is_some() {
             details.insert("mosaic_reads".into(), "from the member files (the VRT places them pixel for pixel)".into());
         }
+        // A plain GeoTIFF read as it is (no warp, no mosaic) is decoded here.
+        let native = match (&decoder, &warped) {
+            (Decoder::Height { band, .. }, None) if members.files.is_empty() => Native::plan(&ds, *band, path),
+            _ => None,
+        };
+        if let Some(native) = &native {
+            details.insert("block_decoding".into(), native.describe());
+        }
         let overviews = levels.iter().filter(|l| l.overview.is_some()).count();
         details.insert(
             "overviews".into(),
@@ -170,6 +180,7 @@ impl Raster {
             warp: warped.map(|w| w.file),
             holes,
             tiling,
+            native,
             bytes_per_pixel,
             categorical,
         })
@@ -212,6 +223,7 @@ impl Raster {
             warp: None,
             holes: store.holes.clone(),
             tiling: Some(tiling),
+            native: None,
             bytes_per_pixel: store.bytes_per_pixel,
             categorical: options.categorical,
         }))
@@ -222,7 +234,8 @@ impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
-        let Self { mut raster, decoder, levels, open_path, warp, holes, tiling, bytes_per_pixel, categorical } = self;
+        let Self { mut raster, decoder, levels, open_path, warp, holes, tiling, native, bytes_per_pixel, categorical } =
+            self;
         let file_stamp =
             FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
         let halving = match (raster.kind, categorical) {
@@ -242,6 +255,8 @@ impl Header {
             warp,
             holes,
             tiling: tiling.map(Arc::new),
+            // Decoded here only while the file is as its tables were read.
+            native: native.filter(|n| n.stamp == file_stamp).map(Arc::new),
             file_stamp,
             decoder,
             bytes_per_pixel,

@@ -11,6 +11,7 @@ mod checks;
 mod decode;
 mod halve;
 mod header;
+mod native;
 mod options;
 mod prefetch;
 mod reload;
@@ -61,6 +62,8 @@ pub(crate) struct Store {
     holes: Vec<PixelRect>,
     /// A mosaic read from its members rather than through its VRT.
     tiling: Option<Arc<tiling::Tiling>>,
+    /// A plain GeoTIFF whose blocks relief decodes itself.
+    native: Option<Arc<native::Native>>,
     file_stamp: FileStamp,
     decoder: Decoder,
     bytes_per_pixel: usize,
@@ -292,6 +295,7 @@ impl Store {
             warp: None,
             holes: Vec::new(),
             tiling: None,
+            native: None,
             file_stamp: FileStamp::NONE,
             decoder: Decoder::Height { band: 1, nodata: None, scale: 1.0, offset: 0.0 },
             bytes_per_pixel: 0,
@@ -316,6 +320,7 @@ impl Store {
             warp: self.warp.clone(),
             holes: self.holes.clone(),
             tiling: self.tiling.clone(),
+            native: self.native.clone(),
             file_stamp: self.file_stamp,
             decoder: self.decoder.clone(),
             bytes_per_pixel: self.bytes_per_pixel,

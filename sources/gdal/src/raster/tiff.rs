@@ -20,8 +20,19 @@ pub(crate) struct Image {
     /// NewSubfileType: 0 the full image, 1 a reduced-resolution one (an
     /// overview), 4 a mask.
     pub subfile: u32,
-    /// The blocks are compressed (Compression is not 1).
-    pub compressed: bool,
+    /// How blocks are stored: Compression (1 raw), Predictor (1 none),
+    /// BitsPerSample and SampleFormat of the first sample, SamplesPerPixel
+    /// and PlanarConfiguration (2: one plane per sample).
+    pub compression: u16,
+    pub predictor: u16,
+    pub bits: u16,
+    pub sample_format: u16,
+    pub samples: u16,
+    pub planar: u16,
+    /// Blocks are tiles (each holds all its rows), not strips.
+    pub tiled: bool,
+    /// The file's byte order is little-endian.
+    pub little: bool,
 }
 
 impl Image {
@@ -41,6 +52,11 @@ impl Image {
                 file,
             )),
         }
+    }
+
+    /// The blocks are compressed (Compression is not 1).
+    pub(crate) fn compressed(&self) -> bool {
+        self.compression != 1
     }
 
     /// Blocks per plane.
@@ -151,7 +167,7 @@ impl Reader<'_> {
         let mut entries = vec![0u8; n as usize * entry_len + next_len];
         self.file.read_exact_at(&mut entries, at + count_len as u64).ok()?;
         let (mut width, mut height, mut tile, mut rows, mut subfile) = (0, 0, (0, 0), 0, 0u32);
-        let mut compression = 1;
+        let (mut compression, mut predictor, mut bits, mut sample_format, mut samples, mut planar) = (1, 1, 1, 1, 1, 1);
         let (mut offsets, mut sizes) = (Vec::new(), Vec::new());
         for e in entries[..n as usize * entry_len].chunks_exact(entry_len) {
             let tag = self.u16_at(&e[0..2]);
@@ -161,7 +177,12 @@ impl Reader<'_> {
             let first = || self.values(kind, count.min(1), field, big).and_then(|v| v.first().copied());
             match tag {
                 254 => subfile = first().unwrap_or(0) as u32,
-                259 => compression = first().unwrap_or(1),
+                259 => compression = first().unwrap_or(1) as u16,
+                317 => predictor = first().unwrap_or(1) as u16,
+                258 => bits = first().unwrap_or(1) as u16,
+                339 => sample_format = first().unwrap_or(1) as u16,
+                277 => samples = first().unwrap_or(1) as u16,
+                284 => planar = first().unwrap_or(1) as u16,
                 256 => width = first()? as usize,
                 257 => height = first()? as usize,
                 278 => rows = first()? as usize,
@@ -177,9 +198,22 @@ impl Reader<'_> {
         // No RowsPerStrip: one strip.
         let rows = if rows == 0 { height } else { rows.min(height) };
         let block = if tile.0 > 0 { tile } else { (width, rows) };
-        let compressed = compression != 1;
         let image = (width > 0 && height > 0 && block.0 > 0 && block.1 > 0 && offsets.len() == sizes.len())
-            .then_some(Image { size: (width, height), block, offsets, sizes, subfile, compressed })
+            .then_some(Image {
+                size: (width, height),
+                block,
+                offsets,
+                sizes,
+                subfile,
+                compression,
+                predictor,
+                bits,
+                sample_format,
+                samples,
+                planar,
+                tiled: tile.0 > 0,
+                little: self.little,
+            })
             .filter(|i| i.blocks() > 0 && i.offsets.len() % i.blocks() == 0);
         Some((image, next))
     }
@@ -251,7 +285,7 @@ mod tests {
                     }
                 }
             }
-            assert_eq!(reduced[0].compressed, options.iter().any(|o| o.starts_with("COMPRESS")), "layout {n}");
+            assert_eq!(reduced[0].compressed(), options.iter().any(|o| o.starts_with("COMPRESS")), "layout {n}");
         }
         assert!(images(&dir.path().join("missing.tif")).is_none());
         std::fs::write(dir.path().join("text.tif"), b"not a tiff at all").expect("write");

@@ -19,6 +19,7 @@ use gdal::Dataset;
 use relief_source::SourceError;
 
 use super::decode::read_window;
+use super::native::Native;
 use super::vrt::Members;
 use super::{FileStamp, PixelRect, format_err};
 
@@ -215,10 +216,14 @@ impl Member {
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
         }
-        let values = with_member(self, |ds| {
+        let values = with_member(self, |ds, native| {
             let band = ds.rasterband(self.band).map_err(|e| format_err(e, &self.path))?;
             if band.size() != (self.at.width(), self.at.height()) || band.band_type().name() != data_type {
                 return Ok(None);
+            }
+            let image = if level == 0 { band.size() } else { size };
+            if let Some(values) = native.and_then(|n| n.read(image, rect)) {
+                return Ok(Some(values));
             }
             if level == 0 {
                 return read_window(&band, rect, &self.path).map(Some);
@@ -234,29 +239,39 @@ impl Member {
     }
 }
 
+/// A member open on this thread: its path and stamp, GDAL's handle, and
+/// the plan for decoding its blocks here when it is a plain GeoTIFF.
+type Handle = (PathBuf, FileStamp, Dataset, Option<Native>);
+
 thread_local! {
-    static MEMBERS: RefCell<Vec<(PathBuf, FileStamp, Dataset)>> = const { RefCell::new(Vec::new()) };
+    static MEMBERS: RefCell<Vec<Handle>> = const { RefCell::new(Vec::new()) };
 }
 
 /// Runs `f` on this thread's handle of `member` as its stamp says (a
 /// member written since is opened afresh, never read through a handle that
 /// may hold its old directory or blocks).
-fn with_member<T>(member: &Member, f: impl FnOnce(&Dataset) -> Result<T, SourceError>) -> Result<T, SourceError> {
+fn with_member<T>(
+    member: &Member,
+    f: impl FnOnce(&Dataset, Option<&Native>) -> Result<T, SourceError>,
+) -> Result<T, SourceError> {
     MEMBERS.with(|handles| {
         let mut handles = handles.borrow_mut();
-        let at = handles.iter().position(|(p, s, _)| *s == member.stamp && *p == member.path);
+        let at = handles.iter().position(|(p, s, _, _)| *s == member.stamp && *p == member.path);
         let entry = match at {
             Some(at) => handles.remove(at),
             None => {
                 if handles.len() >= HANDLES_PER_THREAD {
                     handles.remove(0);
                 }
-                (member.path.clone(), member.stamp, super::open_dataset(&member.path)?)
+                let ds = super::open_dataset(&member.path)?;
+                let native = Native::plan(&ds, member.band, &member.path).filter(|n| n.stamp == member.stamp);
+                (member.path.clone(), member.stamp, ds, native)
             }
         };
         // Most recently used last.
         handles.push(entry);
-        f(&handles.last().expect("just pushed").2)
+        let (_, _, ds, native) = handles.last().expect("just pushed");
+        f(ds, native.as_ref())
     })
 }
 

@@ -1,0 +1,534 @@
+//! Blocks of a plain GeoTIFF decoded by relief itself: one band of bytes,
+//! 16-bit integers or 32-bit floats, tiled or in strips, stored raw or
+//! deflated, with or without a predictor. GDAL decodes the same bytes to
+//! the same values (a test compares every such layout), but a block read
+//! through GDAL is inflated into GDAL's block cache, copied into the
+//! window asked for and widened to f32 there: three passes and two fresh
+//! buffers a block. Here the file's bytes go to f32 in one pass, through
+//! buffers kept by each thread. Anything else (another compression or
+//! type, pixel-interleaved bands, a mask, a block that will not inflate to
+//! its size) is left to GDAL.
+
+use std::cell::RefCell;
+use std::fs::File;
+use std::os::unix::fs::FileExt;
+use std::path::Path;
+
+use gdal::Dataset;
+use gdal::raster::GdalDataType;
+use libdeflater::Decompressor;
+
+use super::tiff::{self, Image};
+use super::{FileStamp, PixelRect};
+
+/// A file whose images relief decodes, and the file they were read from,
+/// open while this version is read.
+#[derive(Debug)]
+pub(crate) struct Native {
+    /// The file as its block tables were read (reads check it still is).
+    pub stamp: FileStamp,
+    file: File,
+    /// The band's base image and its overviews decoded here (any other
+    /// level is read through GDAL or halved).
+    images: Vec<Level>,
+    /// What a block the file does not store holds, as GDAL reads it: the
+    /// band's nodata value, else 0.
+    fill: f32,
+}
+
+/// One image of the file decoded here.
+#[derive(Debug)]
+struct Level {
+    image: Image,
+    /// The plane of the band read (bands stored apart), else 0.
+    plane: usize,
+    sample: Sample,
+    /// The predictor undone (libtiff applies none to raw blocks).
+    predictor: u16,
+}
+
+/// How the samples of an image are stored, when relief can decode them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sample {
+    U8,
+    I16,
+    U16,
+    F32,
+}
+
+impl Sample {
+    /// The storage of `image`'s samples, if it is one decoded here.
+    fn of(image: &Image) -> Option<Self> {
+        match (image.bits, image.sample_format) {
+            (8, 1) => Some(Self::U8),
+            (16, 2) => Some(Self::I16),
+            (16, 1) => Some(Self::U16),
+            (32, 3) => Some(Self::F32),
+            _ => None,
+        }
+    }
+
+    fn gdal(self) -> GdalDataType {
+        match self {
+            Self::U8 => GdalDataType::UInt8,
+            Self::I16 => GdalDataType::Int16,
+            Self::U16 => GdalDataType::UInt16,
+            Self::F32 => GdalDataType::Float32,
+        }
+    }
+
+    fn bytes(self) -> usize {
+        match self {
+            Self::U8 => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::F32 => 4,
+        }
+    }
+}
+
+/// TIFF compressions decoded here: none, and deflate (Adobe's and the old code).
+const NONE: u16 = 1;
+const DEFLATE: [u16; 2] = [8, 32946];
+/// TIFF predictors: none, horizontal differencing, floating point.
+const PREDICTORS: [u16; 3] = [1, 2, 3];
+
+impl Level {
+    /// Band `band`'s plane of `image` when it is decoded here (None: GDAL reads it).
+    fn of(image: &Image, band: usize) -> Option<Self> {
+        let sample = Sample::of(image)?;
+        let raw = image.compression == NONE;
+        if !raw && !DEFLATE.contains(&image.compression) {
+            return None;
+        }
+        let predictor = if raw { 1 } else { image.predictor };
+        let predictor_ok = PREDICTORS.contains(&predictor)
+            && (predictor != 3 || sample == Sample::F32)
+            && (predictor != 2 || sample != Sample::F32);
+        // One sample a pixel, or bands stored apart (one plane per band).
+        let plane = band.checked_sub(1)?;
+        let plane = match (image.samples, image.planar) {
+            (1, _) if plane == 0 => 0,
+            (n, 2) if plane < usize::from(n) => plane,
+            _ => return None,
+        };
+        predictor_ok.then(|| Self { image: image.clone(), plane, sample, predictor })
+    }
+}
+
+impl Native {
+    /// The plan for reading band `band` of the GeoTIFF at `path` (opened by
+    /// GDAL as `ds`): its base image and reduced-resolution images, each
+    /// where its layout is one decoded here and agrees with what GDAL says
+    /// of the band. None when the base is not: GDAL reads the file.
+    pub(crate) fn plan(ds: &Dataset, band: usize, path: &Path) -> Option<Self> {
+        if ds.driver().short_name() != "GTiff" {
+            return None;
+        }
+        let gdal_band = ds.rasterband(band).ok()?;
+        // A mask of its own (an alpha, a mask image) is read through GDAL.
+        let flags = gdal_band.mask_flags().ok()?;
+        if !(flags.is_all_valid() || flags.is_nodata()) {
+            return None;
+        }
+        let stamp = FileStamp::of(path)?;
+        let file = File::open(path).ok()?;
+        let images = tiff::images(path)?;
+        let gdal_type = gdal_band.band_type();
+        // Masks aside, the base image first, then its overviews.
+        let reduced: Vec<&Image> = images.iter().filter(|i| i.subfile & 4 == 0).collect();
+        let base = reduced.first().filter(|i| i.subfile & 1 == 0 && i.size == ds.raster_size())?;
+        let ours = |image: &Image| {
+            Level::of(image, band)
+                .filter(|l| l.sample.gdal() == gdal_type && image.check_within(path).is_ok())
+                .filter(|_| reduced.iter().filter(|i| i.size == image.size).count() == 1)
+        };
+        let mut decoded = vec![ours(base)?];
+        decoded.extend(reduced[1..].iter().filter(|i| i.subfile & 1 == 1).filter_map(|i| ours(i)));
+        if FileStamp::of(path) != Some(stamp) {
+            return None;
+        }
+        let fill = gdal_band.no_data_value().map_or(0.0, |v| v as f32);
+        Some(Self { stamp, file, images: decoded, fill })
+    }
+
+    /// For the scene state: which levels are decoded here, and how stored.
+    pub(crate) fn describe(&self) -> String {
+        let mut ways: Vec<String> = self
+            .images
+            .iter()
+            .map(|l| {
+                let compression = if l.image.compression == NONE { "raw" } else { "deflate" };
+                format!("{compression}, predictor {}", l.predictor)
+            })
+            .collect();
+        ways.dedup();
+        format!(
+            "by relief from the file's blocks ({}): the base and {} overviews; the rest through GDAL",
+            ways.join("; "),
+            self.images.len() - 1
+        )
+    }
+
+    /// The values of `rect` of the image of `size` pixels (the base or an
+    /// overview), as the file holds them widened to f32. None when that
+    /// image is not decoded here or a block does not decode: GDAL then
+    /// reads the rectangle and says what is wrong with it.
+    pub(crate) fn read(&self, size: (usize, usize), rect: PixelRect) -> Option<Vec<f32>> {
+        let level = self.images.iter().find(|l| l.image.size == size)?;
+        let (image, sample) = (&level.image, level.sample);
+        let (tw, th) = image.block;
+        let (width, height) = (rect.width(), rect.height());
+        if rect.x1 > image.size.0 || rect.y1 > image.size.1 {
+            return None;
+        }
+        if width == 0 || height == 0 {
+            return Some(Vec::new());
+        }
+        let mut out = vec![0.0f32; width * height];
+        let across = image.size.0.div_ceil(tw);
+        let blocks = image.blocks();
+        SCRATCH.with(|scratch| {
+            let mut scratch = scratch.borrow_mut();
+            for by in rect.y0 / th..=(rect.y1.max(1) - 1) / th {
+                for bx in rect.x0 / tw..=(rect.x1.max(1) - 1) / tw {
+                    let i = level.plane * blocks + by * across + bx;
+                    let (offset, size) = (*image.offsets.get(i)?, *image.sizes.get(i)?);
+                    // The part of the block inside both the image and the rectangle.
+                    let (x0, y0) = (bx * tw, by * th);
+                    let cols = (rect.x0.max(x0), rect.x1.min(x0 + tw));
+                    let rows = (rect.y0.max(y0), rect.y1.min(y0 + th));
+                    let place = Place {
+                        out_stride: width,
+                        out_at: (rows.0 - rect.y0) * width + (cols.0 - rect.x0),
+                        col0: cols.0 - x0,
+                        row0: rows.0 - y0,
+                        cols: cols.1 - cols.0,
+                        rows: rows.1 - rows.0,
+                    };
+                    if offset == 0 || size == 0 {
+                        place.fill(&mut out, self.fill);
+                        continue;
+                    }
+                    // A tile holds all its rows; a strip, only the image's.
+                    let block_rows = if image.tiled { th } else { th.min(image.size.1 - y0) };
+                    let raw = scratch.block(&self.file, image, offset, size, tw * block_rows * sample.bytes())?;
+                    place.widen(raw, &mut out, level);
+                }
+            }
+            Some(())
+        })?;
+        Some(out)
+    }
+}
+
+/// Where one block's part of a rectangle goes.
+struct Place {
+    out_stride: usize,
+    out_at: usize,
+    /// The part's first column and row in the block, and its size.
+    col0: usize,
+    row0: usize,
+    cols: usize,
+    rows: usize,
+}
+
+impl Place {
+    fn fill(&self, out: &mut [f32], value: f32) {
+        for r in 0..self.rows {
+            let at = self.out_at + r * self.out_stride;
+            out[at..at + self.cols].fill(value);
+        }
+    }
+
+    /// Writes the part from a block's decoded bytes (`tw` samples a row),
+    /// undoing the predictor row by row from the block's first column.
+    fn widen(&self, raw: &[u8], out: &mut [f32], level: &Level) {
+        let (sample, tw, little) = (level.sample, level.image.block.0, level.image.little);
+        let row_bytes = tw * sample.bytes();
+        for r in 0..self.rows {
+            let src = &raw[(self.row0 + r) * row_bytes..(self.row0 + r + 1) * row_bytes];
+            let at = self.out_at + r * self.out_stride;
+            let dst = &mut out[at..at + self.cols];
+            let end = self.col0 + self.cols;
+            match (sample, level.predictor) {
+                (Sample::U8, 2) => accumulate(src, dst, self.col0, end, |b| b[0], u8::wrapping_add, f32::from),
+                (Sample::U8, _) => copy(src, dst, self.col0, 1, |b| f32::from(b[0])),
+                (Sample::I16, 2) => {
+                    accumulate(
+                        src,
+                        dst,
+                        self.col0,
+                        end,
+                        |b| u16_of(b, little),
+                        u16::wrapping_add,
+                        |v| f32::from(v as i16),
+                    );
+                }
+                (Sample::I16, _) => copy(src, dst, self.col0, 2, |b| f32::from(u16_of(b, little) as i16)),
+                (Sample::U16, 2) => {
+                    accumulate(src, dst, self.col0, end, |b| u16_of(b, little), u16::wrapping_add, f32::from);
+                }
+                (Sample::U16, _) => copy(src, dst, self.col0, 2, |b| f32::from(u16_of(b, little))),
+                (Sample::F32, 3) => floating(src, dst, self.col0, tw),
+                (Sample::F32, _) => copy(src, dst, self.col0, 4, |b| f32::from_bits(u32_of(b, little))),
+            }
+        }
+    }
+}
+
+fn u16_of(b: &[u8], little: bool) -> u16 {
+    let b = [b[0], b[1]];
+    if little { u16::from_le_bytes(b) } else { u16::from_be_bytes(b) }
+}
+
+fn u32_of(b: &[u8], little: bool) -> u32 {
+    let b = [b[0], b[1], b[2], b[3]];
+    if little { u32::from_le_bytes(b) } else { u32::from_be_bytes(b) }
+}
+
+/// Samples `col0..` of a row stored as they are, `width` bytes each.
+fn copy(src: &[u8], dst: &mut [f32], col0: usize, width: usize, value: impl Fn(&[u8]) -> f32) {
+    for (d, s) in dst.iter_mut().zip(src[col0 * width..].chunks_exact(width)) {
+        *d = value(s);
+    }
+}
+
+/// Samples `col0..end` of a row stored as differences from the sample to
+/// the left (TIFF predictor 2): summed from the row's start, wrapping.
+fn accumulate<T: Copy + Default>(
+    src: &[u8],
+    dst: &mut [f32],
+    col0: usize,
+    end: usize,
+    value: impl Fn(&[u8]) -> T,
+    add: impl Fn(T, T) -> T,
+    widen: impl Fn(T) -> f32,
+) {
+    let width = std::mem::size_of::<T>();
+    let mut sum = T::default();
+    for (c, s) in src.chunks_exact(width).take(end).enumerate() {
+        sum = add(sum, value(s));
+        if c >= col0 {
+            dst[c - col0] = widen(sum);
+        }
+    }
+}
+
+/// Samples `col0..` of a row of 32-bit floats stored with TIFF predictor 3:
+/// the row's bytes differenced one from the next, each sample's four bytes
+/// spread over four planes of `tw` bytes, most significant first.
+fn floating(src: &[u8], dst: &mut [f32], col0: usize, tw: usize) {
+    FLOATS.with(|row| {
+        let mut row = row.borrow_mut();
+        row.clear();
+        let mut sum = 0u8;
+        row.extend(src.iter().map(|b| {
+            sum = sum.wrapping_add(*b);
+            sum
+        }));
+        for (k, d) in dst.iter_mut().enumerate() {
+            let c = col0 + k;
+            *d = f32::from_bits(u32::from_be_bytes([row[c], row[tw + c], row[2 * tw + c], row[3 * tw + c]]));
+        }
+    });
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+    static FLOATS: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Each thread's buffers and inflater, kept from block to block.
+#[derive(Default)]
+struct Scratch {
+    packed: Vec<u8>,
+    raw: Vec<u8>,
+    inflater: Option<Decompressor>,
+}
+
+impl Scratch {
+    /// The decoded bytes of one block: `expect` bytes, or None.
+    fn block(&mut self, file: &File, image: &Image, offset: u64, size: u64, expect: usize) -> Option<&[u8]> {
+        grow(&mut self.raw, expect);
+        if image.compression == NONE {
+            // A raw block shorter than its samples is GDAL's to read (and to complain of).
+            if size < expect as u64 {
+                return None;
+            }
+            file.read_exact_at(&mut self.raw[..expect], offset).ok()?;
+            return Some(&self.raw[..expect]);
+        }
+        // Deflate never grows a block by more than a few bytes in a thousand.
+        let size = usize::try_from(size).ok().filter(|&n| n <= expect + expect / 8 + 4096)?;
+        grow(&mut self.packed, size);
+        file.read_exact_at(&mut self.packed[..size], offset).ok()?;
+        let inflater = self.inflater.get_or_insert_with(Decompressor::new);
+        let n = inflater.zlib_decompress(&self.packed[..size], &mut self.raw[..expect]).ok()?;
+        (n == expect).then_some(&self.raw[..expect])
+    }
+}
+
+/// Makes `buffer` at least `len` long, zeroing only what it grows by.
+fn grow(buffer: &mut Vec<u8>, len: usize) {
+    if buffer.len() < len {
+        buffer.resize(len, 0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use gdal::DriverManager;
+    use gdal::raster::{Buffer, GdalType, RasterCreationOptions};
+
+    use super::super::decode::read_window;
+    use super::*;
+
+    const NODATA: f64 = -9999.0;
+
+    /// A 100 x 70 raster of `bands` bands of `T` (values from `value`, by
+    /// band and pixel) written with `options`, with AVERAGE overviews 2
+    /// and 4. With `sparse`, only its top-left 40 x 30 pixels are written.
+    fn write<T: GdalType + Copy>(
+        path: &Path,
+        options: &[&str],
+        bands: usize,
+        sparse: bool,
+        value: impl Fn(usize, usize, usize) -> T,
+    ) -> Result<(), Box<dyn std::error::Error>> {
+        let (w, h) = (100usize, 70usize);
+        let driver = DriverManager::get_driver_by_name("GTiff")?;
+        let options: RasterCreationOptions = options.iter().copied().collect();
+        let mut ds = driver.create_with_band_type_with_options::<T, _>(path, w, h, bands, &options)?;
+        ds.set_geo_transform(&[10.0, 1e-3, 0.0, 46.0, 0.0, -1e-3])?;
+        ds.set_projection("EPSG:4326")?;
+        let (ww, wh) = if sparse { (40, 30) } else { (w, h) };
+        for b in 1..=bands {
+            let mut band = ds.rasterband(b)?;
+            band.set_no_data_value(Some(NODATA))?;
+            let data: Vec<T> = (0..ww * wh).map(|i| value(b, i % ww, i / ww)).collect();
+            band.write((0, 0), (ww, wh), &mut Buffer::new((ww, wh), data))?;
+        }
+        ds.build_overviews("AVERAGE", &[2, 4], &[])?;
+        Ok(())
+    }
+
+    fn plan(path: &Path, band: usize) -> Result<Option<Native>, Box<dyn std::error::Error>> {
+        Ok(Native::plan(&Dataset::open(path)?, band, path))
+    }
+
+    /// Every level decoded here equals GDAL's read of it, bit for bit: the
+    /// whole level and a window across blocks' edges.
+    fn assert_as_gdal(path: &Path, band: usize) -> Result<(), Box<dyn std::error::Error>> {
+        let native = plan(path, band)?.ok_or("not decoded here")?;
+        let ds = Dataset::open(path)?;
+        let base = ds.rasterband(band)?;
+        let overviews = base.overview_count()? as usize;
+        assert_eq!(native.images.len(), 1 + overviews, "every level decoded here");
+        for level in 0..=overviews {
+            let through = if level == 0 { ds.rasterband(band)? } else { base.overview(level - 1)? };
+            let (w, h) = through.size();
+            for rect in [
+                PixelRect { x0: 0, y0: 0, x1: w, y1: h },
+                PixelRect { x0: w / 3, y0: h / 4, x1: w - 1, y1: h / 2 + 3 },
+                PixelRect { x0: w - 1, y0: h - 1, x1: w, y1: h },
+            ] {
+                let ours = native.read((w, h), rect).ok_or(format!("level {level} {rect:?} not decoded"))?;
+                let gdal = read_window(&through, rect, path)?;
+                let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+                assert_eq!(bits(&ours), bits(&gdal), "{}: level {level}, {rect:?}", path.display());
+            }
+        }
+        Ok(())
+    }
+
+    const TILED: [&str; 3] = ["TILED=YES", "BLOCKXSIZE=32", "BLOCKYSIZE=32"];
+
+    fn with(extra: &[&'static str]) -> Vec<&'static str> {
+        TILED.iter().chain(extra).copied().collect()
+    }
+
+    #[test]
+    fn every_plain_layout_decodes_as_gdal_does() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let path = |name: &str| dir.path().join(name);
+        let int16 = |b: usize, x: usize, y: usize| ((x * 977 + y * 331 + b * 7919) % 65_000) as i32 as i16;
+        let wide = |b: usize, x: usize, y: usize| ((x * 977 + y * 331 + b * 7919) % 65_535) as u16;
+        let float = |b: usize, x: usize, y: usize| {
+            if (x + y).is_multiple_of(37) { f32::NAN } else { (x as f32 - 50.3) * (y as f32 + 0.7) * 1.37 + b as f32 }
+        };
+        let deflate2 = with(&["COMPRESS=DEFLATE", "PREDICTOR=2"]);
+        let deflate3 = with(&["COMPRESS=DEFLATE", "PREDICTOR=3"]);
+        write::<u8>(&path("byte-strips.tif"), &[], 1, false, |_, x, y| (x * 7 + y * 3) as u8)?;
+        write::<u8>(&path("byte.tif"), &deflate2, 1, false, |_, x, y| (x * 7 + y * 3) as u8)?;
+        write::<i16>(&path("i16.tif"), &with(&["COMPRESS=DEFLATE"]), 1, false, int16)?;
+        write::<i16>(&path("i16-p2.tif"), &deflate2, 1, false, int16)?;
+        write::<i16>(
+            &path("i16-big.tif"),
+            &with(&["COMPRESS=DEFLATE", "PREDICTOR=2", "ENDIANNESS=BIG"]),
+            1,
+            false,
+            int16,
+        )?;
+        write::<i16>(&path("i16-strips.tif"), &["BLOCKYSIZE=7", "COMPRESS=DEFLATE", "PREDICTOR=2"], 1, false, int16)?;
+        write::<i16>(&path("i16-sparse.tif"), &with(&["COMPRESS=DEFLATE", "SPARSE_OK=TRUE"]), 1, true, int16)?;
+        write::<i16>(
+            &path("i16-bands.tif"),
+            &with(&["COMPRESS=DEFLATE", "PREDICTOR=2", "INTERLEAVE=BAND"]),
+            2,
+            false,
+            int16,
+        )?;
+        write::<u16>(&path("u16.tif"), &deflate2, 1, false, wide)?;
+        write::<f32>(&path("f32.tif"), &deflate3, 1, false, float)?;
+        write::<f32>(
+            &path("f32-big.tif"),
+            &with(&["COMPRESS=DEFLATE", "PREDICTOR=3", "ENDIANNESS=BIG"]),
+            1,
+            false,
+            float,
+        )?;
+        write::<f32>(&path("f32-raw.tif"), &with(&["BIGTIFF=YES"]), 1, false, float)?;
+        for name in [
+            "byte-strips.tif",
+            "byte.tif",
+            "i16.tif",
+            "i16-p2.tif",
+            "i16-big.tif",
+            "i16-strips.tif",
+            "i16-sparse.tif",
+            "u16.tif",
+            "f32.tif",
+            "f32-big.tif",
+            "f32-raw.tif",
+        ] {
+            assert_as_gdal(&path(name), 1)?;
+        }
+        // The second band of a band-separate file: its own plane.
+        assert_as_gdal(&path("i16-bands.tif"), 2)
+    }
+
+    #[test]
+    fn other_layouts_are_left_to_gdal() -> Result<(), Box<dyn std::error::Error>> {
+        let dir = tempfile::tempdir()?;
+        let int16 = |_, x: usize, y: usize| (x + y) as i16;
+        let lzw = dir.path().join("lzw.tif");
+        write::<i16>(&lzw, &with(&["COMPRESS=LZW", "PREDICTOR=2"]), 1, false, int16)?;
+        assert!(plan(&lzw, 1)?.is_none(), "LZW is GDAL's");
+        let pixels = dir.path().join("pixels.tif");
+        write::<i16>(&pixels, &with(&["COMPRESS=DEFLATE", "INTERLEAVE=PIXEL"]), 2, false, int16)?;
+        assert!(plan(&pixels, 1)?.is_none(), "pixel-interleaved bands are GDAL's");
+        let wide = dir.path().join("i32.tif");
+        write::<i32>(&wide, &with(&["COMPRESS=DEFLATE"]), 1, false, |_, x, y| (x * y) as i32)?;
+        assert!(plan(&wide, 1)?.is_none(), "Int32 is GDAL's");
+        // A block that no longer inflates to its size: GDAL reads it (and says what is wrong).
+        let cut = dir.path().join("cut.tif");
+        write::<i16>(&cut, &with(&["COMPRESS=DEFLATE"]), 1, false, int16)?;
+        let native = plan(&cut, 1)?.ok_or("decoded here")?;
+        let base = &native.images[0].image;
+        let (offset, size) = (base.offsets[0], base.sizes[0]);
+        let file = std::fs::OpenOptions::new().write(true).open(&cut)?;
+        file.write_all_at(&vec![0xAB; size as usize], offset)?;
+        assert_eq!(native.read(base.size, PixelRect { x0: 0, y0: 0, x1: 32, y1: 32 }), None);
+        Ok(())
+    }
+}
