@@ -9,10 +9,12 @@
 //!
 //! Every scene here has no disk tile cache (`disk_mb = 0`): a run after
 //! the first would otherwise read the first one's tiles back from it.
-//! On the 3.2 GB raster a last row times decoding alone, the floor under
-//! any build that reads its blocks through GDAL.
+//! On the 3.2 GB raster a last row times GDAL decoding the same blocks
+//! and nothing else: the floor under a build that read them through GDAL
+//! (relief decodes that file's blocks itself).
 //!
-//! `cargo bench -p relief-daemon --bench pyramid` (RELIEF_BENCH_MAX_LEVEL, default 10).
+//! `cargo bench -p relief-daemon --bench pyramid` (RELIEF_BENCH_MAX_LEVEL, default 10;
+//! RELIEF_PYRAMID_ONLY=srtm,big,kernels,reprojection picks tables).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
 
@@ -137,7 +139,7 @@ fn throughput(inputs: &Inputs, max_level: u8) {
         peer_tiles = count_files(&out, "png");
     }
 
-    // Decoding alone, the floor under any build that reads this file's
+    // GDAL decoding alone, the floor under a build that reads this file's
     // blocks through GDAL: every block of the levels the finest tiles read
     // (and coarser), each once.
     let floor = inputs.decode_floor.then(|| {
@@ -173,7 +175,7 @@ fn throughput(inputs: &Inputs, max_level: u8) {
     );
     if let Some((floor, read)) = floor {
         println!(
-            "| decoding alone: {} blocks of the file's levels from 1/{} ({:.0} MB of pixels; relief's build read {:.0} MB), GDALReadBlock on {THREADS} threads | - | {:.3} | - | at most {:.1}x |",
+            "| GDAL decoding alone: {} blocks of the file's levels from 1/{} ({:.0} MB of pixels; relief's build read {:.0} MB), GDALReadBlock on {THREADS} threads | - | {:.3} | - | a build through GDAL: at most {:.1}x |",
             floor.blocks,
             floor.factor,
             floor.bytes as f64 / 1e6,
@@ -351,13 +353,18 @@ fn reprojection() {
     }
 }
 
+/// True when RELIEF_PYRAMID_ONLY is unset or names `table`.
+fn wanted(table: &str) -> bool {
+    std::env::var("RELIEF_PYRAMID_ONLY").map_or(true, |only| only.split(',').any(|t| t.trim() == table))
+}
+
 fn main() {
     // `cargo bench` passes --bench; `cargo test --benches` passes nothing useful either.
     let max_level: u8 = std::env::var("RELIEF_BENCH_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(10);
     let data: PathBuf = std::env::var_os("RELIEF_SHARED_DATA")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data"));
-    if data.join("dem/N43E006.hgt").exists() {
+    if wanted("srtm") && data.join("dem/N43E006.hgt").exists() {
         let inputs = Inputs {
             files: vec![data.join("dem/N43E006.hgt"), data.join("dem/N43E007.hgt")],
             label: "N43E006 + N43E007 (2 x 1201 x 1201 Int16)".into(),
@@ -366,28 +373,32 @@ fn main() {
             decode_floor: false,
         };
         throughput(&inputs, max_level);
-    } else {
+    } else if wanted("srtm") {
         println!("skipping the pyramid throughput table: no SRTM tiles at {}", data.display());
     }
     // The bigdem bench's 40,000 x 40,000 raster, when it has been made:
     // levels down to where its overviews stop (RELIEF_BENCH_BIG_MAX_LEVEL).
     let big = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/bench-data/bigdem/side-40000/big.tif");
-    if big.exists() {
+    if wanted("big") && big.exists() {
         let level: u8 = std::env::var("RELIEF_BENCH_BIG_MAX_LEVEL").ok().and_then(|v| v.parse().ok()).unwrap_or(9);
         let inputs = Inputs {
             files: vec![big],
             label: "the bigdem bench's 40,000 x 40,000 Int16 tiled GeoTIFF (3.2 GB of samples, with overviews)".into(),
             byte_range: Some((0.0, 3000.0)),
-            runs: 1,
+            runs: RUNS,
             decode_floor: true,
         };
         throughput(&inputs, level);
-    } else {
+    } else if wanted("big") {
         println!(
             "skipping the pyramid table on the 3.2 GB raster: run the bigdem bench first to make {}",
             big.display()
         );
     }
-    kernels();
-    reprojection();
+    if wanted("kernels") {
+        kernels();
+    }
+    if wanted("reprojection") {
+        reprojection();
+    }
 }

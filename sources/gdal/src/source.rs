@@ -408,7 +408,7 @@ impl GdalSource {
         Ok(None)
     }
 
-    /// Bytes of pixels read through GDAL so far, every raster and version
+    /// Bytes of pixels read from the files so far, every raster and version
     /// together (what a windowed read saves shows here).
     pub fn bytes_read(&self) -> u64 {
         self.rasters.iter().map(|p| p.raster.bytes_read()).sum()

@@ -73,7 +73,7 @@ pub(crate) struct Store {
     stamps: Vec<Vec<u32>>,
     /// The base level's blocks, when the raster is read whole.
     pinned: Option<Vec<Arc<Block>>>,
-    /// Bytes of pixels read through GDAL, all versions together.
+    /// Bytes of pixels read from the files (through GDAL or decoded here), all versions together.
     bytes_read: Arc<AtomicU64>,
     poles: [OnceLock<Option<f32>>; 2],
     /// The blocks' signatures for the next reload, found in the background
@@ -195,7 +195,7 @@ impl Raster {
         self.store.window(level, rect)
     }
 
-    /// Bytes of pixels read through GDAL so far, by this raster and the
+    /// Bytes of pixels read from the files so far, by this raster and the
     /// versions before it.
     pub(crate) fn bytes_read(&self) -> u64 {
         self.store.bytes_read.load(Ordering::Relaxed)

@@ -212,6 +212,10 @@ impl Native {
                     // A tile holds all its rows; a strip, only the image's.
                     let block_rows = if image.tiled { th } else { th.min(image.size.1 - y0) };
                     let raw = scratch.block(&self.file, image, offset, size, tw * block_rows * sample.bytes())?;
+                    // Floating-point differencing stores bytes in planes, whatever the byte order.
+                    if !image.little && level.predictor != 3 {
+                        to_little(raw, sample.bytes());
+                    }
                     place.widen(raw, &mut out, level);
                 }
             }
@@ -243,74 +247,61 @@ impl Place {
     /// Writes the part from a block's decoded bytes (`tw` samples a row),
     /// undoing the predictor row by row from the block's first column.
     fn widen(&self, raw: &[u8], out: &mut [f32], level: &Level) {
-        let (sample, tw, little) = (level.sample, level.image.block.0, level.image.little);
+        let (sample, tw) = (level.sample, level.image.block.0);
         let row_bytes = tw * sample.bytes();
+        let i16_of = |b: &[u8]| i16::from_le_bytes([b[0], b[1]]);
+        let u16_of = |b: &[u8]| u16::from_le_bytes([b[0], b[1]]);
         for r in 0..self.rows {
             let src = &raw[(self.row0 + r) * row_bytes..(self.row0 + r + 1) * row_bytes];
             let at = self.out_at + r * self.out_stride;
-            let dst = &mut out[at..at + self.cols];
-            let end = self.col0 + self.cols;
+            let (dst, col0) = (&mut out[at..at + self.cols], self.col0);
             match (sample, level.predictor) {
-                (Sample::U8, 2) => accumulate(src, dst, self.col0, end, |b| b[0], u8::wrapping_add, f32::from),
-                (Sample::U8, _) => copy(src, dst, self.col0, 1, |b| f32::from(b[0])),
-                (Sample::I16, 2) => {
-                    accumulate(
-                        src,
-                        dst,
-                        self.col0,
-                        end,
-                        |b| u16_of(b, little),
-                        u16::wrapping_add,
-                        |v| f32::from(v as i16),
-                    );
-                }
-                (Sample::I16, _) => copy(src, dst, self.col0, 2, |b| f32::from(u16_of(b, little) as i16)),
-                (Sample::U16, 2) => {
-                    accumulate(src, dst, self.col0, end, |b| u16_of(b, little), u16::wrapping_add, f32::from);
-                }
-                (Sample::U16, _) => copy(src, dst, self.col0, 2, |b| f32::from(u16_of(b, little))),
-                (Sample::F32, 3) => floating(src, dst, self.col0, tw),
-                (Sample::F32, _) => copy(src, dst, self.col0, 4, |b| f32::from_bits(u32_of(b, little))),
+                (Sample::U8, 2) => accumulate(src, dst, col0, |b| b[0], u8::wrapping_add, f32::from),
+                (Sample::U8, _) => copy(src, dst, col0, |b: &[u8; 1]| f32::from(b[0])),
+                (Sample::I16, 2) => accumulate(src, dst, col0, i16_of, i16::wrapping_add, f32::from),
+                (Sample::I16, _) => copy(src, dst, col0, |b: &[u8; 2]| f32::from(i16::from_le_bytes(*b))),
+                (Sample::U16, 2) => accumulate(src, dst, col0, u16_of, u16::wrapping_add, f32::from),
+                (Sample::U16, _) => copy(src, dst, col0, |b: &[u8; 2]| f32::from(u16::from_le_bytes(*b))),
+                (Sample::F32, 3) => floating(src, dst, col0, tw),
+                (Sample::F32, _) => copy(src, dst, col0, |b: &[u8; 4]| f32::from_le_bytes(*b)),
             }
         }
     }
 }
 
-fn u16_of(b: &[u8], little: bool) -> u16 {
-    let b = [b[0], b[1]];
-    if little { u16::from_le_bytes(b) } else { u16::from_be_bytes(b) }
+/// Puts a block's samples of `width` bytes in little-endian order.
+fn to_little(raw: &mut [u8], width: usize) {
+    for sample in raw.chunks_exact_mut(width) {
+        sample.reverse();
+    }
 }
 
-fn u32_of(b: &[u8], little: bool) -> u32 {
-    let b = [b[0], b[1], b[2], b[3]];
-    if little { u32::from_le_bytes(b) } else { u32::from_be_bytes(b) }
-}
-
-/// Samples `col0..` of a row stored as they are, `width` bytes each.
-fn copy(src: &[u8], dst: &mut [f32], col0: usize, width: usize, value: impl Fn(&[u8]) -> f32) {
-    for (d, s) in dst.iter_mut().zip(src[col0 * width..].chunks_exact(width)) {
+/// Samples `col0..` of a row stored as they are, little-endian.
+fn copy<const N: usize>(src: &[u8], dst: &mut [f32], col0: usize, value: impl Fn(&[u8; N]) -> f32) {
+    let (samples, _) = src[col0 * N..].as_chunks::<N>();
+    for (d, s) in dst.iter_mut().zip(samples) {
         *d = value(s);
     }
 }
 
-/// Samples `col0..end` of a row stored as differences from the sample to
-/// the left (TIFF predictor 2): summed from the row's start, wrapping.
+/// Samples `col0..` of a row stored as differences from the sample to the
+/// left (TIFF predictor 2), little-endian: summed from the row's start, wrapping.
 fn accumulate<T: Copy + Default>(
     src: &[u8],
     dst: &mut [f32],
     col0: usize,
-    end: usize,
     value: impl Fn(&[u8]) -> T,
     add: impl Fn(T, T) -> T,
     widen: impl Fn(T) -> f32,
 ) {
-    let width = std::mem::size_of::<T>();
+    let mut samples = src.chunks_exact(std::mem::size_of::<T>()).map(value);
     let mut sum = T::default();
-    for (c, s) in src.chunks_exact(width).take(end).enumerate() {
-        sum = add(sum, value(s));
-        if c >= col0 {
-            dst[c - col0] = widen(sum);
-        }
+    for v in samples.by_ref().take(col0) {
+        sum = add(sum, v);
+    }
+    for (d, v) in dst.iter_mut().zip(samples) {
+        sum = add(sum, v);
+        *d = widen(sum);
     }
 }
 
@@ -348,7 +339,7 @@ struct Scratch {
 
 impl Scratch {
     /// The decoded bytes of one block: `expect` bytes, or None.
-    fn block(&mut self, file: &File, image: &Image, offset: u64, size: u64, expect: usize) -> Option<&[u8]> {
+    fn block(&mut self, file: &File, image: &Image, offset: u64, size: u64, expect: usize) -> Option<&mut [u8]> {
         grow(&mut self.raw, expect);
         if image.compression == NONE {
             // A raw block shorter than its samples is GDAL's to read (and to complain of).
@@ -356,7 +347,7 @@ impl Scratch {
                 return None;
             }
             file.read_exact_at(&mut self.raw[..expect], offset).ok()?;
-            return Some(&self.raw[..expect]);
+            return Some(&mut self.raw[..expect]);
         }
         // Deflate never grows a block by more than a few bytes in a thousand.
         let size = usize::try_from(size).ok().filter(|&n| n <= expect + expect / 8 + 4096)?;
@@ -364,7 +355,7 @@ impl Scratch {
         file.read_exact_at(&mut self.packed[..size], offset).ok()?;
         let inflater = self.inflater.get_or_insert_with(Decompressor::new);
         let n = inflater.zlib_decompress(&self.packed[..size], &mut self.raw[..expect]).ok()?;
-        (n == expect).then_some(&self.raw[..expect])
+        (n == expect).then_some(&mut self.raw[..expect])
     }
 }
 
