@@ -460,7 +460,7 @@ mod tests {
             false,
             int16,
         )?;
-        write::<i16>(&path("i16-strips.tif"), &["BLOCKYSIZE=7", "COMPRESS=DEFLATE", "PREDICTOR=2"], 1, false, int16)?;
+        write::<i16>(&path("i16-strips.tif"), &["BLOCKYSIZE=8", "COMPRESS=DEFLATE", "PREDICTOR=2"], 1, false, int16)?;
         write::<i16>(&path("i16-sparse.tif"), &with(&["COMPRESS=DEFLATE", "SPARSE_OK=TRUE"]), 1, true, int16)?;
         write::<i16>(
             &path("i16-bands.tif"),
