@@ -638,11 +638,9 @@ fn main() -> anyhow::Result<()> {
     let windows = windows(side, edits.div_ceil(2));
     let runtime = tokio::runtime::Runtime::new()?;
     // RELIEF_BIGDEM_ONLY: the datasets to serve (commas: big, exact, mosaic).
-    let only = std::env::var("RELIEF_BIGDEM_ONLY").unwrap_or_default();
-    let wanted = |name: &str| only.is_empty() || only.split(',').any(|n| n.trim() == name);
     let runs = [(Kind::Big, "big"), (Kind::BigExact, "exact"), (Kind::Mosaic, "mosaic")]
         .into_iter()
-        .filter(|(_, name)| wanted(name))
+        .filter(|(_, name)| common::wanted("RELIEF_BIGDEM_ONLY", name))
         .map(|(kind, _)| kind)
         .map(|kind| runtime.block_on(serve(kind, &data, side, &windows, edits)))
         .collect::<anyhow::Result<Vec<Run>>>()?;

@@ -362,7 +362,7 @@ fn reprojection() {
 
 /// True when RELIEF_PYRAMID_ONLY is unset or names `table`.
 fn wanted(table: &str) -> bool {
-    std::env::var("RELIEF_PYRAMID_ONLY").map_or(true, |only| only.split(',').any(|t| t.trim() == table))
+    common::wanted("RELIEF_PYRAMID_ONLY", table)
 }
 
 fn main() {

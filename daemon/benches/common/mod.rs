@@ -31,6 +31,13 @@ pub fn cpu_seconds() -> f64 {
     (tick(11) + tick(12)) / 100.0
 }
 
+/// True when environment variable `var` (names separated by commas) is
+/// unset or empty, or names `name`: which tables or datasets a bench runs.
+pub fn wanted(var: &str, name: &str) -> bool {
+    let only = std::env::var(var).unwrap_or_default();
+    only.trim().is_empty() || only.split(',').any(|n| n.trim() == name)
+}
+
 /// The number in environment variable `name`, or `default`.
 pub fn env_u64(name: &str, default: u64) -> u64 {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)

@@ -368,6 +368,8 @@ fn grow(buffer: &mut Vec<u8>, len: usize) {
 
 #[cfg(test)]
 mod tests {
+    use std::path::PathBuf;
+
     use gdal::DriverManager;
     use gdal::raster::{Buffer, GdalType, RasterCreationOptions};
 
@@ -377,19 +379,20 @@ mod tests {
     const NODATA: f64 = -9999.0;
 
     /// A 100 x 70 raster of `bands` bands of `T` (values from `value`, by
-    /// band and pixel) written with `options`, with AVERAGE overviews 2
-    /// and 4. With `sparse`, only its top-left 40 x 30 pixels are written.
+    /// band and pixel) written at `path` with `options`, with AVERAGE
+    /// overviews 2 and 4. With `sparse`, only its top-left 40 x 30 pixels
+    /// are written. Returns `path`.
     fn write<T: GdalType + Copy>(
-        path: &Path,
+        path: PathBuf,
         options: &[&str],
         bands: usize,
         sparse: bool,
         value: impl Fn(usize, usize, usize) -> T,
-    ) -> Result<(), Box<dyn std::error::Error>> {
+    ) -> Result<PathBuf, Box<dyn std::error::Error>> {
         let (w, h) = (100usize, 70usize);
         let driver = DriverManager::get_driver_by_name("GTiff")?;
         let options: RasterCreationOptions = options.iter().copied().collect();
-        let mut ds = driver.create_with_band_type_with_options::<T, _>(path, w, h, bands, &options)?;
+        let mut ds = driver.create_with_band_type_with_options::<T, _>(&path, w, h, bands, &options)?;
         ds.set_geo_transform(&[10.0, 1e-3, 0.0, 46.0, 0.0, -1e-3])?;
         ds.set_projection("EPSG:4326")?;
         let (ww, wh) = if sparse { (40, 30) } else { (w, h) };
@@ -400,7 +403,7 @@ mod tests {
             band.write((0, 0), (ww, wh), &mut Buffer::new((ww, wh), data))?;
         }
         ds.build_overviews("AVERAGE", &[2, 4], &[])?;
-        Ok(())
+        Ok(path)
     }
 
     fn plan(path: &Path, band: usize) -> Result<Option<Native>, Box<dyn std::error::Error>> {
@@ -447,73 +450,55 @@ mod tests {
         let float = |b: usize, x: usize, y: usize| {
             if (x + y).is_multiple_of(37) { f32::NAN } else { (x as f32 - 50.3) * (y as f32 + 0.7) * 1.37 + b as f32 }
         };
+        let byte = |_, x: usize, y: usize| (x * 7 + y * 3) as u8;
+        let deflate = with(&["COMPRESS=DEFLATE"]);
         let deflate2 = with(&["COMPRESS=DEFLATE", "PREDICTOR=2"]);
         let deflate3 = with(&["COMPRESS=DEFLATE", "PREDICTOR=3"]);
-        write::<u8>(&path("byte-strips.tif"), &[], 1, false, |_, x, y| (x * 7 + y * 3) as u8)?;
-        write::<u8>(&path("byte.tif"), &deflate2, 1, false, |_, x, y| (x * 7 + y * 3) as u8)?;
-        write::<i16>(&path("i16.tif"), &with(&["COMPRESS=DEFLATE"]), 1, false, int16)?;
-        write::<i16>(&path("i16-p2.tif"), &deflate2, 1, false, int16)?;
-        write::<i16>(
-            &path("i16-big.tif"),
-            &with(&["COMPRESS=DEFLATE", "PREDICTOR=2", "ENDIANNESS=BIG"]),
-            1,
-            false,
-            int16,
-        )?;
-        write::<i16>(&path("i16-strips.tif"), &["BLOCKYSIZE=8", "COMPRESS=DEFLATE", "PREDICTOR=2"], 1, false, int16)?;
-        write::<i16>(&path("i16-sparse.tif"), &with(&["COMPRESS=DEFLATE", "SPARSE_OK=TRUE"]), 1, true, int16)?;
-        write::<i16>(
-            &path("i16-bands.tif"),
-            &with(&["COMPRESS=DEFLATE", "PREDICTOR=2", "INTERLEAVE=BAND"]),
-            2,
-            false,
-            int16,
-        )?;
-        write::<u16>(&path("u16.tif"), &deflate2, 1, false, wide)?;
-        write::<f32>(&path("f32.tif"), &deflate3, 1, false, float)?;
-        write::<f32>(
-            &path("f32-big.tif"),
-            &with(&["COMPRESS=DEFLATE", "PREDICTOR=3", "ENDIANNESS=BIG"]),
-            1,
-            false,
-            float,
-        )?;
-        write::<f32>(&path("f32-raw.tif"), &with(&["BIGTIFF=YES"]), 1, false, float)?;
-        for name in [
-            "byte-strips.tif",
-            "byte.tif",
-            "i16.tif",
-            "i16-p2.tif",
-            "i16-big.tif",
-            "i16-strips.tif",
-            "i16-sparse.tif",
-            "u16.tif",
-            "f32.tif",
-            "f32-big.tif",
-            "f32-raw.tif",
-        ] {
-            assert_as_gdal(&path(name), 1)?;
+        let big2 = with(&["COMPRESS=DEFLATE", "PREDICTOR=2", "ENDIANNESS=BIG"]);
+        let big3 = with(&["COMPRESS=DEFLATE", "PREDICTOR=3", "ENDIANNESS=BIG"]);
+        let sparse = with(&["COMPRESS=DEFLATE", "SPARSE_OK=TRUE"]);
+        let apart = with(&["COMPRESS=DEFLATE", "PREDICTOR=2", "INTERLEAVE=BAND"]);
+        // Strips of 8 rows: the last holds 6.
+        let strips = ["BLOCKYSIZE=8", "COMPRESS=DEFLATE", "PREDICTOR=2"];
+        let files = [
+            write::<u8>(path("byte-strips.tif"), &[], 1, false, byte)?,
+            write::<u8>(path("byte.tif"), &deflate2, 1, false, byte)?,
+            write::<i16>(path("i16.tif"), &deflate, 1, false, int16)?,
+            write::<i16>(path("i16-p2.tif"), &deflate2, 1, false, int16)?,
+            write::<i16>(path("i16-big.tif"), &big2, 1, false, int16)?,
+            write::<i16>(path("i16-strips.tif"), &strips, 1, false, int16)?,
+            write::<i16>(path("i16-sparse.tif"), &sparse, 1, true, int16)?,
+            write::<u16>(path("u16.tif"), &deflate2, 1, false, wide)?,
+            write::<f32>(path("f32.tif"), &deflate3, 1, false, float)?,
+            write::<f32>(path("f32-big.tif"), &big3, 1, false, float)?,
+            write::<f32>(path("f32-raw.tif"), &with(&["BIGTIFF=YES"]), 1, false, float)?,
+        ];
+        for file in &files {
+            assert_as_gdal(file, 1)?;
         }
         // The second band of a band-separate file: its own plane.
-        assert_as_gdal(&path("i16-bands.tif"), 2)
+        assert_as_gdal(&write::<i16>(path("i16-bands.tif"), &apart, 2, false, int16)?, 2)
     }
 
     #[test]
     fn other_layouts_are_left_to_gdal() -> Result<(), Box<dyn std::error::Error>> {
         let dir = tempfile::tempdir()?;
         let int16 = |_, x: usize, y: usize| (x + y) as i16;
-        let lzw = dir.path().join("lzw.tif");
-        write::<i16>(&lzw, &with(&["COMPRESS=LZW", "PREDICTOR=2"]), 1, false, int16)?;
+        let lzw = write::<i16>(dir.path().join("lzw.tif"), &with(&["COMPRESS=LZW", "PREDICTOR=2"]), 1, false, int16)?;
         assert!(plan(&lzw, 1)?.is_none(), "LZW is GDAL's");
-        let pixels = dir.path().join("pixels.tif");
-        write::<i16>(&pixels, &with(&["COMPRESS=DEFLATE", "INTERLEAVE=PIXEL"]), 2, false, int16)?;
+        let pixels = write::<i16>(
+            dir.path().join("pixels.tif"),
+            &with(&["COMPRESS=DEFLATE", "INTERLEAVE=PIXEL"]),
+            2,
+            false,
+            int16,
+        )?;
         assert!(plan(&pixels, 1)?.is_none(), "pixel-interleaved bands are GDAL's");
-        let wide = dir.path().join("i32.tif");
-        write::<i32>(&wide, &with(&["COMPRESS=DEFLATE"]), 1, false, |_, x, y| (x * y) as i32)?;
+        let wide =
+            write::<i32>(dir.path().join("i32.tif"), &with(&["COMPRESS=DEFLATE"]), 1, false, |_, x, y| (x * y) as i32)?;
         assert!(plan(&wide, 1)?.is_none(), "Int32 is GDAL's");
         // A block that no longer inflates to its size: GDAL reads it (and says what is wrong).
-        let cut = dir.path().join("cut.tif");
-        write::<i16>(&cut, &with(&["COMPRESS=DEFLATE"]), 1, false, int16)?;
+        let cut = write::<i16>(dir.path().join("cut.tif"), &with(&["COMPRESS=DEFLATE"]), 1, false, int16)?;
         let native = plan(&cut, 1)?.ok_or("decoded here")?;
         let base = &native.images[0].image;
         let (offset, size) = (base.offsets[0], base.sizes[0]);
