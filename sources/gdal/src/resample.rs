@@ -215,6 +215,58 @@ pub(crate) fn height_from_taps(level: &Window, tx: &Taps, ty: &Taps) -> f32 {
     if valid_w > 1e-9 && valid_w >= 0.5 * total_w { (sum / valid_w) as f32 } else { f32::NAN }
 }
 
+/// A column's two bilinear taps, their weights, and the weights' sum.
+type Pair = (usize, usize, f64, f64, f64);
+
+/// Heights of a tile whose columns and rows map to the level's columns and
+/// rows (`columns` a row's taps, `rows` a column's), into the samples of
+/// `out` still NaN (an earlier raster of a mosaic keeps its samples).
+/// Each sample is what `height_from_taps` gives it, bit for bit; the
+/// bilinear case takes each row's two lines of pixels and each column's
+/// taps once, not once a sample.
+pub(crate) fn heights_by_rows(level: &Window, columns: &[Option<Taps>], rows: &[Option<Taps>], out: &mut [f32]) {
+    let (plane, width) = (&level.planes[0], level.width);
+    let pairs: Vec<Option<Pair>> = columns
+        .iter()
+        .map(|t| {
+            t.filter(|t| t.len == 2)
+                .map(|t| (t.index[0], t.index[1], t.weight[0], t.weight[1], t.weight[0] + t.weight[1]))
+        })
+        .collect();
+    for (ty, row_out) in rows.iter().zip(out.chunks_exact_mut(columns.len())) {
+        let Some(ty) = ty else { continue };
+        let each = |o: &mut f32, tx: &Option<Taps>| {
+            if o.is_nan()
+                && let Some(tx) = tx
+            {
+                *o = height_from_taps(level, tx, ty);
+            }
+        };
+        if ty.len != 2 {
+            row_out.iter_mut().zip(columns).for_each(|(o, tx)| each(o, tx));
+            continue;
+        }
+        let (line0, line1) = (&plane[ty.index[0] * width..][..width], &plane[ty.index[1] * width..][..width]);
+        let (wy0, wy1, sy) = (ty.weight[0], ty.weight[1], ty.weight[0] + ty.weight[1]);
+        for ((o, pair), tx) in row_out.iter_mut().zip(&pairs).zip(columns) {
+            if !o.is_nan() {
+                continue;
+            }
+            if let Some((a, b, wx0, wx1, sx)) = *pair {
+                let h = [line0[a], line0[b], line1[a], line1[b]];
+                if !h.iter().any(|v| v.is_nan()) {
+                    // height_from_taps's bilinear arithmetic, term for term.
+                    let top = wx0 * f64::from(h[0]) + wx1 * f64::from(h[1]);
+                    let bottom = wx0 * f64::from(h[2]) + wx1 * f64::from(h[3]);
+                    *o = ((wy0 * top + wy1 * bottom) / (sx * sy)) as f32;
+                    continue;
+                }
+            }
+            each(o, tx);
+        }
+    }
+}
+
 /// Premultiplied RGBA from taps already found.
 pub(crate) fn color_from_taps(level: &Window, tx: &Taps, ty: &Taps) -> [f32; 4] {
     let mut acc = [0.0f64; 4];
@@ -334,6 +386,39 @@ mod tests {
     }
 
     proptest! {
+        /// The row path gives each sample what `height_from_taps` gives
+        /// it, bit for bit: over voids, at the edges, for every kernel
+        /// (bilinear takes the row path's own arithmetic, the others go
+        /// through), and it leaves samples an earlier raster set.
+        #[test]
+        fn rows_give_every_sample_what_its_taps_give(
+            seed in 0u64..1000,
+            kernel in proptest::sample::select(Resampling::ALL.to_vec()),
+            spacing in 0.3f64..2.5,
+            start in -1.0f64..3.0,
+        ) {
+            let l = level(23, 19, |i, j| {
+                let k = (i as u64 * 7919 + j as u64 * 104_729 + seed * 31) % 101;
+                if k < 6 { f32::NAN } else { k as f32 * 3.7 - 40.0 }
+            });
+            let axis = |size: usize, n: usize| -> Vec<Option<Taps>> {
+                (0..n).map(|i| axis_taps(start + i as f64 * spacing, size, kernel, false)).collect()
+            };
+            let (columns, rows) = (axis(23, 13), axis(19, 11));
+            let mut out: Vec<f32> = (0..13 * 11).map(|n| if n % 17 == 5 { 1234.5 } else { f32::NAN }).collect();
+            let earlier = out.clone();
+            heights_by_rows(&l, &columns, &rows, &mut out);
+            for (n, (got, before)) in out.iter().zip(&earlier).enumerate() {
+                let (tx, ty) = (&columns[n % 13], &rows[n / 13]);
+                let want = if before.is_nan() {
+                    tx.as_ref().zip(ty.as_ref()).map_or(f32::NAN, |(tx, ty)| height_from_taps(&l, tx, ty))
+                } else {
+                    *before
+                };
+                prop_assert_eq!(got.to_bits(), want.to_bits(), "sample {}", n);
+            }
+        }
+
         #[test]
         fn interpolated_heights_stay_within_their_taps(u in 0.0f64..16.0, v in 0.0f64..16.0, seed in 0u32..1000) {
             let l = level(16, 16, |i, j| ((i * 31 + j * 17 + seed as usize) % 97) as f32);

@@ -11,7 +11,7 @@ use relief_source::{
 
 use crate::crs;
 use crate::raster::{ChangeDetection, PixelRect, Raster, RasterKind, ReadOptions, Reloaded, Residency, VerticalUnits};
-use crate::resample::{LevelAxis, Taps, axis_taps, color_from_taps, height_from_taps, level_taps};
+use crate::resample::{LevelAxis, Taps, axis_taps, color_from_taps, height_from_taps, heights_by_rows, level_taps};
 
 /// The manifest kind of this source.
 pub const KIND: &str = "gdal";
@@ -351,6 +351,9 @@ impl GdalSource {
             let level = &placed.raster.window(sampler.mip, rect)?;
             sampler.shift(&rect);
             match self.kind {
+                RasterKind::Height if sampler.separable => {
+                    heights_by_rows(level, &sampler.columns, &sampler.rows, &mut heights);
+                }
                 RasterKind::Height => sampler.each(lattice.cols, lattice.rows, |n, taps| {
                     if heights[n].is_nan() {
                         heights[n] = taps.map_or(f32::NAN, |(tx, ty)| height_from_taps(level, tx, ty));
