@@ -195,8 +195,10 @@ pub(crate) fn height_from_taps(level: &Window, tx: &Taps, ty: &Taps) -> f32 {
         if !h.iter().any(|v| v.is_nan()) {
             let top = tx.weight[0] * f64::from(h[0]) + tx.weight[1] * f64::from(h[1]);
             let bottom = tx.weight[0] * f64::from(h[2]) + tx.weight[1] * f64::from(h[3]);
-            return ((ty.weight[0] * top + ty.weight[1] * bottom)
-                / ((tx.weight[0] + tx.weight[1]) * (ty.weight[0] + ty.weight[1]))) as f32;
+            // Normalised by the weights' sums (1 but for rounding), each a
+            // reciprocal: two products, not a division, a sample.
+            let (rx, ry) = (1.0 / (tx.weight[0] + tx.weight[1]), 1.0 / (ty.weight[0] + ty.weight[1]));
+            return ((ty.weight[0] * top + ty.weight[1] * bottom) * rx * ry) as f32;
         }
     }
     let (mut sum, mut valid_w, mut total_w) = (0.0f64, 0.0f64, 0.0f64);
@@ -215,7 +217,7 @@ pub(crate) fn height_from_taps(level: &Window, tx: &Taps, ty: &Taps) -> f32 {
     if valid_w > 1e-9 && valid_w >= 0.5 * total_w { (sum / valid_w) as f32 } else { f32::NAN }
 }
 
-/// A column's two bilinear taps, their weights, and the weights' sum.
+/// A column's two bilinear taps, their weights, and their sum's reciprocal.
 type Pair = (usize, usize, f64, f64, f64);
 
 /// Heights of a tile whose columns and rows map to the level's columns and
@@ -230,7 +232,7 @@ pub(crate) fn heights_by_rows(level: &Window, columns: &[Option<Taps>], rows: &[
         .iter()
         .map(|t| {
             t.filter(|t| t.len == 2)
-                .map(|t| (t.index[0], t.index[1], t.weight[0], t.weight[1], t.weight[0] + t.weight[1]))
+                .map(|t| (t.index[0], t.index[1], t.weight[0], t.weight[1], 1.0 / (t.weight[0] + t.weight[1])))
         })
         .collect();
     for (ty, row_out) in rows.iter().zip(out.chunks_exact_mut(columns.len())) {
@@ -247,18 +249,18 @@ pub(crate) fn heights_by_rows(level: &Window, columns: &[Option<Taps>], rows: &[
             continue;
         }
         let (line0, line1) = (&plane[ty.index[0] * width..][..width], &plane[ty.index[1] * width..][..width]);
-        let (wy0, wy1, sy) = (ty.weight[0], ty.weight[1], ty.weight[0] + ty.weight[1]);
+        let (wy0, wy1, ry) = (ty.weight[0], ty.weight[1], 1.0 / (ty.weight[0] + ty.weight[1]));
         for ((o, pair), tx) in row_out.iter_mut().zip(&pairs).zip(columns) {
             if !o.is_nan() {
                 continue;
             }
-            if let Some((a, b, wx0, wx1, sx)) = *pair {
+            if let Some((a, b, wx0, wx1, rx)) = *pair {
                 let h = [line0[a], line0[b], line1[a], line1[b]];
                 if !h.iter().any(|v| v.is_nan()) {
                     // height_from_taps's bilinear arithmetic, term for term.
                     let top = wx0 * f64::from(h[0]) + wx1 * f64::from(h[1]);
                     let bottom = wx0 * f64::from(h[2]) + wx1 * f64::from(h[3]);
-                    *o = ((wy0 * top + wy1 * bottom) / (sx * sy)) as f32;
+                    *o = ((wy0 * top + wy1 * bottom) * rx * ry) as f32;
                     continue;
                 }
             }

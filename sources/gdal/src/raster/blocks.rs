@@ -14,6 +14,7 @@ use moka::sync::Cache;
 use relief_source::SourceError;
 
 use super::halve::{Covers, Halving, halve_window};
+use super::pixels::{Block, Pixels, Window, exact_i16};
 use super::{PixelRect, Store};
 
 /// Side of a block, in pixels of its level.
@@ -28,20 +29,6 @@ pub(crate) const GDAL_CACHE_MB: &str = "64";
 
 /// Open datasets each thread keeps (GDAL datasets are not shared between threads).
 const HANDLES_PER_THREAD: usize = 8;
-
-/// A block of decoded planes.
-#[derive(Debug)]
-pub(crate) struct Block {
-    pub width: usize,
-    pub height: usize,
-    pub planes: Vec<Vec<f32>>,
-}
-
-impl Block {
-    fn bytes(&self) -> u32 {
-        (self.planes.iter().map(Vec::len).sum::<usize>() * 4 + 64).min(u32::MAX as usize) as u32
-    }
-}
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub(crate) struct BlockKey {
@@ -136,14 +123,6 @@ pub(crate) fn with_dataset<T>(
     })
 }
 
-/// A rectangle of one level's pixels, copied out of its blocks.
-#[derive(Debug)]
-pub(crate) struct Window {
-    pub width: usize,
-    pub height: usize,
-    pub planes: Vec<Vec<f32>>,
-}
-
 impl Store {
     pub(super) fn blocks_across(&self, level: usize) -> usize {
         self.levels[level].width.div_ceil(BLOCK)
@@ -201,8 +180,8 @@ impl Store {
         let rect = self.block_rect(level, bx, by);
         let info = &self.levels[level];
         if level == 0 || info.overview.is_some() {
-            let planes = self.read_file(info.overview, rect)?;
-            return Ok(Block { width: rect.width(), height: rect.height(), planes });
+            let pixels = self.read_pixels(info.overview, rect, true)?;
+            return Ok(Block { width: rect.width(), height: rect.height(), pixels });
         }
         // No overview of this size: halve the level below over this block.
         let below = &self.levels[level - 1];
@@ -221,13 +200,19 @@ impl Store {
             .iter()
             .map(|p| halve_window(p, w.width, w.height, covers, (rect.width(), rect.height()), self.halving))
             .collect();
-        Ok(Block { width: rect.width(), height: rect.height(), planes })
+        Ok(Block { width: rect.width(), height: rect.height(), pixels: Pixels::Planes(planes) })
     }
 
     /// Decodes a rectangle of the file (base level or an overview), checking
     /// that the file is the version this store describes before and after:
     /// a writer at work makes the read fail as `Changing`, never half-read.
     pub(crate) fn read_file(&self, overview: Option<usize>, rect: PixelRect) -> Result<Vec<Vec<f32>>, SourceError> {
+        self.read_pixels(overview, rect, false).map(Pixels::into_planes)
+    }
+
+    /// `read_file`, keeping 16-bit heights as they are stored when
+    /// `compact` and the file's blocks are decoded here.
+    fn read_pixels(&self, overview: Option<usize>, rect: PixelRect, compact: bool) -> Result<Pixels, SourceError> {
         let changing = || SourceError::Changing { path: self.path.clone() };
         if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
             return Err(changing());
@@ -237,10 +222,17 @@ impl Store {
             Some(tiling) => tiling.read(level.unwrap_or(0), rect)?,
             None => None,
         };
-        let decoded_here = || {
-            let info = &self.levels[level.unwrap_or(0)];
-            self.native.as_ref()?.read((info.width, info.height), rect)
-        };
+        let size = (self.levels[level.unwrap_or(0)].width, self.levels[level.unwrap_or(0)].height);
+        // Only a whole file's blocks (no member's, no holes punched in
+        // them) of heights read as stored stay 16-bit.
+        let as_stored = compact && from_members.is_none() && self.holes.is_empty();
+        if as_stored
+            && self.decoder.heights_as_stored()
+            && let Some(values) = self.native.as_ref().and_then(|n| n.read_i16(size, rect))
+        {
+            return self.read_done(rect, Pixels::Int16 { values, nodata: self.decoder.nodata().and_then(exact_i16) });
+        }
+        let decoded_here = || self.native.as_ref()?.read(size, rect);
         let mut planes = match from_members.or_else(decoded_here) {
             Some(values) => vec![self.decoder.to_heights(values, None)],
             None => {
@@ -261,36 +253,41 @@ impl Store {
                 }
             }
         }
-        if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
-            return Err(changing());
-        }
-        self.bytes_read.fetch_add((rect.width() * rect.height() * self.bytes_per_pixel) as u64, Ordering::Relaxed);
-        Ok(planes)
+        self.read_done(rect, Pixels::Planes(planes))
     }
 
-    /// The pixels of `rect` of `level`, from the blocks under it.
+    /// A read of `rect` ends: the file must still be the version read.
+    fn read_done(&self, rect: PixelRect, pixels: Pixels) -> Result<Pixels, SourceError> {
+        if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
+            return Err(SourceError::Changing { path: self.path.clone() });
+        }
+        self.bytes_read.fetch_add((rect.width() * rect.height() * self.bytes_per_pixel) as u64, Ordering::Relaxed);
+        Ok(pixels)
+    }
+
+    /// The pixels of `rect` of `level`, from the blocks under it, a row
+    /// of blocks at a time, each row of pixels written once and in order.
     pub(crate) fn window(&self, level: usize, rect: PixelRect) -> Result<Window, SourceError> {
         let (width, height) = (rect.width(), rect.height());
-        let n_planes = self.decoder.planes();
-        let mut planes = vec![vec![0.0f32; width * height]; n_planes];
+        let mut planes: Vec<Vec<f32>> = (0..self.decoder.planes()).map(|_| Window::plane(width * height)).collect();
         if width == 0 || height == 0 {
             return Ok(Window { width, height, planes });
         }
+        let (bx0, bx1) = (rect.x0 / BLOCK, (rect.x1 - 1) / BLOCK);
         for by in rect.y0 / BLOCK..=(rect.y1 - 1) / BLOCK {
-            for bx in rect.x0 / BLOCK..=(rect.x1 - 1) / BLOCK {
-                let block = self.block(level, bx, by)?;
-                let (bx0, by0) = (bx * BLOCK, by * BLOCK);
-                let (x0, x1) = (rect.x0.max(bx0), rect.x1.min(bx0 + block.width));
-                let (y0, y1) = (rect.y0.max(by0), rect.y1.min(by0 + block.height));
-                for (plane, src) in planes.iter_mut().zip(&block.planes) {
-                    for y in y0..y1 {
-                        let from = (y - by0) * block.width + (x0 - bx0);
-                        let to = (y - rect.y0) * width + (x0 - rect.x0);
-                        plane[to..to + (x1 - x0)].copy_from_slice(&src[from..from + (x1 - x0)]);
+            let row: Vec<Arc<Block>> = (bx0..=bx1).map(|bx| self.block(level, bx, by)).collect::<Result<_, _>>()?;
+            let top = by * BLOCK;
+            for (p, plane) in planes.iter_mut().enumerate() {
+                for y in rect.y0.max(top)..rect.y1.min(top + BLOCK) {
+                    for (block, left) in row.iter().zip((bx0..).map(|bx| bx * BLOCK)) {
+                        let (x0, x1) = (rect.x0.max(left), rect.x1.min(left + block.width));
+                        block.extend(p, (y - top) * block.width + (x0 - left), x1 - x0, plane);
                     }
                 }
             }
         }
+        // Blocks tile their level: every pixel of the rectangle came from one.
+        debug_assert!(planes.iter().all(|p| p.len() == width * height));
         Ok(Window { width, height, planes })
     }
 }

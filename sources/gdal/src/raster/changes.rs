@@ -296,7 +296,7 @@ fn decoded(raster: &Raster, held: bool) -> Result<Level, SourceError> {
                 None => std::sync::Arc::new(store.load(0, bx, by)?),
             };
             let mut h = xxh3_64(b"decoded");
-            for plane in &block.planes {
+            for plane in &block.planes() {
                 // Every NaN is f32::NAN once decoded: the bytes are the values.
                 h = xxh3_64_with_seed(bytemuck::cast_slice(plane), h);
             }

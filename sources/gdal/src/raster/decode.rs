@@ -124,6 +124,20 @@ impl Decoder {
         }
     }
 
+    /// True for a height band whose values are its heights as they are
+    /// (no scale or offset): only its nodata value becomes NaN.
+    pub(crate) fn heights_as_stored(&self) -> bool {
+        matches!(self, Self::Height { scale, offset, .. } if *scale == 1.0 && *offset == 0.0)
+    }
+
+    /// A height band's nodata value.
+    pub(crate) fn nodata(&self) -> Option<f32> {
+        match self {
+            Self::Height { nodata, .. } => *nodata,
+            _ => None,
+        }
+    }
+
     /// Heights in metres from a height band's values as the file holds
     /// them: nodata, NaN or masked out (`mask` 0) become NaN. Any other
     /// decoder hands the values back.

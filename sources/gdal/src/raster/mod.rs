@@ -13,6 +13,7 @@ mod halve;
 mod header;
 mod native;
 mod options;
+mod pixels;
 mod prefetch;
 mod reload;
 mod tiff;
@@ -29,9 +30,9 @@ use rayon::prelude::*;
 use relief_source::SourceError;
 pub(crate) use relief_source::files::Fingerprint;
 
-use blocks::{BLOCK, Block};
+use blocks::BLOCK;
+pub(crate) use blocks::GDAL_CACHE_MB;
 pub use blocks::{DEFAULT_BLOCK_BUDGET, block_budget, cached_bytes, set_block_budget};
-pub(crate) use blocks::{GDAL_CACHE_MB, Window};
 pub use changes::ChangeDetection;
 use changes::Signatures;
 use decode::Decoder;
@@ -40,6 +41,8 @@ use header::apply;
 pub(crate) use header::open_dataset;
 pub(crate) use options::{LevelInfo, ReadOptions};
 pub use options::{RasterKind, Residency, VerticalUnits};
+use pixels::Block;
+pub(crate) use pixels::Window;
 pub(crate) use relief_source::files::FileStamp;
 pub(crate) use reload::Reloaded;
 

@@ -18,6 +18,7 @@ use gdal::Dataset;
 use gdal::raster::GdalDataType;
 use libdeflater::Decompressor;
 
+use super::pixels::exact_i16;
 use super::tiff::{self, Image};
 use super::{FileStamp, PixelRect};
 
@@ -175,6 +176,27 @@ impl Native {
     /// reads the rectangle and says what is wrong with it.
     pub(crate) fn read(&self, size: (usize, usize), rect: PixelRect) -> Option<Vec<f32>> {
         let level = self.images.iter().find(|l| l.image.size == size)?;
+        self.decode(level, rect, self.fill, |place, raw, out| place.widen(raw, out, level))
+    }
+
+    /// The same values as the file's 16-bit signed integers, for an image
+    /// that holds those (half the memory of f32, and the same values
+    /// widened). None where `read` gives None, and for any other image.
+    pub(crate) fn read_i16(&self, size: (usize, usize), rect: PixelRect) -> Option<Vec<i16>> {
+        let level = self.images.iter().find(|l| l.image.size == size && l.sample == Sample::I16)?;
+        let fill = exact_i16(self.fill)?;
+        self.decode(level, rect, fill, |place, raw, out| place.keep(raw, out, level))
+    }
+
+    /// Decodes the blocks under `rect` of `level`, each through `put`;
+    /// a block the file does not store reads as `fill`.
+    fn decode<T: Copy>(
+        &self,
+        level: &Level,
+        rect: PixelRect,
+        fill: T,
+        put: impl Fn(&Place, &[u8], &mut [T]),
+    ) -> Option<Vec<T>> {
         let (image, sample) = (&level.image, level.sample);
         let (tw, th) = image.block;
         let (width, height) = (rect.width(), rect.height());
@@ -184,7 +206,7 @@ impl Native {
         if width == 0 || height == 0 {
             return Some(Vec::new());
         }
-        let mut out = vec![0.0f32; width * height];
+        let mut out = vec![fill; width * height];
         let across = image.size.0.div_ceil(tw);
         let blocks = image.blocks();
         SCRATCH.with(|scratch| {
@@ -193,6 +215,9 @@ impl Native {
                 for bx in rect.x0 / tw..=(rect.x1.max(1) - 1) / tw {
                     let i = level.plane * blocks + by * across + bx;
                     let (offset, size) = (*image.offsets.get(i)?, *image.sizes.get(i)?);
+                    if offset == 0 || size == 0 {
+                        continue;
+                    }
                     // The part of the block inside both the image and the rectangle.
                     let (x0, y0) = (bx * tw, by * th);
                     let cols = (rect.x0.max(x0), rect.x1.min(x0 + tw));
@@ -204,11 +229,8 @@ impl Native {
                         row0: rows.0 - y0,
                         cols: cols.1 - cols.0,
                         rows: rows.1 - rows.0,
+                        row_bytes: tw * sample.bytes(),
                     };
-                    if offset == 0 || size == 0 {
-                        place.fill(&mut out, self.fill);
-                        continue;
-                    }
                     // A tile holds all its rows; a strip, only the image's.
                     let block_rows = if image.tiled { th } else { th.min(image.size.1 - y0) };
                     let raw = scratch.block(&self.file, image, offset, size, tw * block_rows * sample.bytes())?;
@@ -216,7 +238,7 @@ impl Native {
                     if !image.little && level.predictor != 3 {
                         to_little(raw, sample.bytes());
                     }
-                    place.widen(raw, &mut out, level);
+                    put(&place, raw, &mut out);
                 }
             }
             Some(())
@@ -234,39 +256,51 @@ struct Place {
     row0: usize,
     cols: usize,
     rows: usize,
+    /// Bytes of one of the block's decoded rows.
+    row_bytes: usize,
 }
 
 impl Place {
-    fn fill(&self, out: &mut [f32], value: f32) {
+    /// Calls `f` with each of the part's rows: the block's decoded row
+    /// (from the block's first column) and where its part goes.
+    fn each_row<T>(&self, raw: &[u8], out: &mut [T], mut f: impl FnMut(&[u8], &mut [T])) {
         for r in 0..self.rows {
+            let src = &raw[(self.row0 + r) * self.row_bytes..(self.row0 + r + 1) * self.row_bytes];
             let at = self.out_at + r * self.out_stride;
-            out[at..at + self.cols].fill(value);
+            f(src, &mut out[at..at + self.cols]);
         }
     }
 
-    /// Writes the part from a block's decoded bytes (`tw` samples a row),
+    /// Writes the part from a block's decoded bytes, widened to f32,
     /// undoing the predictor row by row from the block's first column.
     fn widen(&self, raw: &[u8], out: &mut [f32], level: &Level) {
-        let (sample, tw) = (level.sample, level.image.block.0);
-        let row_bytes = tw * sample.bytes();
-        let i16_of = |b: &[u8]| i16::from_le_bytes([b[0], b[1]]);
+        let (sample, tw, col0) = (level.sample, level.image.block.0, self.col0);
         let u16_of = |b: &[u8]| u16::from_le_bytes([b[0], b[1]]);
-        for r in 0..self.rows {
-            let src = &raw[(self.row0 + r) * row_bytes..(self.row0 + r + 1) * row_bytes];
-            let at = self.out_at + r * self.out_stride;
-            let (dst, col0) = (&mut out[at..at + self.cols], self.col0);
-            match (sample, level.predictor) {
-                (Sample::U8, 2) => accumulate(src, dst, col0, |b| b[0], u8::wrapping_add, f32::from),
-                (Sample::U8, _) => copy(src, dst, col0, |b: &[u8; 1]| f32::from(b[0])),
-                (Sample::I16, 2) => accumulate(src, dst, col0, i16_of, i16::wrapping_add, f32::from),
-                (Sample::I16, _) => copy(src, dst, col0, |b: &[u8; 2]| f32::from(i16::from_le_bytes(*b))),
-                (Sample::U16, 2) => accumulate(src, dst, col0, u16_of, u16::wrapping_add, f32::from),
-                (Sample::U16, _) => copy(src, dst, col0, |b: &[u8; 2]| f32::from(u16::from_le_bytes(*b))),
-                (Sample::F32, 3) => floating(src, dst, col0, tw),
-                (Sample::F32, _) => copy(src, dst, col0, |b: &[u8; 4]| f32::from_le_bytes(*b)),
-            }
-        }
+        self.each_row(raw, out, |src, dst| match (sample, level.predictor) {
+            (Sample::U8, 2) => accumulate(src, dst, col0, |b| b[0], u8::wrapping_add, f32::from),
+            (Sample::U8, _) => copy(src, dst, col0, |b: &[u8; 1]| f32::from(b[0])),
+            (Sample::I16, 2) => accumulate(src, dst, col0, le_i16, i16::wrapping_add, f32::from),
+            (Sample::I16, _) => copy(src, dst, col0, |b: &[u8; 2]| f32::from(i16::from_le_bytes(*b))),
+            (Sample::U16, 2) => accumulate(src, dst, col0, u16_of, u16::wrapping_add, f32::from),
+            (Sample::U16, _) => copy(src, dst, col0, |b: &[u8; 2]| f32::from(u16::from_le_bytes(*b))),
+            (Sample::F32, 3) => floating(src, dst, col0, tw),
+            (Sample::F32, _) => copy(src, dst, col0, |b: &[u8; 4]| f32::from_le_bytes(*b)),
+        });
     }
+
+    /// Writes the part of a block of 16-bit signed samples as they are.
+    fn keep(&self, raw: &[u8], out: &mut [i16], level: &Level) {
+        let col0 = self.col0;
+        self.each_row(raw, out, |src, dst| match level.predictor {
+            2 => accumulate(src, dst, col0, le_i16, i16::wrapping_add, |v| v),
+            _ => copy(src, dst, col0, |b: &[u8; 2]| i16::from_le_bytes(*b)),
+        });
+    }
+}
+
+/// A little-endian 16-bit signed sample.
+fn le_i16(b: &[u8]) -> i16 {
+    i16::from_le_bytes([b[0], b[1]])
 }
 
 /// Puts a block's samples of `width` bytes in little-endian order.
@@ -277,7 +311,7 @@ fn to_little(raw: &mut [u8], width: usize) {
 }
 
 /// Samples `col0..` of a row stored as they are, little-endian.
-fn copy<const N: usize>(src: &[u8], dst: &mut [f32], col0: usize, value: impl Fn(&[u8; N]) -> f32) {
+fn copy<const N: usize, O>(src: &[u8], dst: &mut [O], col0: usize, value: impl Fn(&[u8; N]) -> O) {
     let (samples, _) = src[col0 * N..].as_chunks::<N>();
     for (d, s) in dst.iter_mut().zip(samples) {
         *d = value(s);
@@ -286,13 +320,13 @@ fn copy<const N: usize>(src: &[u8], dst: &mut [f32], col0: usize, value: impl Fn
 
 /// Samples `col0..` of a row stored as differences from the sample to the
 /// left (TIFF predictor 2), little-endian: summed from the row's start, wrapping.
-fn accumulate<T: Copy + Default>(
+fn accumulate<T: Copy + Default, O>(
     src: &[u8],
-    dst: &mut [f32],
+    dst: &mut [O],
     col0: usize,
     value: impl Fn(&[u8]) -> T,
     add: impl Fn(T, T) -> T,
-    widen: impl Fn(T) -> f32,
+    widen: impl Fn(T) -> O,
 ) {
     let mut samples = src.chunks_exact(std::mem::size_of::<T>()).map(value);
     let mut sum = T::default();
@@ -430,6 +464,13 @@ mod tests {
                 let gdal = read_window(&through, rect, path)?;
                 let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
                 assert_eq!(bits(&ours), bits(&gdal), "{}: level {level}, {rect:?}", path.display());
+                // 16-bit signed samples also as they are stored: the same values.
+                let narrow = native.read_i16((w, h), rect);
+                assert_eq!(narrow.is_some(), through.band_type() == GdalDataType::Int16, "{}", path.display());
+                if let Some(narrow) = narrow {
+                    let widened: Vec<f32> = narrow.into_iter().map(f32::from).collect();
+                    assert_eq!(bits(&widened), bits(&gdal), "{}: level {level}, {rect:?} as i16", path.display());
+                }
             }
         }
         Ok(())

@@ -6,8 +6,9 @@ use std::sync::Arc;
 use rayon::prelude::*;
 use relief_source::SourceError;
 
-use super::blocks::{BLOCK, Block};
+use super::blocks::BLOCK;
 use super::changes::{ChangeDetection, Changes, Signatures};
+use super::pixels::Block;
 use super::{PixelRect, Raster, ReadOptions, Store};
 
 /// What a reload found.
@@ -100,7 +101,7 @@ impl Raster {
                 let old = self.store.cached(0, bx, by);
                 let origin = (bx * BLOCK, by * BLOCK);
                 let rects = match old {
-                    Some(old) => diff_blocks(&old.planes, &new.planes, new.width, new.height),
+                    Some(old) => diff_blocks(&old.planes(), &new.planes(), new.width, new.height),
                     None => vec![PixelRect { x0: 0, y0: 0, x1: new.width, y1: new.height }],
                 };
                 let rects = rects
@@ -193,7 +194,7 @@ impl Store {
 /// The blocks whose pixels differ (bit for bit; all NaNs alike), merged
 /// into rectangles: runs along each row of blocks, then runs of equal runs
 /// down the rows.
-fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) -> Vec<PixelRect> {
+fn diff_blocks<P: AsRef<[f32]> + Sync>(old: &[P], new: &[P], width: usize, height: usize) -> Vec<PixelRect> {
     let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
     let (bw, bh) = (width.div_ceil(DIFF_BLOCK), height.div_ceil(DIFF_BLOCK));
     let changed: Vec<bool> = (0..bw * bh)
@@ -203,7 +204,8 @@ fn diff_blocks(old: &[Vec<f32>], new: &[Vec<f32>], width: usize, height: usize) 
             let (x1, y1) = ((x0 + DIFF_BLOCK).min(width), (y0 + DIFF_BLOCK).min(height));
             old.iter().zip(new).any(|(o, n)| {
                 (y0..y1).any(|y| {
-                    let (o, n) = (&o[y * width + x0..y * width + x1], &n[y * width + x0..y * width + x1]);
+                    let (o, n) =
+                        (&o.as_ref()[y * width + x0..y * width + x1], &n.as_ref()[y * width + x0..y * width + x1]);
                     // Plain float equality is the fast check; NaNs (nodata)
                     // fail it and get the exact one.
                     o != n && o.iter().zip(n).any(|(a, b)| !same(*a, *b))
