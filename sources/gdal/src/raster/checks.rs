@@ -14,7 +14,7 @@ impl Raster {
     /// first tile.
     pub(super) fn probe(self) -> Result<Self, SourceError> {
         if let Some(images) = tiff::images(&self.path) {
-            for image in &images {
+            for image in images.iter() {
                 image.check_within(&self.path)?;
             }
             return Ok(self);

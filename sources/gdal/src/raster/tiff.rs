@@ -2,11 +2,18 @@
 //! its directories: for each image (the full-resolution one, its reduced
 //! resolution overviews), the size, the block size and every block's offset
 //! and byte count. A few hundred kilobytes for a 3 GB raster, where asking
-//! GDAL block by block costs a call per block.
+//! GDAL block by block costs a call per block. A file's tables are read
+//! once per version of it (its stamp): opening it, signing its blocks and
+//! decoding them ask for the same ones.
 
 use std::fs::File;
 use std::os::unix::fs::FileExt;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
+
+use moka::sync::Cache;
+
+use super::FileStamp;
 
 /// One image of the file.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -69,9 +76,47 @@ const MAX_IMAGES: usize = 64;
 const MAX_ENTRIES: u64 = 1 << 12;
 const MAX_BLOCKS: u64 = 1 << 28;
 
+/// Bytes of block tables kept for files read again (a 3 GB raster's take
+/// under a megabyte).
+const KEPT_BYTES: u64 = 64 << 20;
+
+/// A file's tables, with the stamp the file had throughout their read.
+type Kept = (FileStamp, Arc<[Image]>);
+
+/// The tables last read of each file.
+fn kept() -> &'static Cache<PathBuf, Kept> {
+    static KEPT: OnceLock<Cache<PathBuf, Kept>> = OnceLock::new();
+    KEPT.get_or_init(|| {
+        Cache::builder()
+            .max_capacity(KEPT_BYTES)
+            .weigher(|_, (_, images): &Kept| {
+                let entries: usize = images.iter().map(|i| i.offsets.len() + i.sizes.len()).sum();
+                u32::try_from(entries * 8 + 256).unwrap_or(u32::MAX)
+            })
+            .build()
+    })
+}
+
 /// Every image of the TIFF at `path` (None when it is not a TIFF or its
-/// directories cannot be followed).
-pub(crate) fn images(path: &Path) -> Option<Vec<Image>> {
+/// directories cannot be followed): read from the file, or the answer kept
+/// from a read of this same version of it.
+pub(crate) fn images(path: &Path) -> Option<Arc<[Image]>> {
+    let stamp = FileStamp::of(path)?;
+    if let Some((kept_stamp, images)) = kept().get(path)
+        && kept_stamp == stamp
+    {
+        return Some(images);
+    }
+    let images: Arc<[Image]> = read(path)?.into();
+    // Kept only when no write came between (the stamp held throughout).
+    if FileStamp::of(path) == Some(stamp) {
+        kept().insert(path.to_path_buf(), (stamp, Arc::clone(&images)));
+    }
+    Some(images)
+}
+
+/// Every image of the TIFF at `path`, read from its directories.
+fn read(path: &Path) -> Option<Vec<Image>> {
     let file = File::open(path).ok()?;
     let mut head = [0u8; 16];
     file.read_exact_at(&mut head[..8], 0).ok()?;
@@ -290,5 +335,30 @@ mod tests {
         assert!(images(&dir.path().join("missing.tif")).is_none());
         std::fs::write(dir.path().join("text.tif"), b"not a tiff at all").expect("write");
         assert!(images(&dir.path().join("text.tif")).is_none());
+    }
+
+    #[test]
+    fn tables_are_read_once_per_version_of_the_file() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("t.tif");
+        let write = |side: &str| {
+            let driver = DriverManager::get_driver_by_name("GTiff").expect("GTiff");
+            let options: RasterCreationOptions =
+                ["TILED=YES", &format!("BLOCKXSIZE={side}"), &format!("BLOCKYSIZE={side}")].into_iter().collect();
+            let ds = driver.create_with_band_type_with_options::<i16, _>(&path, 64, 64, 1, &options).expect("create");
+            ds.rasterband(1)
+                .expect("band")
+                .write((0, 0), (64, 64), &mut Buffer::new((64, 64), vec![7i16; 64 * 64]))
+                .expect("write");
+        };
+        write("16");
+        let first = images(&path).expect("a TIFF");
+        assert!(Arc::ptr_eq(&first, &images(&path).expect("a TIFF")), "the same version: the tables kept");
+        assert_eq!(first[0].block, (16, 16));
+        // Rewritten (a new version, whatever its size): read afresh.
+        write("32");
+        let second = images(&path).expect("a TIFF");
+        assert!(!Arc::ptr_eq(&first, &second));
+        assert_eq!(second[0].block, (32, 32));
     }
 }
