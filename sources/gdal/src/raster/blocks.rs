@@ -218,20 +218,23 @@ impl Store {
             return Err(changing());
         }
         let level = overview.and_then(|o| self.levels.iter().position(|l| l.overview == Some(o)));
+        let size = (self.levels[level.unwrap_or(0)].width, self.levels[level.unwrap_or(0)].height);
+        // Heights read as stored stay 16-bit, from the file's blocks or a
+        // mosaic's members (with no holes punched in them).
+        if compact && self.holes.is_empty() && self.decoder.heights_as_stored() {
+            let values = match &self.tiling {
+                Some(tiling) => tiling.read_i16(level.unwrap_or(0), rect)?,
+                None => self.native.as_ref().and_then(|n| n.read_i16(size, rect)),
+            };
+            if let Some(values) = values {
+                let nodata = self.decoder.nodata().and_then(exact_i16);
+                return self.read_done(rect, Pixels::Int16 { values, nodata });
+            }
+        }
         let from_members = match &self.tiling {
             Some(tiling) => tiling.read(level.unwrap_or(0), rect)?,
             None => None,
         };
-        let size = (self.levels[level.unwrap_or(0)].width, self.levels[level.unwrap_or(0)].height);
-        // Only a whole file's blocks (no member's, no holes punched in
-        // them) of heights read as stored stay 16-bit.
-        let as_stored = compact && from_members.is_none() && self.holes.is_empty();
-        if as_stored
-            && self.decoder.heights_as_stored()
-            && let Some(values) = self.native.as_ref().and_then(|n| n.read_i16(size, rect))
-        {
-            return self.read_done(rect, Pixels::Int16 { values, nodata: self.decoder.nodata().and_then(exact_i16) });
-        }
         let decoded_here = || self.native.as_ref()?.read(size, rect);
         let mut planes = match from_members.or_else(decoded_here) {
             Some(values) => vec![self.decoder.to_heights(values, None)],

@@ -20,6 +20,7 @@ use relief_source::SourceError;
 
 use super::decode::read_window;
 use super::native::Native;
+use super::pixels::exact_i16;
 use super::vrt::Members;
 use super::{FileStamp, PixelRect, format_err};
 
@@ -148,11 +149,24 @@ impl Tiling {
     /// through the VRT). A member changed since the plan fails the read as
     /// `Changing`.
     pub(super) fn read(&self, level: usize, rect: PixelRect) -> Result<Option<Vec<f32>>, SourceError> {
+        self.read_as(level, rect, self.fill)
+    }
+
+    /// The same values as the 16-bit signed integers a mosaic of Int16
+    /// files holds (None for any other, or one whose fill is no such integer).
+    pub(super) fn read_i16(&self, level: usize, rect: PixelRect) -> Result<Option<Vec<i16>>, SourceError> {
+        match exact_i16(self.fill) {
+            Some(fill) if self.data_type == "Int16" => self.read_as(level, rect, fill),
+            _ => Ok(None),
+        }
+    }
+
+    fn read_as<T: Value>(&self, level: usize, rect: PixelRect, fill: T) -> Result<Option<Vec<T>>, SourceError> {
         if level > 0 && !self.member_overviews {
             return Ok(None);
         }
         let factor = 1usize << level;
-        let mut values = vec![self.fill; rect.width() * rect.height()];
+        let mut values = vec![fill; rect.width() * rect.height()];
         for member in &self.members {
             let Some(at) = member.on_level(factor, self.size) else { return Ok(None) };
             let part = PixelRect {
@@ -166,22 +180,79 @@ impl Tiling {
             }
             let inside =
                 PixelRect { x0: part.x0 - at.x0, y0: part.y0 - at.y0, x1: part.x1 - at.x0, y1: part.y1 - at.y0 };
-            let Some(read) = member.read(level, (at.width(), at.height()), inside, &self.data_type)? else {
+            let Some(read) = member.read::<T>(level, (at.width(), at.height()), inside, &self.data_type)? else {
                 return Ok(None);
             };
-            let nodata = member.nodata.map(|v| v as f32);
+            let transparent = member.nodata.map_or(T::NONE, T::nodata);
             for (row, y) in (part.y0..part.y1).enumerate() {
                 let from = &read[row * inside.width()..(row + 1) * inside.width()];
                 let to = (y - rect.y0) * rect.width() + (part.x0 - rect.x0);
                 for (out, &v) in values[to..to + inside.width()].iter_mut().zip(from) {
-                    let transparent = nodata.is_some_and(|nd| v == nd || (nd.is_nan() && v.is_nan()));
-                    if !transparent {
+                    if !v.is(transparent) {
                         *out = v;
                     }
                 }
             }
         }
         Ok(Some(values))
+    }
+}
+
+/// What a mosaic's values are read as: f32, or the 16-bit signed
+/// integers an Int16 mosaic holds.
+trait Value: Copy {
+    /// What a member's nodata value matches (`NONE`: nothing).
+    type Nodata: Copy;
+    const NONE: Self::Nodata;
+    fn nodata(value: f64) -> Self::Nodata;
+    /// This value is the member's nodata: transparent.
+    fn is(self, nodata: Self::Nodata) -> bool;
+    /// The values of `rect` of an image of `size` pixels, decoded by relief.
+    fn decode(native: &Native, size: (usize, usize), rect: PixelRect) -> Option<Vec<Self>>;
+    /// A value as GDAL reads it to f32 (the band's type: exactly).
+    fn from_read(v: f32) -> Self;
+}
+
+impl Value for f32 {
+    type Nodata = Option<f32>;
+    const NONE: Option<f32> = None;
+
+    fn nodata(value: f64) -> Option<f32> {
+        Some(value as f32)
+    }
+
+    fn is(self, nodata: Option<f32>) -> bool {
+        nodata.is_some_and(|nd| self == nd || (nd.is_nan() && self.is_nan()))
+    }
+
+    fn decode(native: &Native, size: (usize, usize), rect: PixelRect) -> Option<Vec<Self>> {
+        native.read(size, rect)
+    }
+
+    fn from_read(v: f32) -> Self {
+        v
+    }
+}
+
+impl Value for i16 {
+    /// Out of i16's range: matches nothing.
+    type Nodata = i32;
+    const NONE: i32 = i32::MIN;
+
+    fn nodata(value: f64) -> i32 {
+        exact_i16(value as f32).map_or(Self::NONE, i32::from)
+    }
+
+    fn is(self, nodata: i32) -> bool {
+        i32::from(self) == nodata
+    }
+
+    fn decode(native: &Native, size: (usize, usize), rect: PixelRect) -> Option<Vec<Self>> {
+        native.read_i16(size, rect)
+    }
+
+    fn from_read(v: f32) -> Self {
+        v as i16
     }
 }
 
@@ -205,13 +276,13 @@ impl Member {
     /// None when it has no overview of that size, or when the file is not
     /// as the VRT describes it (another size or data type: GDAL's VRT then
     /// converts, and reads it).
-    fn read(
+    fn read<T: Value>(
         &self,
         level: usize,
         size: (usize, usize),
         rect: PixelRect,
         data_type: &str,
-    ) -> Result<Option<Vec<f32>>, SourceError> {
+    ) -> Result<Option<Vec<T>>, SourceError> {
         let changing = || SourceError::Changing { path: self.path.clone() };
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
@@ -222,15 +293,18 @@ impl Member {
                 return Ok(None);
             }
             let image = if level == 0 { band.size() } else { size };
-            if let Some(values) = native.and_then(|n| n.read(image, rect)) {
+            if let Some(values) = native.and_then(|n| T::decode(n, image, rect)) {
                 return Ok(Some(values));
             }
+            let through_gdal = |band: &gdal::raster::RasterBand<'_>| {
+                read_window(band, rect, &self.path).map(|v| v.into_iter().map(T::from_read).collect())
+            };
             if level == 0 {
-                return read_window(&band, rect, &self.path).map(Some);
+                return through_gdal(&band).map(Some);
             }
             let count = band.overview_count().unwrap_or(0).max(0) as usize;
             let overview = (0..count).filter_map(|i| band.overview(i).ok()).find(|o| o.size() == size);
-            overview.map(|o| read_window(&o, rect, &self.path)).transpose()
+            overview.map(|o| through_gdal(&o)).transpose()
         })?;
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
@@ -340,6 +414,9 @@ mod tests {
                 let expected = through.read_as::<i16>((rect.x0 as isize, rect.y0 as isize), size, size, None)?;
                 let expected: Vec<f32> = expected.data().iter().map(|&v| f32::from(v)).collect();
                 assert_eq!(direct, expected, "level {level}, {rect:?}");
+                // As the members' 16-bit integers: the same values.
+                let narrow = tiling.read_i16(level, rect)?.ok_or(format!("level {level} not read as i16"))?;
+                assert_eq!(narrow.into_iter().map(f32::from).collect::<Vec<f32>>(), expected, "level {level} as i16");
             }
             levels += 1;
         }
@@ -383,6 +460,7 @@ mod tests {
         member(&a, (0, 0), 48, 0)?;
         let tiling = Tiling::plan(&members, 1, &ds, &vrt).ok_or("no plan")?;
         assert_eq!(tiling.read(0, PixelRect { x0: 0, y0: 0, x1: 8, y1: 8 })?, None);
+        assert_eq!(tiling.read_i16(0, PixelRect { x0: 0, y0: 0, x1: 8, y1: 8 })?, None);
         Ok(())
     }
 
