@@ -172,6 +172,53 @@ fn fixtures(dir: &Path) -> Vec<Fixture> {
     ]
 }
 
+/// An Int16 copy of the Float32 DEM `from` (heights rounded, nodata
+/// kept), written with `options`, with AVERAGE overviews 2, 4 and 8.
+fn int16_copy(from: &Path, to: &Path, options: &[&str]) -> PathBuf {
+    let source = Dataset::open(from).unwrap();
+    let band = source.rasterband(1).unwrap();
+    let (w, h) = band.size();
+    let values: Vec<i16> =
+        band.read_as::<f64>((0, 0), (w, h), (w, h), None).unwrap().data().iter().map(|v| v.round() as i16).collect();
+    let driver = DriverManager::get_driver_by_name("GTiff").unwrap();
+    let options: RasterCreationOptions = options.iter().copied().collect();
+    let mut copy = driver.create_with_band_type_with_options::<i16, _>(to, w, h, 1, &options).unwrap();
+    copy.set_geo_transform(&source.geo_transform().unwrap()).unwrap();
+    copy.set_spatial_ref(&source.spatial_ref().unwrap()).unwrap();
+    let mut out = copy.rasterband(1).unwrap();
+    out.set_no_data_value(band.no_data_value()).unwrap();
+    out.write((0, 0), (w, h), &mut Buffer::new((w, h), values)).unwrap();
+    copy.build_overviews("AVERAGE", &[2, 4, 8], &[]).unwrap();
+    to.to_path_buf()
+}
+
+/// Int16 heights kept in the block cache as the file stores them (a
+/// deflated file relief decodes) give the tiles of the same heights read
+/// through GDAL as f32 (an LZW copy, which GDAL decodes): voids, edges and
+/// overviews alike. The scene state says which is which.
+#[test]
+fn sixteen_bit_heights_kept_as_stored_give_the_tiles_gdals_reads_give() {
+    let dir = tempfile::tempdir().unwrap();
+    let holes = examples::write_dem(
+        &dir.path().join("holes.tif"),
+        &RasterSpec { nodata: Some(-9999.0), ..examples::hill_spec() },
+        |lon, lat| {
+            if ((lon * 40.0).floor() + (lat * 40.0).floor()) % 3.0 == 0.0 { -9999.0 } else { examples::hill(lon, lat) }
+        },
+    )
+    .unwrap();
+    let tiled = ["TILED=YES", "BLOCKXSIZE=64", "BLOCKYSIZE=64"];
+    let with = |extra: &[&'static str]| tiled.iter().chain(extra).copied().collect::<Vec<&str>>();
+    let kept = int16_copy(&holes, &dir.path().join("deflate.tif"), &with(&["COMPRESS=DEFLATE", "PREDICTOR=2"]));
+    let gdals = int16_copy(&holes, &dir.path().join("lzw.tif"), &with(&["COMPRESS=LZW"]));
+    for read in ["windowed", "whole"] {
+        let (kept, gdals) = (open(&kept, &[("read", text(read))]), open(&gdals, &[("read", text(read))]));
+        assert!(kept.info().details["block_cache"].starts_with("16-bit"), "{:?}", kept.info().details);
+        assert!(gdals.info().details["block_cache"].starts_with("decoded f32"), "{:?}", gdals.info().details);
+        assert_same_tiles(&kept, &gdals, 10, &format!("Int16 kept as stored against GDAL's f32 ({read})"));
+    }
+}
+
 #[test]
 fn windowed_reads_give_the_same_tiles_as_whole_reads_on_every_fixture() {
     let dir = tempfile::tempdir().unwrap();

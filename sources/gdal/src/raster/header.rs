@@ -143,6 +143,18 @@ impl Raster {
         if let Some(native) = &native {
             details.insert("block_decoding".into(), native.describe());
         }
+        // As `Store::read_pixels` keeps blocks.
+        let sixteen = decoder.heights_as_stored()
+            && holes.is_empty()
+            && (native.as_ref().is_some_and(Native::holds_i16) || tiling.as_ref().is_some_and(Tiling::holds_i16));
+        details.insert(
+            "block_cache".into(),
+            if sixteen {
+                "16-bit heights as the file stores them (2 bytes a pixel; a level halved here, f32)".into()
+            } else {
+                format!("decoded f32 ({} bytes a pixel)", 4 * decoder.planes())
+            },
+        );
         let overviews = levels.iter().filter(|l| l.overview.is_some()).count();
         details.insert(
             "overviews".into(),

@@ -152,11 +152,16 @@ impl Tiling {
         self.read_as(level, rect, self.fill)
     }
 
+    /// The mosaic holds 16-bit signed integers that `read_i16` gives.
+    pub(super) fn holds_i16(&self) -> bool {
+        self.data_type == "Int16" && exact_i16(self.fill).is_some()
+    }
+
     /// The same values as the 16-bit signed integers a mosaic of Int16
     /// files holds (None for any other, or one whose fill is no such integer).
     pub(super) fn read_i16(&self, level: usize, rect: PixelRect) -> Result<Option<Vec<i16>>, SourceError> {
         match exact_i16(self.fill) {
-            Some(fill) if self.data_type == "Int16" => self.read_as(level, rect, fill),
+            Some(fill) if self.holds_i16() => self.read_as(level, rect, fill),
             _ => Ok(None),
         }
     }
