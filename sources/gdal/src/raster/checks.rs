@@ -1,6 +1,7 @@
 //! What a raster must pass when it opens: every block inside the file,
 //! and overviews that agree with the base.
 
+use rayon::prelude::*;
 use relief_source::SourceError;
 
 use super::blocks::BLOCK;
@@ -35,47 +36,54 @@ impl Raster {
             return Ok(());
         };
         const SIDE: usize = 8;
-        let (mut checked, mut off) = (0usize, 0usize);
-        let mut worst = (0.0f32, 0.0f32, 0.0f32);
-        for k in 0..16 {
-            let (fx, fy) = ((k % 4) as f64 / 3.0, (k / 4) as f64 / 3.0);
-            let x0 = ((level.width.saturating_sub(SIDE)) as f64 * fx) as usize;
-            let y0 = ((level.height.saturating_sub(SIDE)) as f64 * fy) as usize;
-            let rect = PixelRect { x0, y0, x1: (x0 + SIDE).min(level.width), y1: (y0 + SIDE).min(level.height) };
-            // Read straight from the file: a few pixels, not whole blocks.
-            let over = self.store.read_file(level.overview, rect)?;
-            let under = PixelRect {
-                x0: 2 * rect.x0,
-                y0: 2 * rect.y0,
-                x1: (2 * rect.x1).min(self.width()),
-                y1: (2 * rect.y1).min(self.height()),
-            };
-            let base = self.store.read_file(None, under)?;
-            let (base_width, base_height) = (under.width(), under.height());
-            for (o, b) in over.iter().zip(&base) {
-                for j in 0..rect.height() {
-                    for i in 0..rect.width() {
-                        let v = o[j * rect.width() + i];
-                        let below: Vec<f32> = halve::under(b, base_width, base_height, i, j)
-                            .into_iter()
-                            .flatten()
-                            .filter(|h| !h.is_nan())
-                            .collect();
-                        if v.is_nan() || below.is_empty() {
-                            continue;
-                        }
-                        let lo = below.iter().copied().fold(f32::INFINITY, f32::min);
-                        let hi = below.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                        let slack = 0.25 * (hi - lo) + 0.01 * hi.abs().max(lo.abs()) + 0.5 / 255.0;
-                        checked += 1;
-                        if v < lo - slack || v > hi + slack {
-                            off += 1;
-                            worst = (v, lo, hi);
+        // The places side by side (each decodes a block or two of the file).
+        let places: Vec<Place> = (0..16)
+            .into_par_iter()
+            .map(|k| {
+                let (fx, fy) = ((k % 4) as f64 / 3.0, (k / 4) as f64 / 3.0);
+                let x0 = ((level.width.saturating_sub(SIDE)) as f64 * fx) as usize;
+                let y0 = ((level.height.saturating_sub(SIDE)) as f64 * fy) as usize;
+                let rect = PixelRect { x0, y0, x1: (x0 + SIDE).min(level.width), y1: (y0 + SIDE).min(level.height) };
+                // Read straight from the file: a few pixels, not whole blocks.
+                let over = self.store.read_file(level.overview, rect)?;
+                let under = PixelRect {
+                    x0: 2 * rect.x0,
+                    y0: 2 * rect.y0,
+                    x1: (2 * rect.x1).min(self.width()),
+                    y1: (2 * rect.y1).min(self.height()),
+                };
+                let base = self.store.read_file(None, under)?;
+                let (base_width, base_height) = (under.width(), under.height());
+                let (mut checked, mut off, mut worst) = (0usize, 0usize, None);
+                for (o, b) in over.iter().zip(&base) {
+                    for j in 0..rect.height() {
+                        for i in 0..rect.width() {
+                            let v = o[j * rect.width() + i];
+                            let below: Vec<f32> = halve::under(b, base_width, base_height, i, j)
+                                .into_iter()
+                                .flatten()
+                                .filter(|h| !h.is_nan())
+                                .collect();
+                            if v.is_nan() || below.is_empty() {
+                                continue;
+                            }
+                            let lo = below.iter().copied().fold(f32::INFINITY, f32::min);
+                            let hi = below.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                            let slack = 0.25 * (hi - lo) + 0.01 * hi.abs().max(lo.abs()) + 0.5 / 255.0;
+                            checked += 1;
+                            if v < lo - slack || v > hi + slack {
+                                off += 1;
+                                worst = Some((v, lo, hi));
+                            }
                         }
                     }
                 }
-            }
-        }
+                Ok(Place { checked, off, worst })
+            })
+            .collect::<Result<_, SourceError>>()?;
+        let checked: usize = places.iter().map(|p| p.checked).sum();
+        let off: usize = places.iter().map(|p| p.off).sum();
+        let worst = places.iter().rev().find_map(|p| p.worst).unwrap_or((0.0, 0.0, 0.0));
         if checked > 0 && off * 10 > checked {
             return Err(format_err(
                 format!(
@@ -89,4 +97,12 @@ impl Raster {
         }
         Ok(())
     }
+}
+
+/// What one place of the overview check found: pixels checked, pixels
+/// off, and the last one off (its value and the range under it).
+struct Place {
+    checked: usize,
+    off: usize,
+    worst: Option<(f32, f32, f32)>,
 }
