@@ -211,7 +211,7 @@ impl Store {
     }
 
     /// `read_file`, keeping 16-bit heights as they are stored when
-    /// `compact` and the file's blocks are decoded here.
+    /// `compact` and they can be (`Pixels::Int16`).
     fn read_pixels(&self, overview: Option<usize>, rect: PixelRect, compact: bool) -> Result<Pixels, SourceError> {
         let changing = || SourceError::Changing { path: self.path.clone() };
         if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
@@ -219,11 +219,17 @@ impl Store {
         }
         let level = overview.and_then(|o| self.levels.iter().position(|l| l.overview == Some(o)));
         let size = (self.levels[level.unwrap_or(0)].width, self.levels[level.unwrap_or(0)].height);
-        // Heights read as stored stay 16-bit, from the file's blocks or a
-        // mosaic's members (with no holes punched in them).
+        // Heights read as stored stay 16-bit: from the file's blocks decoded
+        // here, or a mosaic's members (with no holes punched in them).
+        let mut members_tried = false;
         if compact && self.holes.is_empty() && self.decoder.heights_as_stored() {
             let values = match &self.tiling {
-                Some(tiling) => tiling.read_i16(level.unwrap_or(0), rect)?,
+                Some(tiling) if tiling.holds_i16() => {
+                    // What the members cannot give as i16, they cannot as f32.
+                    members_tried = true;
+                    tiling.read_i16(level.unwrap_or(0), rect)?
+                }
+                Some(_) => None,
                 None => self.native.as_ref().and_then(|n| n.read_i16(size, rect)),
             };
             if let Some(values) = values {
@@ -232,8 +238,8 @@ impl Store {
             }
         }
         let from_members = match &self.tiling {
-            Some(tiling) => tiling.read(level.unwrap_or(0), rect)?,
-            None => None,
+            Some(tiling) if !members_tried => tiling.read(level.unwrap_or(0), rect)?,
+            _ => None,
         };
         let decoded_here = || self.native.as_ref()?.read(size, rect);
         let mut planes = match from_members.or_else(decoded_here) {
@@ -289,8 +295,10 @@ impl Store {
                 }
             }
         }
-        // Blocks tile their level: every pixel of the rectangle came from one.
-        debug_assert!(planes.iter().all(|p| p.len() == width * height));
+        // Blocks tile their level: every pixel of a rectangle on it came from one.
+        if planes.iter().any(|p| p.len() != width * height) {
+            return Err(SourceError::format(format!("pixels {rect:?} of level {level} lie past its edge"), &self.path));
+        }
         Ok(Window { width, height, planes })
     }
 }

@@ -36,51 +36,55 @@ impl Raster {
             return Ok(());
         };
         const SIDE: usize = 8;
-        // The places side by side (each decodes a block or two of the file).
-        let places: Vec<Place> = (0..16)
-            .into_par_iter()
-            .map(|k| {
-                let (fx, fy) = ((k % 4) as f64 / 3.0, (k / 4) as f64 / 3.0);
-                let x0 = ((level.width.saturating_sub(SIDE)) as f64 * fx) as usize;
-                let y0 = ((level.height.saturating_sub(SIDE)) as f64 * fy) as usize;
-                let rect = PixelRect { x0, y0, x1: (x0 + SIDE).min(level.width), y1: (y0 + SIDE).min(level.height) };
-                // Read straight from the file: a few pixels, not whole blocks.
-                let over = self.store.read_file(level.overview, rect)?;
-                let under = PixelRect {
-                    x0: 2 * rect.x0,
-                    y0: 2 * rect.y0,
-                    x1: (2 * rect.x1).min(self.width()),
-                    y1: (2 * rect.y1).min(self.height()),
-                };
-                let base = self.store.read_file(None, under)?;
-                let (base_width, base_height) = (under.width(), under.height());
-                let (mut checked, mut off, mut worst) = (0usize, 0usize, None);
-                for (o, b) in over.iter().zip(&base) {
-                    for j in 0..rect.height() {
-                        for i in 0..rect.width() {
-                            let v = o[j * rect.width() + i];
-                            let below: Vec<f32> = halve::under(b, base_width, base_height, i, j)
-                                .into_iter()
-                                .flatten()
-                                .filter(|h| !h.is_nan())
-                                .collect();
-                            if v.is_nan() || below.is_empty() {
-                                continue;
-                            }
-                            let lo = below.iter().copied().fold(f32::INFINITY, f32::min);
-                            let hi = below.iter().copied().fold(f32::NEG_INFINITY, f32::max);
-                            let slack = 0.25 * (hi - lo) + 0.01 * hi.abs().max(lo.abs()) + 0.5 / 255.0;
-                            checked += 1;
-                            if v < lo - slack || v > hi + slack {
-                                off += 1;
-                                worst = Some((v, lo, hi));
-                            }
+        // At each place, a block or two of each level is decoded: side by
+        // side where relief decodes them (GDAL reads take a handle a thread).
+        let probe = |k: usize| -> Result<Probe, SourceError> {
+            let (fx, fy) = ((k % 4) as f64 / 3.0, (k / 4) as f64 / 3.0);
+            let x0 = ((level.width.saturating_sub(SIDE)) as f64 * fx) as usize;
+            let y0 = ((level.height.saturating_sub(SIDE)) as f64 * fy) as usize;
+            let rect = PixelRect { x0, y0, x1: (x0 + SIDE).min(level.width), y1: (y0 + SIDE).min(level.height) };
+            // Read straight from the file: a few pixels, not whole blocks.
+            let over = self.store.read_file(level.overview, rect)?;
+            let under = PixelRect {
+                x0: 2 * rect.x0,
+                y0: 2 * rect.y0,
+                x1: (2 * rect.x1).min(self.width()),
+                y1: (2 * rect.y1).min(self.height()),
+            };
+            let base = self.store.read_file(None, under)?;
+            let (base_width, base_height) = (under.width(), under.height());
+            let (mut checked, mut off, mut worst) = (0usize, 0usize, None);
+            for (o, b) in over.iter().zip(&base) {
+                for j in 0..rect.height() {
+                    for i in 0..rect.width() {
+                        let v = o[j * rect.width() + i];
+                        let below: Vec<f32> = halve::under(b, base_width, base_height, i, j)
+                            .into_iter()
+                            .flatten()
+                            .filter(|h| !h.is_nan())
+                            .collect();
+                        if v.is_nan() || below.is_empty() {
+                            continue;
+                        }
+                        let lo = below.iter().copied().fold(f32::INFINITY, f32::min);
+                        let hi = below.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+                        let slack = 0.25 * (hi - lo) + 0.01 * hi.abs().max(lo.abs()) + 0.5 / 255.0;
+                        checked += 1;
+                        if v < lo - slack || v > hi + slack {
+                            off += 1;
+                            worst = Some((v, lo, hi));
                         }
                     }
                 }
-                Ok(Place { checked, off, worst })
-            })
-            .collect::<Result<_, SourceError>>()?;
+            }
+            Ok(Probe { checked, off, worst })
+        };
+        let parallel = self.store.native.is_some() || self.store.tiling.is_some();
+        let places: Vec<Probe> = if parallel {
+            (0..16).into_par_iter().map(probe).collect::<Result<_, _>>()?
+        } else {
+            (0..16).map(probe).collect::<Result<_, _>>()?
+        };
         let checked: usize = places.iter().map(|p| p.checked).sum();
         let off: usize = places.iter().map(|p| p.off).sum();
         let worst = places.iter().rev().find_map(|p| p.worst).unwrap_or((0.0, 0.0, 0.0));
@@ -101,7 +105,7 @@ impl Raster {
 
 /// What one place of the overview check found: pixels checked, pixels
 /// off, and the last one off (its value and the range under it).
-struct Place {
+struct Probe {
     checked: usize,
     off: usize,
     worst: Option<(f32, f32, f32)>,

@@ -150,7 +150,9 @@ impl Raster {
         details.insert(
             "block_cache".into(),
             if sixteen {
-                "16-bit heights as the file stores them (2 bytes a pixel; a level halved here, f32)".into()
+                "16-bit heights as the file stores them (2 bytes a pixel) where relief reads its blocks; a level \
+                 halved here or read through GDAL, decoded f32"
+                    .into()
             } else {
                 format!("decoded f32 ({} bytes a pixel)", 4 * decoder.planes())
             },

@@ -33,7 +33,7 @@ pub(crate) struct Native {
     /// level is read through GDAL or halved).
     images: Vec<Level>,
     /// What a block the file does not store holds, as GDAL reads it: the
-    /// band's nodata value, else 0.
+    /// band's nodata value as the band's type holds it, else 0.
     fill: f32,
 }
 
@@ -76,6 +76,20 @@ impl Sample {
             Self::U16 => GdalDataType::UInt16,
             Self::F32 => GdalDataType::Float32,
         }
+    }
+
+    /// What GDAL reads from a block the file does not store: the band's
+    /// nodata value as this type holds it (an integer type rounds it,
+    /// clamps it to its range and takes NaN as 0), else 0.
+    fn fill(self, nodata: Option<f64>) -> f32 {
+        let Some(v) = nodata else { return 0.0 };
+        let (lo, hi) = match self {
+            Self::U8 => (0.0, 255.0),
+            Self::I16 => (-32768.0, 32767.0),
+            Self::U16 => (0.0, 65535.0),
+            Self::F32 => return v as f32,
+        };
+        if v.is_nan() { 0.0 } else { v.round().clamp(lo, hi) as f32 }
     }
 
     fn bytes(self) -> usize {
@@ -148,7 +162,7 @@ impl Native {
         if FileStamp::of(path) != Some(stamp) {
             return None;
         }
-        let fill = gdal_band.no_data_value().map_or(0.0, |v| v as f32);
+        let fill = decoded[0].sample.fill(gdal_band.no_data_value());
         Some(Self { stamp, file, images: decoded, fill })
     }
 
@@ -187,6 +201,7 @@ impl Native {
     /// The same values as the file's 16-bit signed integers, for an image
     /// that holds those (half the memory of f32, and the same values
     /// widened). None where `read` gives None, and for any other image.
+    /// (A 16-bit image's fill is always such an integer: `Sample::fill`.)
     pub(crate) fn read_i16(&self, size: (usize, usize), rect: PixelRect) -> Option<Vec<i16>> {
         let level = self.images.iter().find(|l| l.image.size == size && l.sample == Sample::I16)?;
         let fill = exact_i16(self.fill)?;
@@ -417,15 +432,23 @@ mod tests {
 
     const NODATA: f64 = -9999.0;
 
+    /// How much of a test raster is written.
+    #[derive(Clone, Copy)]
+    enum Written {
+        /// Every pixel, nodata NODATA.
+        Whole,
+        /// Its top-left 40 x 30 pixels, with this nodata value (or none).
+        Sparse(Option<f64>),
+    }
+
     /// A 100 x 70 raster of `bands` bands of `T` (values from `value`, by
     /// band and pixel) written at `path` with `options`, with AVERAGE
-    /// overviews 2 and 4. With `sparse`, only its top-left 40 x 30 pixels
-    /// are written. Returns `path`.
+    /// overviews 2 and 4. Returns `path`.
     fn write<T: GdalType + Copy>(
         path: PathBuf,
         options: &[&str],
         bands: usize,
-        sparse: bool,
+        written: Written,
         value: impl Fn(usize, usize, usize) -> T,
     ) -> Result<PathBuf, Box<dyn std::error::Error>> {
         let (w, h) = (100usize, 70usize);
@@ -434,10 +457,13 @@ mod tests {
         let mut ds = driver.create_with_band_type_with_options::<T, _>(&path, w, h, bands, &options)?;
         ds.set_geo_transform(&[10.0, 1e-3, 0.0, 46.0, 0.0, -1e-3])?;
         ds.set_projection("EPSG:4326")?;
-        let (ww, wh) = if sparse { (40, 30) } else { (w, h) };
+        let ((ww, wh), nodata) = match written {
+            Written::Whole => ((w, h), Some(NODATA)),
+            Written::Sparse(nodata) => ((40, 30), nodata),
+        };
         for b in 1..=bands {
             let mut band = ds.rasterband(b)?;
-            band.set_no_data_value(Some(NODATA))?;
+            band.set_no_data_value(nodata)?;
             let data: Vec<T> = (0..ww * wh).map(|i| value(b, i % ww, i / ww)).collect();
             band.write((0, 0), (ww, wh), &mut Buffer::new((ww, wh), data))?;
         }
@@ -507,44 +533,59 @@ mod tests {
         // Strips of 8 rows: the last holds 6.
         let strips = ["BLOCKYSIZE=8", "COMPRESS=DEFLATE", "PREDICTOR=2"];
         let files = [
-            write::<u8>(path("byte-strips.tif"), &[], 1, false, byte)?,
-            write::<u8>(path("byte.tif"), &deflate2, 1, false, byte)?,
-            write::<i16>(path("i16.tif"), &deflate, 1, false, int16)?,
-            write::<i16>(path("i16-p2.tif"), &deflate2, 1, false, int16)?,
-            write::<i16>(path("i16-big.tif"), &big2, 1, false, int16)?,
-            write::<i16>(path("i16-strips.tif"), &strips, 1, false, int16)?,
-            write::<i16>(path("i16-sparse.tif"), &sparse, 1, true, int16)?,
-            write::<u16>(path("u16.tif"), &deflate2, 1, false, wide)?,
-            write::<f32>(path("f32.tif"), &deflate3, 1, false, float)?,
-            write::<f32>(path("f32-big.tif"), &big3, 1, false, float)?,
-            write::<f32>(path("f32-raw.tif"), &with(&["BIGTIFF=YES"]), 1, false, float)?,
+            write::<u8>(path("byte-strips.tif"), &[], 1, Written::Whole, byte)?,
+            write::<u8>(path("byte.tif"), &deflate2, 1, Written::Whole, byte)?,
+            write::<i16>(path("i16.tif"), &deflate, 1, Written::Whole, int16)?,
+            write::<i16>(path("i16-p2.tif"), &deflate2, 1, Written::Whole, int16)?,
+            write::<i16>(path("i16-big.tif"), &big2, 1, Written::Whole, int16)?,
+            write::<i16>(path("i16-strips.tif"), &strips, 1, Written::Whole, int16)?,
+            write::<i16>(path("i16-sparse.tif"), &sparse, 1, Written::Sparse(Some(NODATA)), int16)?,
+            // Sparse blocks read as GDAL fills them: the nodata value as
+            // Int16 holds it (rounded, clamped, NaN as 0), else 0.
+            write::<i16>(path("i16-sparse-nan.tif"), &sparse, 1, Written::Sparse(Some(f64::NAN)), int16)?,
+            write::<i16>(path("i16-sparse-half.tif"), &sparse, 1, Written::Sparse(Some(-9999.5)), int16)?,
+            write::<i16>(path("i16-sparse-far.tif"), &sparse, 1, Written::Sparse(Some(-3.4e38)), int16)?,
+            write::<i16>(path("i16-sparse-none.tif"), &sparse, 1, Written::Sparse(None), int16)?,
+            write::<u8>(path("byte-sparse-high.tif"), &sparse, 1, Written::Sparse(Some(300.0)), byte)?,
+            write::<u16>(path("u16.tif"), &deflate2, 1, Written::Whole, wide)?,
+            write::<f32>(path("f32.tif"), &deflate3, 1, Written::Whole, float)?,
+            write::<f32>(path("f32-big.tif"), &big3, 1, Written::Whole, float)?,
+            write::<f32>(path("f32-raw.tif"), &with(&["BIGTIFF=YES"]), 1, Written::Whole, float)?,
         ];
         for file in &files {
             assert_as_gdal(file, 1)?;
         }
         // The second band of a band-separate file: its own plane.
-        assert_as_gdal(&write::<i16>(path("i16-bands.tif"), &apart, 2, false, int16)?, 2)
+        assert_as_gdal(&write::<i16>(path("i16-bands.tif"), &apart, 2, Written::Whole, int16)?, 2)
     }
 
     #[test]
     fn other_layouts_are_left_to_gdal() -> Result<(), Box<dyn std::error::Error>> {
         let dir = tempfile::tempdir()?;
         let int16 = |_, x: usize, y: usize| (x + y) as i16;
-        let lzw = write::<i16>(dir.path().join("lzw.tif"), &with(&["COMPRESS=LZW", "PREDICTOR=2"]), 1, false, int16)?;
+        let lzw = write::<i16>(
+            dir.path().join("lzw.tif"),
+            &with(&["COMPRESS=LZW", "PREDICTOR=2"]),
+            1,
+            Written::Whole,
+            int16,
+        )?;
         assert!(plan(&lzw, 1)?.is_none(), "LZW is GDAL's");
         let pixels = write::<i16>(
             dir.path().join("pixels.tif"),
             &with(&["COMPRESS=DEFLATE", "INTERLEAVE=PIXEL"]),
             2,
-            false,
+            Written::Whole,
             int16,
         )?;
         assert!(plan(&pixels, 1)?.is_none(), "pixel-interleaved bands are GDAL's");
         let wide =
-            write::<i32>(dir.path().join("i32.tif"), &with(&["COMPRESS=DEFLATE"]), 1, false, |_, x, y| (x * y) as i32)?;
+            write::<i32>(dir.path().join("i32.tif"), &with(&["COMPRESS=DEFLATE"]), 1, Written::Whole, |_, x, y| {
+                (x * y) as i32
+            })?;
         assert!(plan(&wide, 1)?.is_none(), "Int32 is GDAL's");
         // A block that no longer inflates to its size: GDAL reads it (and says what is wrong).
-        let cut = write::<i16>(dir.path().join("cut.tif"), &with(&["COMPRESS=DEFLATE"]), 1, false, int16)?;
+        let cut = write::<i16>(dir.path().join("cut.tif"), &with(&["COMPRESS=DEFLATE"]), 1, Written::Whole, int16)?;
         let native = plan(&cut, 1)?.ok_or("decoded here")?;
         let base = &native.images[0].image;
         let (offset, size) = (base.offsets[0], base.sizes[0]);

@@ -57,6 +57,7 @@ impl Block {
         match &self.pixels {
             Pixels::Planes(planes) => out.extend_from_slice(&planes[plane][from..from + n]),
             Pixels::Int16 { values, nodata } => {
+                debug_assert_eq!(plane, 0, "16-bit heights are one plane");
                 let at = out.len();
                 out.resize(at + n, 0.0);
                 widen(&values[from..from + n], *nodata, &mut out[at..]);
@@ -99,7 +100,7 @@ impl Window {
     pub(crate) fn plane(n: usize) -> Vec<f32> {
         let mut plane = SPARE.with(|s| s.borrow_mut().pop()).unwrap_or_default();
         plane.clear();
-        plane.reserve(n);
+        plane.reserve_exact(n);
         plane
     }
 }

@@ -160,9 +160,9 @@ impl Tiling {
     /// The same values as the 16-bit signed integers a mosaic of Int16
     /// files holds (None for any other, or one whose fill is no such integer).
     pub(super) fn read_i16(&self, level: usize, rect: PixelRect) -> Result<Option<Vec<i16>>, SourceError> {
-        match exact_i16(self.fill) {
-            Some(fill) if self.holds_i16() => self.read_as(level, rect, fill),
-            _ => Ok(None),
+        match exact_i16(self.fill).filter(|_| self.data_type == "Int16") {
+            Some(fill) => self.read_as(level, rect, fill),
+            None => Ok(None),
         }
     }
 
