@@ -172,32 +172,48 @@ fn fixtures(dir: &Path) -> Vec<Fixture> {
     ]
 }
 
-/// An Int16 copy of the Float32 DEM `from` (heights rounded, nodata
-/// kept), written with `options`, with AVERAGE overviews 2, 4 and 8.
-fn int16_copy(from: &Path, to: &Path, options: &[&str]) -> PathBuf {
+/// A copy of the DEM `from` as `T` (each value through `convert`, nodata
+/// kept), written with `options`, with overviews 2, 4 and 8: `from`'s own
+/// where it has them (the same values), else AVERAGE ones GDAL makes.
+fn copy_as<T: gdal::raster::GdalType + Copy>(
+    from: &Path,
+    to: &Path,
+    options: &[&str],
+    convert: impl Fn(f64) -> T,
+) -> PathBuf {
     let source = Dataset::open(from).unwrap();
     let band = source.rasterband(1).unwrap();
+    let values = |band: &gdal::raster::RasterBand<'_>| -> Vec<T> {
+        let (w, h) = band.size();
+        band.read_as::<f64>((0, 0), (w, h), (w, h), None).unwrap().data().iter().map(|v| convert(*v)).collect()
+    };
     let (w, h) = band.size();
-    let values: Vec<i16> =
-        band.read_as::<f64>((0, 0), (w, h), (w, h), None).unwrap().data().iter().map(|v| v.round() as i16).collect();
     let driver = DriverManager::get_driver_by_name("GTiff").unwrap();
     let options: RasterCreationOptions = options.iter().copied().collect();
-    let mut copy = driver.create_with_band_type_with_options::<i16, _>(to, w, h, 1, &options).unwrap();
+    let mut copy = driver.create_with_band_type_with_options::<T, _>(to, w, h, 1, &options).unwrap();
     copy.set_geo_transform(&source.geo_transform().unwrap()).unwrap();
     copy.set_spatial_ref(&source.spatial_ref().unwrap()).unwrap();
     let mut out = copy.rasterband(1).unwrap();
     out.set_no_data_value(band.no_data_value()).unwrap();
-    out.write((0, 0), (w, h), &mut Buffer::new((w, h), values)).unwrap();
+    out.write((0, 0), (w, h), &mut Buffer::new((w, h), values(&band))).unwrap();
     copy.build_overviews("AVERAGE", &[2, 4, 8], &[]).unwrap();
+    let out = copy.rasterband(1).unwrap();
+    for o in 0..band.overview_count().unwrap() as usize {
+        let (theirs, mut ours) = (band.overview(o).unwrap(), out.overview(o).unwrap());
+        assert_eq!(theirs.size(), ours.size());
+        let size = theirs.size();
+        ours.write((0, 0), size, &mut Buffer::new(size, values(&theirs))).unwrap();
+    }
     to.to_path_buf()
 }
 
-/// Int16 heights kept in the block cache as the file stores them (a
-/// deflated file relief decodes) give the tiles of the same heights read
-/// through GDAL as f32 (an LZW copy, which GDAL decodes): voids, edges and
-/// overviews alike. The scene state says which is which.
+/// Int16 heights kept in the block cache as the file stores them give the
+/// tiles of the same heights in a Float32 file (read as f32 through GDAL):
+/// voids, edges and overviews alike, whether relief decodes the Int16
+/// file's blocks (deflate) or GDAL reads them (LZW). The scene state says
+/// which is which.
 #[test]
-fn sixteen_bit_heights_kept_as_stored_give_the_tiles_gdals_reads_give() {
+fn sixteen_bit_heights_kept_as_stored_give_the_tiles_f32_heights_give() {
     let dir = tempfile::tempdir().unwrap();
     let holes = examples::write_dem(
         &dir.path().join("holes.tif"),
@@ -209,13 +225,20 @@ fn sixteen_bit_heights_kept_as_stored_give_the_tiles_gdals_reads_give() {
     .unwrap();
     let tiled = ["TILED=YES", "BLOCKXSIZE=64", "BLOCKYSIZE=64"];
     let with = |extra: &[&'static str]| tiled.iter().chain(extra).copied().collect::<Vec<&str>>();
-    let kept = int16_copy(&holes, &dir.path().join("deflate.tif"), &with(&["COMPRESS=DEFLATE", "PREDICTOR=2"]));
-    let gdals = int16_copy(&holes, &dir.path().join("lzw.tif"), &with(&["COMPRESS=LZW"]));
+    let path = |name: &str| dir.path().join(name);
+    let deflated =
+        copy_as(&holes, &path("deflate.tif"), &with(&["COMPRESS=DEFLATE", "PREDICTOR=2"]), |v| v.round() as i16);
+    let lzw = copy_as(&deflated, &path("lzw.tif"), &with(&["COMPRESS=LZW"]), |v| v as i16);
+    let floats = copy_as(&deflated, &path("f32.tif"), &with(&["COMPRESS=LZW"]), |v| v as f32);
     for read in ["windowed", "whole"] {
-        let (kept, gdals) = (open(&kept, &[("read", text(read))]), open(&gdals, &[("read", text(read))]));
-        assert!(kept.info().details["block_cache"].starts_with("16-bit"), "{:?}", kept.info().details);
-        assert!(gdals.info().details["block_cache"].starts_with("decoded f32"), "{:?}", gdals.info().details);
-        assert_same_tiles(&kept, &gdals, 10, &format!("Int16 kept as stored against GDAL's f32 ({read})"));
+        let open = |path: &Path| open(path, &[("read", text(read))]);
+        let reference = open(&floats);
+        assert!(reference.info().details["block_cache"].starts_with("decoded f32"), "{:?}", reference.info().details);
+        for (name, file) in [("decoded here", &deflated), ("read through GDAL", &lzw)] {
+            let kept = open(file);
+            assert!(kept.info().details["block_cache"].starts_with("16-bit"), "{name}: {:?}", kept.info().details);
+            assert_same_tiles(&kept, &reference, 10, &format!("Int16 {name}, kept 16-bit, against f32 ({read})"));
+        }
     }
 }
 

@@ -220,7 +220,8 @@ impl Store {
         let level = overview.and_then(|o| self.levels.iter().position(|l| l.overview == Some(o)));
         let size = (self.levels[level.unwrap_or(0)].width, self.levels[level.unwrap_or(0)].height);
         // Heights read as stored stay 16-bit: from the file's blocks decoded
-        // here, or a mosaic's members (with no holes punched in them).
+        // here, a mosaic's members, or GDAL's read of an Int16 band (with
+        // no holes punched in them).
         let mut members_tried = false;
         if compact && self.holes.is_empty() && self.decoder.heights_as_stored() {
             let values = match &self.tiling {
@@ -230,7 +231,13 @@ impl Store {
                     tiling.read_i16(level.unwrap_or(0), rect)?
                 }
                 Some(_) => None,
-                None => self.native.as_ref().and_then(|n| n.read_i16(size, rect)),
+                None => match self.native.as_ref().and_then(|n| n.read_i16(size, rect)) {
+                    Some(values) => Some(values),
+                    // The same GDAL read as `Decoder::read`, not widened.
+                    None => with_dataset(self.version, &self.open_path, |ds| {
+                        self.decoder.read_i16(ds, overview, rect, &self.path)
+                    })?,
+                },
             };
             if let Some(values) = values {
                 let nodata = self.decoder.nodata().and_then(exact_i16);

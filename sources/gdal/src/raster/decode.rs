@@ -164,6 +164,38 @@ impl Decoder {
         raw
     }
 
+    /// True when GDAL reads this decoder's heights from `ds` as 16-bit
+    /// integers that are the heights as they are: an Int16 height band
+    /// with no scale or offset, whose only mask is its nodata value.
+    pub(crate) fn reads_i16(&self, ds: &Dataset) -> bool {
+        let Self::Height { band, .. } = self else { return false };
+        let Ok(band) = ds.rasterband(*band) else { return false };
+        self.heights_as_stored()
+            && band.band_type() == GdalDataType::Int16
+            && band.mask_flags().is_ok_and(|f| f.is_all_valid() || f.is_nodata())
+    }
+
+    /// `rect` of the base level or of overview `overview` as the 16-bit
+    /// integers GDAL reads (what `read` widens), when `reads_i16`; else None.
+    pub(crate) fn read_i16(
+        &self,
+        ds: &Dataset,
+        overview: Option<usize>,
+        rect: PixelRect,
+        path: &Path,
+    ) -> Result<Option<Vec<i16>>, SourceError> {
+        let Self::Height { band: b, .. } = self else { return Ok(None) };
+        if !self.reads_i16(ds) {
+            return Ok(None);
+        }
+        let band = ds.rasterband(*b).map_err(|e| format_err(e, path))?;
+        let band = match overview {
+            None => band,
+            Some(o) => band.overview(o).map_err(|e| format_err(format!("cannot open overview {o}: {e}"), path))?,
+        };
+        read_values::<i16>(&band, rect, path).map(Some)
+    }
+
     /// Decodes `rect` of the base level (`overview` None) or of overview
     /// number `overview`. Any block that fails to decode fails the read.
     pub(crate) fn read(
@@ -259,11 +291,19 @@ fn read_as<T>(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec
 where
     T: gdal::raster::GdalType + Copy + Default + Into<f32>,
 {
+    Ok(read_values::<T>(band, rect, path)?.into_iter().map(Into::into).collect())
+}
+
+/// Reads a window of a band as `T`.
+fn read_values<T>(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<T>, SourceError>
+where
+    T: gdal::raster::GdalType + Copy + Default,
+{
     let size = (rect.width(), rect.height());
     let mut values = vec![T::default(); size.0 * size.1];
     band.read_into_slice::<T>((rect.x0 as isize, rect.y0 as isize), size, size, &mut values, None)
         .map_err(|e| format_err(format!("cannot read raster data: {e}"), path))?;
-    Ok(values.into_iter().map(Into::into).collect())
+    Ok(values)
 }
 
 /// Where the dataset's mask (per-dataset mask or alpha) says a pixel of the

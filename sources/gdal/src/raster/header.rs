@@ -146,13 +146,11 @@ impl Raster {
         // As `Store::read_pixels` keeps blocks.
         let sixteen = decoder.heights_as_stored()
             && holes.is_empty()
-            && (native.as_ref().is_some_and(Native::holds_i16) || tiling.as_ref().is_some_and(Tiling::holds_i16));
+            && tiling.as_ref().map_or_else(|| decoder.reads_i16(&ds), Tiling::holds_i16);
         details.insert(
             "block_cache".into(),
             if sixteen {
-                "16-bit heights as the file stores them (2 bytes a pixel) where relief reads its blocks; a level \
-                 halved here or read through GDAL, decoded f32"
-                    .into()
+                "16-bit heights as the file stores them (2 bytes a pixel); a level halved here, decoded f32".into()
             } else {
                 format!("decoded f32 ({} bytes a pixel)", 4 * decoder.planes())
             },

@@ -166,11 +166,6 @@ impl Native {
         Some(Self { stamp, file, images: decoded, fill })
     }
 
-    /// The base image holds 16-bit signed samples that `read_i16` gives.
-    pub(crate) fn holds_i16(&self) -> bool {
-        self.images.first().is_some_and(|l| l.sample == Sample::I16) && exact_i16(self.fill).is_some()
-    }
-
     /// For the scene state: which levels are decoded here, and how stored.
     pub(crate) fn describe(&self) -> String {
         let mut ways: Vec<String> = self
