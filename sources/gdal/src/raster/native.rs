@@ -558,21 +558,12 @@ mod tests {
     fn other_layouts_are_left_to_gdal() -> Result<(), Box<dyn std::error::Error>> {
         let dir = tempfile::tempdir()?;
         let int16 = |_, x: usize, y: usize| (x + y) as i16;
-        let lzw = write::<i16>(
-            dir.path().join("lzw.tif"),
-            &with(&["COMPRESS=LZW", "PREDICTOR=2"]),
-            1,
-            Written::Whole,
-            int16,
-        )?;
+        let write16 = |name: &str, options: &[&'static str], bands| {
+            write::<i16>(dir.path().join(name), &with(options), bands, Written::Whole, int16)
+        };
+        let lzw = write16("lzw.tif", &["COMPRESS=LZW", "PREDICTOR=2"], 1)?;
         assert!(plan(&lzw, 1)?.is_none(), "LZW is GDAL's");
-        let pixels = write::<i16>(
-            dir.path().join("pixels.tif"),
-            &with(&["COMPRESS=DEFLATE", "INTERLEAVE=PIXEL"]),
-            2,
-            Written::Whole,
-            int16,
-        )?;
+        let pixels = write16("pixels.tif", &["COMPRESS=DEFLATE", "INTERLEAVE=PIXEL"], 2)?;
         assert!(plan(&pixels, 1)?.is_none(), "pixel-interleaved bands are GDAL's");
         let wide =
             write::<i32>(dir.path().join("i32.tif"), &with(&["COMPRESS=DEFLATE"]), 1, Written::Whole, |_, x, y| {
@@ -580,7 +571,7 @@ mod tests {
             })?;
         assert!(plan(&wide, 1)?.is_none(), "Int32 is GDAL's");
         // A block that no longer inflates to its size: GDAL reads it (and says what is wrong).
-        let cut = write::<i16>(dir.path().join("cut.tif"), &with(&["COMPRESS=DEFLATE"]), 1, Written::Whole, int16)?;
+        let cut = write16("cut.tif", &["COMPRESS=DEFLATE"], 1)?;
         let native = plan(&cut, 1)?.ok_or("decoded here")?;
         let base = &native.images[0].image;
         let (offset, size) = (base.offsets[0], base.sizes[0]);
