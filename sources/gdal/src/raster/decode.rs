@@ -169,14 +169,18 @@ impl Decoder {
     /// with no scale or offset, whose only mask is its nodata value.
     pub(crate) fn reads_i16(&self, ds: &Dataset) -> bool {
         let Self::Height { band, .. } = self else { return false };
-        let Ok(band) = ds.rasterband(*band) else { return false };
+        ds.rasterband(*band).is_ok_and(|band| self.reads_i16_from(&band))
+    }
+
+    fn reads_i16_from(&self, band: &RasterBand<'_>) -> bool {
         self.heights_as_stored()
             && band.band_type() == GdalDataType::Int16
             && band.mask_flags().is_ok_and(|f| f.is_all_valid() || f.is_nodata())
     }
 
     /// `rect` of the base level or of overview `overview` as the 16-bit
-    /// integers GDAL reads (what `read` widens), when `reads_i16`; else None.
+    /// integers GDAL reads (what `read` widens, with no mask to apply);
+    /// None for any other band.
     pub(crate) fn read_i16(
         &self,
         ds: &Dataset,
@@ -185,14 +189,14 @@ impl Decoder {
         path: &Path,
     ) -> Result<Option<Vec<i16>>, SourceError> {
         let Self::Height { band: b, .. } = self else { return Ok(None) };
-        if !self.reads_i16(ds) {
-            return Ok(None);
-        }
         let band = ds.rasterband(*b).map_err(|e| format_err(e, path))?;
         let band = match overview {
             None => band,
             Some(o) => band.overview(o).map_err(|e| format_err(format!("cannot open overview {o}: {e}"), path))?,
         };
+        if !self.reads_i16_from(&band) {
+            return Ok(None);
+        }
         read_values::<i16>(&band, rect, path).map(Some)
     }
 
