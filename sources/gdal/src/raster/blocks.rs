@@ -231,10 +231,12 @@ impl Store {
                     tiling.read_i16(level.unwrap_or(0), rect)?
                 }
                 Some(_) => None,
-                None => match self.native.as_ref().and_then(|n| n.read_i16(size, rect)) {
-                    Some(values) => Some(values),
+                None => match &self.native {
+                    // None for another type (or a block that will not decode:
+                    // the read below says what is wrong).
+                    Some(native) if native.decodes(size) => native.read_i16(size, rect),
                     // The same GDAL read as `Decoder::read`, not widened.
-                    None => with_dataset(self.version, &self.open_path, |ds| {
+                    _ => with_dataset(self.version, &self.open_path, |ds| {
                         self.decoder.read_i16(ds, overview, rect, &self.path)
                     })?,
                 },

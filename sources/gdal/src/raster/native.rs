@@ -166,6 +166,12 @@ impl Native {
         Some(Self { stamp, file, images: decoded, fill })
     }
 
+    /// True when the image of `size` pixels (the base or an overview) is
+    /// decoded here.
+    pub(crate) fn decodes(&self, size: (usize, usize)) -> bool {
+        self.images.iter().any(|l| l.image.size == size)
+    }
+
     /// For the scene state: which levels are decoded here, and how stored.
     pub(crate) fn describe(&self) -> String {
         let mut ways: Vec<String> = self
