@@ -180,7 +180,7 @@ impl Store {
         let rect = self.block_rect(level, bx, by);
         let info = &self.levels[level];
         if level == 0 || info.overview.is_some() {
-            let pixels = self.read_pixels(info.overview, rect, true)?;
+            let pixels = self.read_pixels(info.overview, rect)?;
             return Ok(Block { width: rect.width(), height: rect.height(), pixels });
         }
         // No overview of this size: halve the level below over this block.
@@ -207,12 +207,12 @@ impl Store {
     /// that the file is the version this store describes before and after:
     /// a writer at work makes the read fail as `Changing`, never half-read.
     pub(crate) fn read_file(&self, overview: Option<usize>, rect: PixelRect) -> Result<Vec<Vec<f32>>, SourceError> {
-        self.read_pixels(overview, rect, false).map(Pixels::into_planes)
+        self.read_pixels(overview, rect).map(Pixels::into_planes)
     }
 
-    /// `read_file`, keeping 16-bit heights as they are stored when
-    /// `compact` and they can be (`Pixels::Int16`).
-    fn read_pixels(&self, overview: Option<usize>, rect: PixelRect, compact: bool) -> Result<Pixels, SourceError> {
+    /// `read_file`, keeping 16-bit heights as they are stored where they
+    /// can be (`Pixels::Int16`).
+    fn read_pixels(&self, overview: Option<usize>, rect: PixelRect) -> Result<Pixels, SourceError> {
         let changing = || SourceError::Changing { path: self.path.clone() };
         if super::FileStamp::of(&self.path) != Some(self.file_stamp) {
             return Err(changing());
@@ -223,7 +223,7 @@ impl Store {
         // here, a mosaic's members, or GDAL's read of an Int16 band (with
         // no holes punched in them).
         let mut members_tried = false;
-        if compact && self.holes.is_empty() && self.decoder.heights_as_stored() {
+        if self.holes.is_empty() && self.decoder.heights_as_stored() {
             let values = match &self.tiling {
                 Some(tiling) if tiling.holds_i16() => {
                     // What the members cannot give as i16, they cannot as f32.

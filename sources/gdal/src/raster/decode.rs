@@ -299,7 +299,7 @@ where
 }
 
 /// Reads a window of a band as `T`.
-fn read_values<T>(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<T>, SourceError>
+pub(super) fn read_values<T>(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<T>, SourceError>
 where
     T: gdal::raster::GdalType + Copy + Default,
 {

@@ -32,11 +32,7 @@ impl Pixels {
     pub(crate) fn into_planes(self) -> Vec<Vec<f32>> {
         match self {
             Self::Planes(planes) => planes,
-            Self::Int16 { values, nodata } => {
-                let mut plane = vec![0.0; values.len()];
-                widen(&values, nodata, &mut plane);
-                vec![plane]
-            }
+            Self::Int16 { values, nodata } => vec![widened(&values, nodata)],
         }
     }
 }
@@ -69,11 +65,7 @@ impl Block {
     pub(crate) fn planes(&self) -> Vec<Cow<'_, [f32]>> {
         match &self.pixels {
             Pixels::Planes(planes) => planes.iter().map(|p| Cow::Borrowed(p.as_slice())).collect(),
-            Pixels::Int16 { values, nodata } => {
-                let mut plane = vec![0.0; values.len()];
-                widen(values, *nodata, &mut plane);
-                vec![Cow::Owned(plane)]
-            }
+            Pixels::Int16 { values, nodata } => vec![Cow::Owned(widened(values, *nodata))],
         }
     }
 }
@@ -123,6 +115,13 @@ impl Drop for Window {
 /// `v` as a 16-bit signed integer, when it is one exactly.
 pub(crate) fn exact_i16(v: f32) -> Option<i16> {
     (v == v.trunc() && (f32::from(i16::MIN)..=f32::from(i16::MAX)).contains(&v)).then_some(v as i16)
+}
+
+/// Heights from 16-bit values, `nodata` as NaN, in a plane of their own.
+fn widened(values: &[i16], nodata: Option<i16>) -> Vec<f32> {
+    let mut plane = vec![0.0; values.len()];
+    widen(values, nodata, &mut plane);
+    plane
 }
 
 /// Heights from 16-bit values, `nodata` as NaN, in a loop the compiler

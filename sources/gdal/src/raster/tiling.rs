@@ -16,9 +16,10 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use gdal::Dataset;
+use gdal::raster::RasterBand;
 use relief_source::SourceError;
 
-use super::decode::read_window;
+use super::decode::{read_values, read_window};
 use super::native::Native;
 use super::pixels::exact_i16;
 use super::vrt::Members;
@@ -154,13 +155,19 @@ impl Tiling {
 
     /// The mosaic holds 16-bit signed integers that `read_i16` gives.
     pub(super) fn holds_i16(&self) -> bool {
-        self.data_type == "Int16" && exact_i16(self.fill).is_some()
+        self.fill_i16().is_some()
+    }
+
+    /// The fill as a 16-bit integer, for a mosaic of Int16 files whose
+    /// fill is one.
+    fn fill_i16(&self) -> Option<i16> {
+        exact_i16(self.fill).filter(|_| self.data_type == "Int16")
     }
 
     /// The same values as the 16-bit signed integers a mosaic of Int16
     /// files holds (None for any other, or one whose fill is no such integer).
     pub(super) fn read_i16(&self, level: usize, rect: PixelRect) -> Result<Option<Vec<i16>>, SourceError> {
-        match exact_i16(self.fill).filter(|_| self.data_type == "Int16") {
+        match self.fill_i16() {
             Some(fill) => self.read_as(level, rect, fill),
             None => Ok(None),
         }
@@ -214,8 +221,8 @@ trait Value: Copy {
     fn is(self, nodata: Self::Nodata) -> bool;
     /// The values of `rect` of an image of `size` pixels, decoded by relief.
     fn decode(native: &Native, size: (usize, usize), rect: PixelRect) -> Option<Vec<Self>>;
-    /// A value as GDAL reads it to f32 (the band's type: exactly).
-    fn from_read(v: f32) -> Self;
+    /// The values of `rect` of `band` (of the mosaic's type), read by GDAL.
+    fn read(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<Self>, SourceError>;
 }
 
 impl Value for f32 {
@@ -234,8 +241,8 @@ impl Value for f32 {
         native.read(size, rect)
     }
 
-    fn from_read(v: f32) -> Self {
-        v
+    fn read(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<Self>, SourceError> {
+        read_window(band, rect, path)
     }
 }
 
@@ -256,8 +263,8 @@ impl Value for i16 {
         native.read_i16(size, rect)
     }
 
-    fn from_read(v: f32) -> Self {
-        v as i16
+    fn read(band: &RasterBand<'_>, rect: PixelRect, path: &Path) -> Result<Vec<Self>, SourceError> {
+        read_values::<i16>(band, rect, path)
     }
 }
 
@@ -301,15 +308,12 @@ impl Member {
             if let Some(values) = native.and_then(|n| T::decode(n, image, rect)) {
                 return Ok(Some(values));
             }
-            let through_gdal = |band: &gdal::raster::RasterBand<'_>| {
-                read_window(band, rect, &self.path).map(|v| v.into_iter().map(T::from_read).collect())
-            };
             if level == 0 {
-                return through_gdal(&band).map(Some);
+                return T::read(&band, rect, &self.path).map(Some);
             }
             let count = band.overview_count().unwrap_or(0).max(0) as usize;
             let overview = (0..count).filter_map(|i| band.overview(i).ok()).find(|o| o.size() == size);
-            overview.map(|o| through_gdal(&o)).transpose()
+            overview.map(|o| T::read(&o, rect, &self.path)).transpose()
         })?;
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
