@@ -11,6 +11,7 @@ mod clipmap;
 mod detail;
 mod error;
 mod gpu;
+mod horizon;
 mod navigate;
 mod passes;
 mod renderer;

@@ -206,6 +206,9 @@ pub struct ClipLevel {
     pub samples_written: u64,
     /// Times the whole window was rewritten after it was made.
     pub full_refills: u32,
+    /// No stored sample is lower than this (metres; nodata is stored at 0):
+    /// the lowest height written since the window was last filled whole.
+    pub lowest_m: f64,
 }
 
 /// Heights and colours fetched for a move, before anything is changed.
@@ -242,6 +245,7 @@ impl ClipLevel {
             stale: false,
             samples_written: 0,
             full_refills: 0,
+            lowest_m: f64::INFINITY,
         };
         level.refill(surface, source, origin)?;
         level.full_refills = 0;
@@ -301,6 +305,7 @@ impl ClipLevel {
         self.anchor_sample = (origin.0 + half, origin.1 + half);
         let (ax, ay) = surface.sample_point(self.tile_level, self.anchor_sample.0, self.anchor_sample.1);
         self.anchor = surface.world(ax, ay, 0.0);
+        self.lowest_m = f64::INFINITY;
         self.store(surface, fetched);
         self.stale = false;
         self.full_refills += 1;
@@ -360,7 +365,9 @@ impl ClipLevel {
                     let h = heights[k * width + m];
                     let (x, y) = surface.sample_point(self.tile_level, gx, gy);
                     let on = surface.on_grid(self.tile_level, gx, gy);
-                    let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }) - self.anchor;
+                    let h = if h.is_finite() { f64::from(h) } else { 0.0 };
+                    self.lowest_m = self.lowest_m.min(h);
+                    let p = surface.world(x, y, h) - self.anchor;
                     let slot = self.slot(gx, gy);
                     self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { OFF_GRID }];
                 }

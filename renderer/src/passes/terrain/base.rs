@@ -35,6 +35,8 @@ pub struct Base {
     cols: i64,
     rows: i64,
     world: Vec<DVec3>,
+    /// Each sample's height as drawn (nodata at 0), metres.
+    heights: Vec<f32>,
     vertices: wgpu::Buffer,
     /// Ground size of one cell, metres (at the equator on the planet).
     cell_m: f64,
@@ -48,14 +50,17 @@ impl Base {
         source: &dyn TerrainSamples,
         xs: std::ops::Range<i64>,
         ys: std::ops::Range<i64>,
-    ) -> Option<(Vec<DVec3>, Vec<BaseVertex>)> {
-        let heights = source.heights(0, xs.clone(), ys.clone())?;
+    ) -> Option<(Vec<DVec3>, Vec<f32>, Vec<BaseVertex>)> {
+        let mut heights = source.heights(0, xs.clone(), ys.clone())?;
         let colors = source.colors(0, xs.clone(), ys.clone())?;
         let (mut world, mut vertices) = (Vec::with_capacity(heights.len()), Vec::with_capacity(heights.len()));
         let samples = ys.flat_map(|gy| xs.clone().map(move |gx| (gx, gy)));
-        for (((gx, gy), h), color) in samples.zip(heights).zip(colors) {
+        for (((gx, gy), h), color) in samples.zip(heights.iter_mut()).zip(colors) {
+            if !h.is_finite() {
+                *h = 0.0;
+            }
             let (x, y) = surface.sample_point(0, gx, gy);
-            let p = surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 });
+            let p = surface.world(x, y, f64::from(*h));
             let up = surface.enu(x, y)[2].as_vec3();
             let (high, low) = split(p);
             let valid = if surface.on_grid(0, gx, gy) { 1.0 } else { crate::clipmap::OFF_GRID };
@@ -67,19 +72,19 @@ impl Base {
             });
             world.push(p);
         }
-        Some((world, vertices))
+        Some((world, heights, vertices))
     }
 
     pub fn fill(device: &wgpu::Device, surface: &Surface, source: &dyn TerrainSamples) -> Option<Self> {
         let (cells_x, cells_y) = surface.grid().samples_at(0);
         let (cols, rows) = (cells_x + 1, cells_y + 1);
-        let (world, vertices) = Self::vertices(surface, source, 0..cols, 0..rows)?;
+        let (world, heights, vertices) = Self::vertices(surface, source, 0..cols, 0..rows)?;
         let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("base vertices"),
             contents: bytemuck::cast_slice(&vertices),
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
         });
-        Some(Self { cols, rows, world, vertices, cell_m: surface.step(0) * surface.metres_per_unit() })
+        Some(Self { cols, rows, world, heights, vertices, cell_m: surface.step(0) * surface.metres_per_unit() })
     }
 
     /// Fetches again the samples inside `area` (grid units) and writes
@@ -98,11 +103,14 @@ impl Base {
         if xs.is_empty() || ys.is_empty() {
             return true;
         }
-        let Some((world, vertices)) = Self::vertices(surface, source, xs.clone(), ys.clone()) else { return false };
+        let Some((world, heights, vertices)) = Self::vertices(surface, source, xs.clone(), ys.clone()) else {
+            return false;
+        };
         let width = (xs.end - xs.start) as usize;
         for (k, gy) in ys.enumerate() {
             let first = (gy * self.cols + xs.start) as usize;
             self.world[first..first + width].copy_from_slice(&world[k * width..(k + 1) * width]);
+            self.heights[first..first + width].copy_from_slice(&heights[k * width..(k + 1) * width]);
             let offset = (first * size_of::<BaseVertex>()) as u64;
             queue.write_buffer(&self.vertices, offset, bytemuck::cast_slice(&vertices[k * width..(k + 1) * width]));
         }
@@ -112,7 +120,10 @@ impl Base {
     /// The base's cells for this frame, and how far it is sunk. On the
     /// planet the stride is the coarsest whose flat cells sag (chord below
     /// the arc) less than a pixel at the horizon, and cells past the horizon
-    /// are left out; cells under the coarsest level are left out too.
+    /// are left out: farther than the eye's horizon over the ellipsoid and
+    /// the horizon of the cell's highest corner together (a mountain stands
+    /// over the eye's horizon from as far as its own reaches); cells under
+    /// the coarsest level are left out too.
     #[allow(clippy::too_many_arguments)]
     pub fn cells(
         &self,
@@ -156,9 +167,18 @@ impl Base {
             for i in (0..base.cols - 1).step_by(stride as usize) {
                 let (i1, j1) = ((i + stride).min(base.cols - 1), (j + stride).min(base.rows - 1));
                 if planet {
+                    // Past the horizon even for the cell's highest corner,
+                    // which is seen from as far as its own horizon reaches.
                     let centre = base.world[(i64::midpoint(j, j1) * base.cols + i64::midpoint(i, i1)) as usize];
-                    if (centre - view.eye).length() > horizon + cell {
-                        continue;
+                    let distance = (centre - view.eye).length();
+                    if distance > horizon + cell {
+                        let top = [(i, j), (i1, j), (i, j1), (i1, j1)]
+                            .map(|(i, j)| f64::from(base.heights[(j * base.cols + i) as usize]).max(0.0))
+                            .into_iter()
+                            .fold(0.0, f64::max);
+                        if distance > horizon + (2.0 * radius * top + top * top).sqrt() + cell {
+                            continue;
+                        }
                     }
                 }
                 let (cx, cy, size) = (i as f64, j as f64, stride as f64);

@@ -116,3 +116,26 @@ pub fn drawn_height(surface: &Surface, clipmap: &Clipmap, active: &[u8], pose: &
     let p = drawn_point(surface, clipmap, active, pose, x, y)?;
     Some((p - surface.world(x, y, 0.0)).dot(surface.enu(x, y)[2]))
 }
+
+/// The least distance, metres along the ground, from grid point (x, y) to
+/// the edge of `level`'s window: every ground point nearer than this is
+/// drawn by that level or a finer one. 0 on a flat grid, outside the
+/// window, or where the window reaches past a pole.
+pub fn reach_m(surface: &Surface, level: &ClipLevel, x: f64, y: f64) -> f64 {
+    if !surface.is_planet() {
+        return 0.0;
+    }
+    let last = (level.n - 1) as i64;
+    let (sx, sy) = window_coords(surface, level, x, y);
+    let (fi, fj) = (sx - level.origin.0 as f64, sy - level.origin.1 as f64);
+    let (across, down) = (fi.min(last as f64 - fi), fj.min(last as f64 - fj));
+    let lats = [level.origin.1, level.origin.1 + last].map(|gy| surface.sample_point(level.tile_level, 0, gy).1);
+    if across <= 0.0 || down <= 0.0 || lats.iter().any(|lat| lat.abs() >= 90.0) {
+        return 0.0;
+    }
+    // A degree of latitude is at least a (1 - e^2) pi / 180 metres, and of
+    // longitude that times the cosine of the window's farthest latitude.
+    let metres = surface.step(level.tile_level) * surface.metres_per_unit() * (1.0 - relief_source::geodesy::WGS84_E2);
+    let cos = lats.iter().map(|lat| lat.to_radians().cos()).fold(1.0, f64::min);
+    (across * metres * cos).min(down * metres)
+}

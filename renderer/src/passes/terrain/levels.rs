@@ -11,6 +11,7 @@ use wgpu::util::DeviceExt;
 
 use crate::camera::{Pose, Sees, View};
 use crate::clipmap::{ClipLevel, Clipmap, Dirty, StorageRect};
+use crate::horizon::Horizon;
 use crate::surface::Surface;
 use crate::uniforms::FrameUniform;
 
@@ -194,7 +195,7 @@ impl Levels {
         surface: &Surface,
         clipmap: &Clipmap,
         active: &[u8],
-        cull: Option<(&dyn Sees, DVec3)>,
+        cull: Option<Cull<'_>>,
         finest_m: f64,
     ) -> Vec<LevelDraw> {
         let n = clipmap.config.n;
@@ -205,6 +206,15 @@ impl Levels {
         for (k, &t) in active.iter().enumerate().take(kept) {
             let Some(level) = clipmap.level(t) else { continue };
             let finer = active.get(k + 1).filter(|_| k + 1 < kept).and_then(|&f| clipmap.level(f));
+            let coarser = k.checked_sub(1).and_then(|c| clipmap.level(active[c])).map(|c| {
+                let mut shift = 0;
+                if surface.is_planet() {
+                    let total = surface.revolution(c.tile_level);
+                    let (centre, ours) = (c.origin.0 + (n / 2) as i64, (level.origin.0 + (n / 2) as i64) >> 1);
+                    shift = total * ((centre - ours) as f64 / total as f64).round() as i64;
+                }
+                (c, shift)
+            });
             let hole = finer.map(|finer| {
                 let mut hx = finer.origin.0 / 2 - level.origin.0;
                 if surface.is_planet() {
@@ -225,7 +235,7 @@ impl Levels {
             let mut draw = LevelDraw { slot: k as u32, hole, ranges: Vec::new(), blocks: 0, blocks_drawn: 0 };
             for block in cells.blocks.iter().filter(|b| !b.indices.is_empty()) {
                 draw.blocks += 1;
-                if cull.is_some_and(|(frustum, eye)| !in_view(level, block, frustum, eye)) {
+                if cull.is_some_and(|cull| !in_view(level, coarser, block, &cull)) {
                     continue;
                 }
                 draw.blocks_drawn += 1;
@@ -240,30 +250,68 @@ impl Levels {
     }
 }
 
-/// False when `block` of `level`, as drawn (its own samples and those its
-/// edge may blend towards), lies wholly outside `frustum`. Bounds are taken
-/// in f64 from the level's stored positions; a block without terrain is
-/// out of view.
-fn in_view(level: &ClipLevel, block: &Block, frustum: &dyn Sees, eye: DVec3) -> bool {
+/// What a level's blocks are culled by: a volume (the view's frustum, or
+/// a shadow cascade's box) with the eye, and for the view the planet's
+/// horizon.
+#[derive(Clone, Copy)]
+pub struct Cull<'a> {
+    pub volume: &'a dyn Sees,
+    pub eye: DVec3,
+    pub horizon: Option<&'a Horizon>,
+}
+
+/// The points, relative to the eye, whose convex hull holds `block` of
+/// `level` as drawn: its samples, this level's samples its edge vertices
+/// are blended with (`BLEND_REACH`), and the coarser level's samples under
+/// them (`coarser`: that level, and what to add to half a global column of
+/// this level to find its column there, a revolution on the planet).
+fn block_points(level: &ClipLevel, coarser: Option<(&ClipLevel, i64)>, block: &Block, eye: DVec3) -> Vec<DVec3> {
     let n = level.n;
     let [i0, i1, j0, j1] = block.cells;
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    for j in j0.saturating_sub(BLEND_REACH)..=(j1 + BLEND_REACH).min(n - 1) {
-        for i in i0.saturating_sub(BLEND_REACH)..=(i1 + BLEND_REACH).min(n - 1) {
-            let p = level.positions[level.slot(level.origin.0 + i as i64, level.origin.1 + j as i64)];
-            if p[3] >= 0.5 {
-                let p = DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2]));
-                (lo, hi) = (lo.min(p), hi.max(p));
+    let xs =
+        level.origin.0 + i0.saturating_sub(BLEND_REACH) as i64..=level.origin.0 + (i1 + BLEND_REACH).min(n - 1) as i64;
+    let ys =
+        level.origin.1 + j0.saturating_sub(BLEND_REACH) as i64..=level.origin.1 + (j1 + BLEND_REACH).min(n - 1) as i64;
+    let mut points = Vec::with_capacity(xs.clone().count() * ys.clone().count() * 5 / 4);
+    let mut take = |l: &ClipLevel, gx: i64, gy: i64| {
+        let p = l.positions[l.slot(gx, gy)];
+        if p[3] >= 0.5 {
+            points.push(l.anchor - eye + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
+        }
+    };
+    for gy in ys.clone() {
+        for gx in xs.clone() {
+            take(level, gx, gy);
+        }
+    }
+    if let Some((c, shift)) = coarser {
+        for gy in ys.start() >> 1..=(ys.end() + 1) >> 1 {
+            for gx in xs.start() >> 1..=(xs.end() + 1) >> 1 {
+                take(c, gx + shift, gy);
             }
         }
     }
-    if !lo.is_finite() {
+    points
+}
+
+/// False when `block` of `level`, as drawn (`block_points`), lies wholly
+/// outside the volume `cull` gives, or wholly beyond its horizon. Bounds
+/// are taken in f64 from the levels' stored positions; a block without
+/// terrain is out of view.
+fn in_view(level: &ClipLevel, coarser: Option<(&ClipLevel, i64)>, block: &Block, cull: &Cull<'_>) -> bool {
+    let points = block_points(level, coarser, block, cull.eye);
+    if points.is_empty() {
         return false;
     }
-    let centre = level.anchor + (lo + hi) / 2.0 - eye;
+    let (lo, hi) = points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     // A hundredth more than the half-diagonal: f32 positions and the
     // shader's own rounding never reach it.
-    frustum.sees(centre, (hi - lo).length() / 2.0 * 1.01 + 1.0)
+    if !cull.volume.sees((lo + hi) / 2.0, (hi - lo).length() / 2.0 * 1.01 + 1.0) {
+        return false;
+    }
+    // What the horizon hides is convex: when every point (with a metre
+    // round it for f32 positions) is hidden, so is their hull.
+    !cull.horizon.is_some_and(|h| points.iter().all(|&p| h.hides(p, 1.0)))
 }
 
 /// Two triangles per cell of an n x n vertex grid (diagonal north-west to

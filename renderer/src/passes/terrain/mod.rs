@@ -11,11 +11,12 @@ use wgpu::util::DeviceExt;
 
 use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
-use self::levels::{LEVEL_RECORDS, LevelDraw, LevelRecord, Levels};
+use self::levels::{Cull, LEVEL_RECORDS, LevelDraw, LevelRecord, Levels};
 use crate::camera::{Frustum, Pose, Sees, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
 use crate::gpu::Gpu;
+use crate::horizon::Horizon;
 use crate::surface::Surface;
 use crate::uniforms::FrameUniform;
 
@@ -200,7 +201,8 @@ impl TerrainPass {
     }
 
     /// Brings the clipmap to the camera and the device up to date; what to
-    /// draw: with `cull`, only the level blocks inside that frustum.
+    /// draw: with `cull`, only the level blocks inside that frustum and,
+    /// on the planet, short of the horizon (`horizon`).
     #[expect(clippy::too_many_arguments, reason = "the frame's parts, each used once")]
     pub fn prepare(
         &mut self,
@@ -227,15 +229,37 @@ impl TerrainPass {
                 b.cells(&gpu.device, surface, &self.clipmap, &update.active, view, pose, pixel_angle, cull)
             })
             .unzip();
-        let levels = self.levels.draws(
-            &gpu.device,
-            surface,
-            &self.clipmap,
-            &update.active,
-            cull.map(|f| (f as &dyn Sees, view.eye)),
-            0.0,
-        );
+        let horizon = cull.and_then(|_| self.horizon(surface, &update.active, pose, view));
+        let cull = cull.map(|frustum| Cull { volume: frustum, eye: view.eye, horizon: horizon.as_ref() });
+        let levels = self.levels.draws(&gpu.device, surface, &self.clipmap, &update.active, cull, 0.0);
         TerrainDraw { base, base_sink: sink.unwrap_or(0.0), levels, update, records }
+    }
+
+    /// The planet's horizon the levels' blocks are culled by, where that is
+    /// exact: the eye at least ten near-plane distances above the drawn
+    /// ground (so the ground a sight line first meets is drawn), and every
+    /// sight line meeting the occluder inside the coarsest level's window
+    /// (so the ground that hides a block is the levels' own). The occluder
+    /// lies under every drawn point: under the lowest height the levels
+    /// hold, by the most a flat cell sags below its samples (the coarsest
+    /// level's diagonal squared over twice the radius; a morphed vertex
+    /// lies within such a cell) and a metre for f32 positions.
+    fn horizon(&self, surface: &Surface, active: &[u8], pose: &Pose, view: &View) -> Option<Horizon> {
+        if !surface.is_planet() {
+            return None;
+        }
+        let coarsest = self.clipmap.level(*active.first()?)?;
+        let [x, y, _] = pose.position;
+        let ground = ground::drawn_point(surface, &self.clipmap, active, pose, x, y)?;
+        if (view.eye - ground).dot(surface.enu(x, y)[2]) < 10.0 * crate::camera::NEAR_M {
+            return None;
+        }
+        let cell = surface.step(coarsest.tile_level) * surface.metres_per_unit() * std::f64::consts::SQRT_2;
+        let sag = cell * cell / (2.0 * relief_source::geodesy::WGS84_B);
+        let lowest =
+            active.iter().filter_map(|&t| self.clipmap.level(t)).map(|l| l.lowest_m).fold(f64::INFINITY, f64::min);
+        let horizon = Horizon::new(view.eye, lowest - sag - 1.0)?;
+        (horizon.reach_m * 1.01 < ground::reach_m(surface, coarsest, x, y)).then_some(horizon)
     }
 
     /// Writes the levels' records for `draw` drawn with `frame` (the
@@ -308,7 +332,8 @@ impl TerrainPass {
             .as_ref()
             .and_then(|b| b.cells(device, surface, &self.clipmap, active, view, pose, pixel_angle, Some(cull)))
             .map(|(mesh, _)| mesh);
-        let levels = self.levels.draws(device, surface, &self.clipmap, active, Some((cull, view.eye)), finest_m);
+        let cull = Cull { volume: cull, eye: view.eye, horizon: None };
+        let levels = self.levels.draws(device, surface, &self.clipmap, active, Some(cull), finest_m);
         TerrainCasters { base, levels }
     }
 
