@@ -31,6 +31,8 @@ pub(super) struct Header {
     tiling: Option<Tiling>,
     native: Option<Native>,
     bytes_per_pixel: usize,
+    /// What a file level's block takes in the cache a pixel (`Store`).
+    pub(super) cache_pixel_bytes: usize,
     categorical: bool,
 }
 
@@ -147,12 +149,13 @@ impl Raster {
         let sixteen = decoder.heights_as_stored()
             && holes.is_empty()
             && tiling.as_ref().map_or_else(|| decoder.reads_i16(&ds), Tiling::holds_i16);
+        let cache_pixel_bytes = if sixteen { 2 } else { 4 * decoder.planes() };
         details.insert(
             "block_cache".into(),
             if sixteen {
                 "16-bit heights as the file stores them (2 bytes a pixel); a level halved here, decoded f32".into()
             } else {
-                format!("decoded f32 ({} bytes a pixel)", 4 * decoder.planes())
+                format!("decoded f32 ({cache_pixel_bytes} bytes a pixel)")
             },
         );
         let overviews = levels.iter().filter(|l| l.overview.is_some()).count();
@@ -194,6 +197,7 @@ impl Raster {
             tiling,
             native,
             bytes_per_pixel,
+            cache_pixel_bytes,
             categorical,
         })
     }
@@ -237,6 +241,7 @@ impl Raster {
             tiling: Some(tiling),
             native: None,
             bytes_per_pixel: store.bytes_per_pixel,
+            cache_pixel_bytes: store.cache_pixel_bytes,
             categorical: options.categorical,
         }))
     }
@@ -246,8 +251,19 @@ impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
-        let Self { mut raster, decoder, levels, open_path, warp, holes, tiling, native, bytes_per_pixel, categorical } =
-            self;
+        let Self {
+            mut raster,
+            decoder,
+            levels,
+            open_path,
+            warp,
+            holes,
+            tiling,
+            native,
+            bytes_per_pixel,
+            cache_pixel_bytes,
+            categorical,
+        } = self;
         let file_stamp =
             FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
         let halving = match (raster.kind, categorical) {
@@ -272,6 +288,7 @@ impl Header {
             file_stamp,
             decoder,
             bytes_per_pixel,
+            cache_pixel_bytes,
             levels,
             halving,
             stamps,

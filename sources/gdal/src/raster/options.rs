@@ -51,8 +51,9 @@ impl VerticalUnits {
 /// How the pixels are held.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Residency {
-    /// Whole when the decoded base level is at most a quarter of the block
-    /// budget, else windowed.
+    /// Whole when the base level, as the block cache keeps it (2 bytes a
+    /// pixel for heights kept 16-bit, else 4 a plane), is at most a quarter
+    /// of the block budget, else windowed.
     Auto,
     /// Read whole when the raster opens and kept: the last good pixels are
     /// served whatever then happens to the file.
