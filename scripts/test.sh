@@ -21,7 +21,9 @@ trap 'rm -rf "$log" "$pylog" "$XDG_CACHE_HOME"' EXIT
 # dev-dependencies' features, and build much of the workspace twice.
 cargo test --workspace --all-targets --no-run
 status=0
-cargo test --workspace 2>&1 | tee "$log" || status=$?
+# Every test binary runs, whatever an earlier one did, so one run shows
+# every failure.
+cargo test --workspace --no-fail-fast 2>&1 | tee "$log" || status=$?
 # The Python client (clients/python) and its example, against this reliefd.
 RELIEF_BIN=target/debug/reliefd bash clients/python/scripts/test.sh 2>&1 | tee "$pylog" || status=$?
 # The QGIS plugin (clients/qgis) in headless PyQGIS, against this reliefd.

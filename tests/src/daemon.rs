@@ -9,12 +9,17 @@ use std::time::Duration;
 use anyhow::{Context, bail};
 use tonic::transport::Channel;
 
+/// How long a stopped reliefd's log may take to reach its last line.
+const LOG_END_WAIT: Duration = Duration::from_secs(5);
+
 /// A running reliefd. Dropping it kills the process; `stop` shuts it down
 /// gracefully and returns what it logged.
 pub struct Reliefd {
     child: Child,
     pub addr: String,
     log: Arc<Mutex<Vec<String>>>,
+    /// Told when the log's reader has read the last line (stderr closed).
+    log_ended: Mutex<mpsc::Receiver<()>>,
     /// Every line it printed on stdout.
     printed: Arc<Mutex<Vec<String>>>,
     /// Its user cache folder (the disk tile cache's default home): one per
@@ -44,10 +49,12 @@ impl Reliefd {
         let log = Arc::new(Mutex::new(Vec::new()));
         let stderr = child.stderr.take().context("reliefd has no stderr")?;
         let err_log = Arc::clone(&log);
+        let (log_done, log_ended) = mpsc::channel();
         std::thread::Builder::new().name("reliefd-stderr".into()).spawn(move || {
             for line in BufReader::new(stderr).lines().map_while(Result::ok) {
                 err_log.lock().expect("log lock").push(line);
             }
+            let _ = log_done.send(());
         })?;
         let stdout = child.stdout.take().context("reliefd has no stdout")?;
         let (tx, rx) = mpsc::sync_channel(1);
@@ -62,10 +69,13 @@ impl Reliefd {
             }
         })?;
         match rx.recv_timeout(Duration::from_secs(60)) {
-            Ok(addr) => Ok(Self { child, addr, log, printed, _cache: cache }),
+            Ok(addr) => Ok(Self { child, addr, log, log_ended: Mutex::new(log_ended), printed, _cache: cache }),
             Err(_) => {
                 let _ = child.kill();
                 let _ = child.wait();
+                // A daemon that refused its scene closes stdout as it exits,
+                // which can be before its error line reaches the log.
+                let _ = log_ended.recv_timeout(LOG_END_WAIT);
                 bail!("reliefd did not start: {}", log.lock().expect("log lock").join("\n"))
             }
         }
@@ -116,10 +126,12 @@ impl Reliefd {
         Command::new("kill").args(["-TERM", &pid]).status()?;
         for _ in 0..100 {
             if let Some(status) = self.child.try_wait()? {
+                // Every line it wrote before it exited, not those the reader
+                // had reached.
+                let _ = self.log_ended.lock().expect("log lock").recv_timeout(LOG_END_WAIT);
                 if !status.success() {
                     bail!("reliefd exited with {status}: {}", self.log().join("\n"));
                 }
-                std::thread::sleep(Duration::from_millis(50));
                 let log = self.log();
                 let unexpected: Vec<&String> = log
                     .iter()
