@@ -101,7 +101,7 @@ fn main() -> anyhow::Result<()> {
             let frame = last.context("no frame rendered")?;
             let (rms, max) = surface_error(&frame);
             // Every cell of every active level, less the finer levels' holes
-            // and the blocks culled outside the view.
+            // and the blocks culled outside the view or beyond the horizon.
             let d = frame.drawn;
             let triangles =
                 frame.update.active.len() * (n - 1) * (n - 1) * 2 * d.terrain_blocks_drawn / d.terrain_blocks.max(1);

@@ -106,10 +106,13 @@ pub struct SceneLayers<'a> {
 /// What a frame drew.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Drawn {
-    /// The terrain levels' blocks (16 x 16 cells) with cells to draw, and
-    /// those inside the view, drawn.
+    /// The terrain levels' blocks (16 x 16 cells) with cells to draw;
+    /// those drawn (inside the view and short of the planet's horizon);
+    /// and those left out though inside the view's frustum, beyond the
+    /// horizon.
     pub terrain_blocks: usize,
     pub terrain_blocks_drawn: usize,
+    pub terrain_blocks_beyond_horizon: usize,
     pub buildings: usize,
     /// Instances within reach and in the view before the distance bands
     /// thin them; those drawn as models, and as billboards (one fading
@@ -261,8 +264,9 @@ impl Renderer {
         let above_ground_m = (pose.position[2] - ground_m.unwrap_or(0.0)).abs();
         let terrain_ms = started.elapsed().as_secs_f64() * 1e3;
 
-        let (terrain_blocks, terrain_blocks_drawn) = draw.blocks();
-        let mut drawn = Drawn { terrain_blocks, terrain_blocks_drawn, ..Drawn::default() };
+        let (terrain_blocks, terrain_blocks_drawn, terrain_blocks_beyond_horizon) = draw.blocks();
+        let mut drawn =
+            Drawn { terrain_blocks, terrain_blocks_drawn, terrain_blocks_beyond_horizon, ..Drawn::default() };
         if layers.buildings.is_none() && self.buildings.take().is_some() {
             self.counters.set_built(passes::BUILDINGS, false);
         }

@@ -268,6 +268,13 @@ impl ClipLevel {
         (gy.rem_euclid(n) * n + gx.rem_euclid(n)) as usize
     }
 
+    /// Stored sample (gx, gy) (global indices) as a world point; None off
+    /// the grid.
+    pub(crate) fn sample(&self, gx: i64, gy: i64) -> Option<DVec3> {
+        let p = self.positions[self.slot(gx, gy)];
+        (p[3] >= 0.5).then(|| self.anchor + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
+    }
+
     /// The colour window: samples of the colour level over the same ground.
     pub fn color_window(&self) -> Rect {
         let r = self.color_detail as i64;
@@ -443,6 +450,12 @@ impl Clipmap {
     /// Tile levels drawn, coarse to fine.
     pub fn active(&self) -> &[u8] {
         &self.active
+    }
+
+    /// The lowest height levels `active` hold (nodata counted at 0, as
+    /// drawn), metres; infinite while they hold none.
+    pub fn lowest_m(&self, active: &[u8]) -> f64 {
+        active.iter().filter_map(|&t| self.level(t)).map(|l| l.lowest_m).fold(f64::INFINITY, f64::min)
     }
 
     /// The window origin of tile level `level` for a camera over (x, y):

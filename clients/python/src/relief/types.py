@@ -332,7 +332,8 @@ class FrameDrawn:
     models: int
     billboards: int
     #: The terrain's clipmap level blocks (16 x 16 cells) with cells to
-    #: draw, and those drawn: the rest lay wholly outside the view.
+    #: draw, and those drawn: the rest lay wholly outside the view or, on
+    #: the planet, wholly beyond its horizon.
     terrain_blocks: int = 0
     terrain_blocks_drawn: int = 0
     #: Shadow cascades drawn for this frame, and kept from the frame before

@@ -37,6 +37,8 @@ pub struct Base {
     world: Vec<DVec3>,
     /// Each sample's height as drawn (nodata at 0), metres.
     heights: Vec<f32>,
+    /// The least of `heights`.
+    lowest_m: f64,
     vertices: wgpu::Buffer,
     /// Ground size of one cell, metres (at the equator on the planet).
     cell_m: f64,
@@ -84,7 +86,16 @@ impl Base {
             contents: bytemuck::cast_slice(&vertices),
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
         });
-        Some(Self { cols, rows, world, heights, vertices, cell_m: surface.step(0) * surface.metres_per_unit() })
+        let lowest_m = lowest(&heights);
+        Some(Self {
+            cols,
+            rows,
+            world,
+            heights,
+            lowest_m,
+            vertices,
+            cell_m: surface.step(0) * surface.metres_per_unit(),
+        })
     }
 
     /// Fetches again the samples inside `area` (grid units) and writes
@@ -114,16 +125,18 @@ impl Base {
             let offset = (first * size_of::<BaseVertex>()) as u64;
             queue.write_buffer(&self.vertices, offset, bytemuck::cast_slice(&vertices[k * width..(k + 1) * width]));
         }
+        self.lowest_m = lowest(&self.heights);
         true
     }
 
     /// The base's cells for this frame, and how far it is sunk. On the
     /// planet the stride is the coarsest whose flat cells sag (chord below
     /// the arc) less than a pixel at the horizon, and cells past the horizon
-    /// are left out: farther than the eye's horizon over the ellipsoid and
-    /// the horizon of the cell's highest corner together (a mountain stands
-    /// over the eye's horizon from as far as its own reaches); cells under
-    /// the coarsest level are left out too.
+    /// are left out: farther than the eye's horizon and the horizon of the
+    /// cell's highest corner together (a mountain stands over the eye's
+    /// horizon from as far as its own reaches), both over the lowest ground
+    /// drawn (sea level, or a seabed or a basin below it); cells under the
+    /// coarsest level are left out too.
     #[allow(clippy::too_many_arguments)]
     pub fn cells(
         &self,
@@ -138,9 +151,14 @@ impl Base {
     ) -> Option<((wgpu::Buffer, wgpu::Buffer, u32), f64)> {
         let base = self;
         let planet = surface.is_planet();
-        let radius = geodesy::WGS84_A;
         let height = pose.position[2].max(1.0);
-        let horizon = (2.0 * radius * height + height * height).sqrt();
+        // Heights over the lowest ground drawn: ground below sea level hides
+        // less than sea level would. An eye under it sees no horizon.
+        let floor = base.lowest_m.min(clipmap.lowest_m(active)).min(0.0);
+        let radius = geodesy::WGS84_A + floor;
+        let horizon_m = |h: f64| (2.0 * radius * h + h * h).sqrt();
+        let over_floor = pose.position[2] - floor;
+        let horizon = if over_floor >= 0.0 { horizon_m(over_floor.max(1.0)) } else { f64::INFINITY };
         // The nearest base cell is about where the coarsest level ends.
         let nearest = active.first().and_then(|&t| clipmap.level(t)).map_or(height, |level| {
             let reach = (level.n / 2) as f64 * surface.step(level.tile_level) * surface.metres_per_unit();
@@ -173,10 +191,10 @@ impl Base {
                     let distance = (centre - view.eye).length();
                     if distance > horizon + cell {
                         let top = [(i, j), (i1, j), (i, j1), (i1, j1)]
-                            .map(|(i, j)| f64::from(base.heights[(j * base.cols + i) as usize]).max(0.0))
+                            .map(|(i, j)| f64::from(base.heights[(j * base.cols + i) as usize]) - floor)
                             .into_iter()
                             .fold(0.0, f64::max);
-                        if distance > horizon + (2.0 * radius * top + top * top).sqrt() + cell {
+                        if distance > horizon + horizon_m(top) + cell {
                             continue;
                         }
                     }
@@ -218,4 +236,9 @@ impl Base {
         // clipmap is on top: 0.3% of a drawn cell.
         Some(((base.vertices.clone(), index_buffer, indices.len() as u32), 0.003 * cell))
     }
+}
+
+/// The least of `heights` (0 when there are none: sea level).
+fn lowest(heights: &[f32]) -> f64 {
+    heights.iter().copied().reduce(f32::min).map_or(0.0, f64::from)
 }

@@ -10,21 +10,14 @@ use crate::camera::Pose;
 use crate::clipmap::{ClipLevel, Clipmap};
 use crate::surface::Surface;
 
-/// A level's stored sample by global index, as a world point; None off the
-/// grid.
-fn sample(level: &ClipLevel, gx: i64, gy: i64) -> Option<DVec3> {
-    let p = level.positions[level.slot(gx, gy)];
-    (p[3] >= 0.5).then(|| level.anchor + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])))
-}
-
 /// The coarser level's surface under fine sample (gx, gy) (`coarse_at`).
 fn coarse_at(c: &ClipLevel, gx: i64, gy: i64) -> Option<DVec3> {
     let (x0, y0) = (gx >> 1, gy >> 1);
     Some(match (gx & 1 == 1, gy & 1 == 1) {
-        (true, true) => 0.5 * (sample(c, x0, y0)? + sample(c, x0 + 1, y0 + 1)?),
-        (true, false) => 0.5 * (sample(c, x0, y0)? + sample(c, x0 + 1, y0)?),
-        (false, true) => 0.5 * (sample(c, x0, y0)? + sample(c, x0, y0 + 1)?),
-        (false, false) => sample(c, x0, y0)?,
+        (true, true) => 0.5 * (c.sample(x0, y0)? + c.sample(x0 + 1, y0 + 1)?),
+        (true, false) => 0.5 * (c.sample(x0, y0)? + c.sample(x0 + 1, y0)?),
+        (false, true) => 0.5 * (c.sample(x0, y0)? + c.sample(x0, y0 + 1)?),
+        (false, false) => c.sample(x0, y0)?,
     })
 }
 
@@ -86,7 +79,7 @@ fn on_level(
     let w = (level.n as f64 / 10.0).max(2.0);
     let vertex = |i: i64, j: i64| -> Option<DVec3> {
         let (gx, gy) = (level.origin.0 + i, level.origin.1 + j);
-        let fine = sample(level, gx, gy)?;
+        let fine = level.sample(gx, gy)?;
         let Some(c) = coarser else { return Some(fine) };
         let d = (i as f64 - bx).abs().max((j as f64 - by).abs());
         let edge = i == 0 || j == 0 || i == n - 1 || j == n - 1;

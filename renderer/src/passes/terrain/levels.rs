@@ -22,11 +22,6 @@ pub const MAX_LEVELS: usize = 16;
 /// each level as blocks, and a block wholly outside the view is not drawn.
 const BLOCK: usize = 16;
 
-/// Samples around a block that its bounds also take in: vertices near a
-/// level's edge are blended onto the coarser level's surface, which is
-/// interpolated from samples up to two of this level's away.
-const BLEND_REACH: usize = 2;
-
 /// One block of a level's cells: its cells `[i0, i1) x [j0, j1)` and the
 /// range of the level's indices that draws them (empty inside the hole).
 #[derive(Debug, Clone)]
@@ -49,9 +44,11 @@ pub struct LevelDraw {
     pub slot: u32,
     hole: Option<(i64, i64)>,
     pub ranges: Vec<Range<u32>>,
-    /// Blocks with cells, and those of them drawn.
+    /// Blocks with cells, those of them drawn, and those left out though
+    /// inside the view's volume: beyond the planet's horizon.
     pub blocks: usize,
     pub blocks_drawn: usize,
+    pub blocks_beyond_horizon: usize,
 }
 
 /// One active level as its draws' vertices read it: an instance-rate
@@ -186,7 +183,7 @@ impl Levels {
     /// What each active level draws: every cell but the hole the next
     /// finer level fills, by blocks, leaving out the blocks `cull` (the
     /// view's frustum, or a shadow cascade's box, and the eye) shows wholly
-    /// outside it. Levels whose samples are closer than `finest_m` metres
+    /// outside it, or wholly beyond its horizon. Levels whose samples are closer than `finest_m` metres
     /// are left out, the finest level kept drawn whole (no hole): a shadow
     /// map's texels cannot tell them apart.
     pub fn draws(
@@ -206,15 +203,7 @@ impl Levels {
         for (k, &t) in active.iter().enumerate().take(kept) {
             let Some(level) = clipmap.level(t) else { continue };
             let finer = active.get(k + 1).filter(|_| k + 1 < kept).and_then(|&f| clipmap.level(f));
-            let coarser = k.checked_sub(1).and_then(|c| clipmap.level(active[c])).map(|c| {
-                let mut shift = 0;
-                if surface.is_planet() {
-                    let total = surface.revolution(c.tile_level);
-                    let (centre, ours) = (c.origin.0 + (n / 2) as i64, (level.origin.0 + (n / 2) as i64) >> 1);
-                    shift = total * ((centre - ours) as f64 / total as f64).round() as i64;
-                }
-                (c, shift)
-            });
+            let coarser = k.checked_sub(1).and_then(|c| clipmap.level(active[c]));
             let hole = finer.map(|finer| {
                 let mut hx = finer.origin.0 / 2 - level.origin.0;
                 if surface.is_planet() {
@@ -232,13 +221,24 @@ impl Levels {
                 });
                 LevelCells { buffer, blocks }
             });
-            let mut draw = LevelDraw { slot: k as u32, hole, ranges: Vec::new(), blocks: 0, blocks_drawn: 0 };
+            let mut draw = LevelDraw {
+                slot: k as u32,
+                hole,
+                ranges: Vec::new(),
+                blocks: 0,
+                blocks_drawn: 0,
+                blocks_beyond_horizon: 0,
+            };
             for block in cells.blocks.iter().filter(|b| !b.indices.is_empty()) {
                 draw.blocks += 1;
-                if cull.is_some_and(|cull| !in_view(level, coarser, block, &cull)) {
-                    continue;
+                match cull.map_or(Sight::InView, |cull| sight(level, coarser, block, &cull)) {
+                    Sight::InView => draw.blocks_drawn += 1,
+                    Sight::BeyondHorizon => {
+                        draw.blocks_beyond_horizon += 1;
+                        continue;
+                    }
+                    Sight::Outside => continue,
                 }
-                draw.blocks_drawn += 1;
                 match draw.ranges.last_mut() {
                     Some(last) if last.end == block.indices.start => last.end = block.indices.end,
                     _ => draw.ranges.push(block.indices.clone()),
@@ -261,57 +261,61 @@ pub struct Cull<'a> {
 }
 
 /// The points, relative to the eye, whose convex hull holds `block` of
-/// `level` as drawn: its samples, this level's samples its edge vertices
-/// are blended with (`BLEND_REACH`), and the coarser level's samples under
-/// them (`coarser`: that level, and what to add to half a global column of
-/// this level to find its column there, a revolution on the planet).
-fn block_points(level: &ClipLevel, coarser: Option<(&ClipLevel, i64)>, block: &Block, eye: DVec3) -> Vec<DVec3> {
-    let n = level.n;
+/// `level` as drawn: its samples, and the `coarser` level's samples its
+/// vertices are blended onto (the shader's `coarse_at`: those under it,
+/// and the next one along where it lies between two).
+fn block_points(level: &ClipLevel, coarser: Option<&ClipLevel>, block: &Block, eye: DVec3) -> Vec<DVec3> {
     let [i0, i1, j0, j1] = block.cells;
-    let xs =
-        level.origin.0 + i0.saturating_sub(BLEND_REACH) as i64..=level.origin.0 + (i1 + BLEND_REACH).min(n - 1) as i64;
-    let ys =
-        level.origin.1 + j0.saturating_sub(BLEND_REACH) as i64..=level.origin.1 + (j1 + BLEND_REACH).min(n - 1) as i64;
+    let xs = level.origin.0 + i0 as i64..=level.origin.0 + i1 as i64;
+    let ys = level.origin.1 + j0 as i64..=level.origin.1 + j1 as i64;
     let mut points = Vec::with_capacity(xs.clone().count() * ys.clone().count() * 5 / 4);
-    let mut take = |l: &ClipLevel, gx: i64, gy: i64| {
-        let p = l.positions[l.slot(gx, gy)];
-        if p[3] >= 0.5 {
-            points.push(l.anchor - eye + DVec3::new(f64::from(p[0]), f64::from(p[1]), f64::from(p[2])));
-        }
-    };
+    let mut take = |l: &ClipLevel, gx: i64, gy: i64| points.extend(l.sample(gx, gy).map(|p| p - eye));
     for gy in ys.clone() {
         for gx in xs.clone() {
             take(level, gx, gy);
         }
     }
-    if let Some((c, shift)) = coarser {
+    if let Some(c) = coarser {
         for gy in ys.start() >> 1..=(ys.end() + 1) >> 1 {
             for gx in xs.start() >> 1..=(xs.end() + 1) >> 1 {
-                take(c, gx + shift, gy);
+                take(c, gx, gy);
             }
         }
     }
     points
 }
 
-/// False when `block` of `level`, as drawn (`block_points`), lies wholly
+/// Where a block lies for a cull.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sight {
+    InView,
+    /// Wholly outside the volume.
+    Outside,
+    /// Inside the volume, but wholly beyond the horizon.
+    BeyondHorizon,
+}
+
+/// Whether `block` of `level`, as drawn (`block_points`), lies wholly
 /// outside the volume `cull` gives, or wholly beyond its horizon. Bounds
 /// are taken in f64 from the levels' stored positions; a block without
 /// terrain is out of view.
-fn in_view(level: &ClipLevel, coarser: Option<(&ClipLevel, i64)>, block: &Block, cull: &Cull<'_>) -> bool {
+fn sight(level: &ClipLevel, coarser: Option<&ClipLevel>, block: &Block, cull: &Cull<'_>) -> Sight {
     let points = block_points(level, coarser, block, cull.eye);
     if points.is_empty() {
-        return false;
+        return Sight::Outside;
     }
     let (lo, hi) = points.iter().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     // A hundredth more than the half-diagonal: f32 positions and the
     // shader's own rounding never reach it.
     if !cull.volume.sees((lo + hi) / 2.0, (hi - lo).length() / 2.0 * 1.01 + 1.0) {
-        return false;
+        return Sight::Outside;
     }
     // What the horizon hides is convex: when every point (with a metre
     // round it for f32 positions) is hidden, so is their hull.
-    !cull.horizon.is_some_and(|h| points.iter().all(|&p| h.hides(p, 1.0)))
+    if cull.horizon.is_some_and(|h| points.iter().all(|&p| h.hides(p, 1.0))) {
+        return Sight::BeyondHorizon;
+    }
+    Sight::InView
 }
 
 /// Two triangles per cell of an n x n vertex grid (diagonal north-west to

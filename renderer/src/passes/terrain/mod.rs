@@ -79,10 +79,12 @@ pub struct TerrainDraw {
 }
 
 impl TerrainDraw {
-    /// Blocks of the levels' cells, and those drawn (the rest were out of
-    /// view).
-    pub fn blocks(&self) -> (usize, usize) {
-        self.levels.iter().fold((0, 0), |(all, drawn), l| (all + l.blocks, drawn + l.blocks_drawn))
+    /// Blocks of the levels' cells, those drawn, and those left out though
+    /// inside the view's frustum: beyond the planet's horizon.
+    pub fn blocks(&self) -> (usize, usize, usize) {
+        self.levels.iter().fold((0, 0, 0), |(all, drawn, beyond), l| {
+            (all + l.blocks, drawn + l.blocks_drawn, beyond + l.blocks_beyond_horizon)
+        })
     }
 }
 
@@ -256,9 +258,7 @@ impl TerrainPass {
         }
         let cell = surface.step(coarsest.tile_level) * surface.metres_per_unit() * std::f64::consts::SQRT_2;
         let sag = cell * cell / (2.0 * relief_source::geodesy::WGS84_B);
-        let lowest =
-            active.iter().filter_map(|&t| self.clipmap.level(t)).map(|l| l.lowest_m).fold(f64::INFINITY, f64::min);
-        let horizon = Horizon::new(view.eye, lowest - sag - 1.0)?;
+        let horizon = Horizon::new(view.eye, self.clipmap.lowest_m(active) - sag - 1.0)?;
         (horizon.reach_m * 1.01 < ground::reach_m(surface, coarsest, x, y)).then_some(horizon)
     }
 
