@@ -45,3 +45,37 @@ fn auto_reads_whole_what_fits_a_quarter_of_the_budget_as_the_cache_keeps_it() {
     assert!(float32["block_cache"].starts_with("decoded f32"), "{float32:?}");
     assert!(float32["read"].starts_with("windowed"), "{float32:?}");
 }
+
+/// A VRT placing two Int16 halves of a DEM side by side.
+fn mosaic(dir: &Path, member_overviews: bool) -> std::path::PathBuf {
+    let halves = ["west", "east"].map(|name| dir.join(format!("{name}.tif")));
+    for (k, half) in halves.iter().enumerate() {
+        write::<i16>(half, |i, j| (i + j + k) as i16);
+        let mut ds = gdal::Dataset::open(half).unwrap();
+        ds.set_geo_transform(&[7.0 + k as f64 * 0.1, 1e-4, 0.0, 47.0, 0.0, -1e-4]).unwrap();
+        if member_overviews {
+            ds.build_overviews("AVERAGE", &[2, 4], &[]).unwrap();
+        }
+    }
+    let vrt = dir.join("mosaic.vrt");
+    let status = std::process::Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(&halves).status().unwrap();
+    assert!(status.success(), "gdalbuildvrt (gdal-bin)");
+    vrt
+}
+
+#[test]
+fn a_mosaics_overviews_are_sized_as_the_cache_keeps_them() {
+    // The members' own overviews are read 16-bit through them; the VRT's
+    // own (a .vrt.ovr) are read through GDAL, decoded f32: read-ahead
+    // counts their blocks at 4 bytes a pixel.
+    let dir = tempfile::tempdir().unwrap();
+    let through_members = details(&mosaic(dir.path(), true));
+    assert!(through_members["block_cache"].starts_with("16-bit"), "{through_members:?}");
+    assert!(!through_members["block_cache"].contains("overviews decoded f32"), "{through_members:?}");
+    let dir = tempfile::tempdir().unwrap();
+    let vrt = mosaic(dir.path(), false);
+    gdal::Dataset::open(&vrt).unwrap().build_overviews("AVERAGE", &[2, 4], &[]).unwrap();
+    let own = details(&vrt);
+    assert!(own["block_cache"].starts_with("16-bit"), "{own:?}");
+    assert!(own["block_cache"].contains("2 of its 2 overviews decoded f32"), "{own:?}");
+}

@@ -164,12 +164,17 @@ impl Decoder {
         raw
     }
 
-    /// True when GDAL reads this decoder's heights from `ds` as 16-bit
-    /// integers that are the heights as they are: an Int16 height band
-    /// with no scale or offset, whose only mask is its nodata value.
-    pub(crate) fn reads_i16(&self, ds: &Dataset) -> bool {
+    /// True when GDAL reads this decoder's heights from `ds` (the base
+    /// level, or overview number `overview`) as 16-bit integers that are
+    /// the heights as they are: an Int16 height band with no scale or
+    /// offset, whose only mask is its nodata value.
+    pub(crate) fn reads_i16(&self, ds: &Dataset, overview: Option<usize>) -> bool {
         let Self::Height { band, .. } = self else { return false };
-        ds.rasterband(*band).is_ok_and(|band| self.reads_i16_from(&band))
+        let Ok(band) = ds.rasterband(*band) else { return false };
+        match overview {
+            None => self.reads_i16_from(&band),
+            Some(o) => band.overview(o).is_ok_and(|o| self.reads_i16_from(&o)),
+        }
     }
 
     fn reads_i16_from(&self, band: &RasterBand<'_>) -> bool {

@@ -31,8 +31,6 @@ pub(super) struct Header {
     tiling: Option<Tiling>,
     native: Option<Native>,
     bytes_per_pixel: usize,
-    /// What a file level's block takes in the cache a pixel (`Store`).
-    pub(super) cache_pixel_bytes: usize,
     categorical: bool,
 }
 
@@ -128,7 +126,7 @@ impl Raster {
         }
         let (decoder, units) = Decoder::new(&ds, kind, options, path, &mut details)?;
         let categorical = options.categorical;
-        let levels = level_infos(&ds, &decoder, (width, height), options.overviews && !categorical);
+        let mut levels = level_infos(&ds, &decoder, (width, height), options.overviews && !categorical);
         // A mosaic of whole files placed pixel for pixel is read from them.
         let tiling = match (&decoder, &warped) {
             (Decoder::Height { band, .. }, None) => Tiling::plan(&members, *band, &ds, path),
@@ -145,19 +143,9 @@ impl Raster {
         if let Some(native) = &native {
             details.insert("block_decoding".into(), native.describe());
         }
-        // As `Store::read_pixels` keeps blocks.
-        let sixteen = decoder.heights_as_stored()
-            && holes.is_empty()
-            && tiling.as_ref().map_or_else(|| decoder.reads_i16(&ds), Tiling::holds_i16);
-        let cache_pixel_bytes = if sixteen { 2 } else { 4 * decoder.planes() };
-        details.insert(
-            "block_cache".into(),
-            if sixteen {
-                "16-bit heights as the file stores them (2 bytes a pixel); a level halved here, decoded f32".into()
-            } else {
-                format!("decoded f32 ({cache_pixel_bytes} bytes a pixel)")
-            },
-        );
+        let as_stored = decoder.heights_as_stored() && holes.is_empty();
+        let kept = Kept { ds: &ds, decoder: &decoder, tiling: tiling.as_ref(), native: native.as_ref(), as_stored };
+        details.insert("block_cache".into(), kept.size(&mut levels));
         let overviews = levels.iter().filter(|l| l.overview.is_some()).count();
         details.insert(
             "overviews".into(),
@@ -197,7 +185,6 @@ impl Raster {
             tiling,
             native,
             bytes_per_pixel,
-            cache_pixel_bytes,
             categorical,
         })
     }
@@ -241,7 +228,6 @@ impl Raster {
             tiling: Some(tiling),
             native: None,
             bytes_per_pixel: store.bytes_per_pixel,
-            cache_pixel_bytes: store.cache_pixel_bytes,
             categorical: options.categorical,
         }))
     }
@@ -251,19 +237,8 @@ impl Header {
     /// The raster of this header with a store of its own: blocks under
     /// `uid`, stamps and counters carried from `previous` when given.
     pub(super) fn into_raster(self, uid: u64, previous: Option<&Store>) -> Result<Raster, SourceError> {
-        let Self {
-            mut raster,
-            decoder,
-            levels,
-            open_path,
-            warp,
-            holes,
-            tiling,
-            native,
-            bytes_per_pixel,
-            cache_pixel_bytes,
-            categorical,
-        } = self;
+        let Self { mut raster, decoder, levels, open_path, warp, holes, tiling, native, bytes_per_pixel, categorical } =
+            self;
         let file_stamp =
             FileStamp::of(&raster.path).ok_or_else(|| SourceError::Changing { path: raster.path.clone() })?;
         let halving = match (raster.kind, categorical) {
@@ -288,7 +263,6 @@ impl Header {
             file_stamp,
             decoder,
             bytes_per_pixel,
-            cache_pixel_bytes,
             levels,
             halving,
             stamps,
@@ -304,6 +278,44 @@ impl Header {
 
 /// The levels of the pyramid: halving the base until one pixel; each uses
 /// the file's overview of exactly its size when `use_overviews`.
+/// What decides how a raster's file levels are kept in the block cache.
+struct Kept<'a> {
+    ds: &'a Dataset,
+    decoder: &'a Decoder,
+    tiling: Option<&'a Tiling>,
+    native: Option<&'a Native>,
+    /// Heights read as the file stores them, with no holes punched.
+    as_stored: bool,
+}
+
+impl Kept<'_> {
+    /// Sets each level's `cache_pixel_bytes` as `Store::read_pixels` keeps
+    /// its blocks (a level halved here is kept f32), and says how, for the
+    /// state's `block_cache`.
+    fn size(&self, levels: &mut [LevelInfo]) -> String {
+        let f32_bytes = 4 * self.decoder.planes();
+        for (index, level) in levels.iter_mut().enumerate() {
+            let size = (level.width, level.height);
+            let sixteen = self.as_stored
+                && (index == 0 || level.overview.is_some())
+                && match (self.tiling, self.native) {
+                    (Some(tiling), _) => tiling.gives_i16(index),
+                    (None, Some(native)) if native.decodes(size) => native.keeps_i16(size),
+                    _ => self.decoder.reads_i16(self.ds, level.overview),
+                };
+            level.cache_pixel_bytes = if sixteen { 2 } else { f32_bytes };
+        }
+        if levels[0].cache_pixel_bytes != 2 {
+            return format!("decoded f32 ({f32_bytes} bytes a pixel)");
+        }
+        let overviews = levels.iter().filter(|l| l.overview.is_some());
+        let (all, wide) =
+            overviews.fold((0, 0), |(all, wide), l| (all + 1, wide + usize::from(l.cache_pixel_bytes != 2)));
+        let wide = if wide > 0 { format!("; {wide} of its {all} overviews decoded f32") } else { String::new() };
+        format!("16-bit heights as the file stores them (2 bytes a pixel){wide}; a level halved here, decoded f32")
+    }
+}
+
 fn level_infos(
     ds: &Dataset,
     decoder: &Decoder,

@@ -70,11 +70,6 @@ pub(crate) struct Store {
     file_stamp: FileStamp,
     decoder: Decoder,
     bytes_per_pixel: usize,
-    /// What a block of a level read from the file takes in the cache a
-    /// pixel: 2 for heights kept 16-bit as stored, else 4 a plane (what
-    /// the state's `block_cache` says). Read-ahead and reading whole are
-    /// sized by it.
-    cache_pixel_bytes: usize,
     levels: Vec<LevelInfo>,
     halving: Halving,
     /// Per level, per block: bumped where the pixels changed.
@@ -172,7 +167,7 @@ impl Raster {
         let header = Self::header(path, options)?;
         let residency = match options.residency {
             Residency::Auto => {
-                let bytes = header.raster.size.0 * header.raster.size.1 * header.cache_pixel_bytes;
+                let bytes = header.raster.size.0 * header.raster.size.1 * header.levels[0].cache_pixel_bytes;
                 if bytes as u64 <= block_budget() / 4 { Residency::Whole } else { Residency::Windowed }
             }
             other => other,
@@ -307,7 +302,6 @@ impl Store {
             file_stamp: FileStamp::NONE,
             decoder: Decoder::Height { band: 1, nodata: None, scale: 1.0, offset: 0.0 },
             bytes_per_pixel: 0,
-            cache_pixel_bytes: 4,
             levels: Vec::new(),
             halving: Halving::HeightMean,
             stamps: Vec::new(),
@@ -333,7 +327,6 @@ impl Store {
             file_stamp: self.file_stamp,
             decoder: self.decoder.clone(),
             bytes_per_pixel: self.bytes_per_pixel,
-            cache_pixel_bytes: self.cache_pixel_bytes,
             levels: self.levels.clone(),
             halving: self.halving,
             stamps: self.stamps.clone(),

@@ -204,9 +204,20 @@ impl Native {
     /// widened). None where `read` gives None, and for any other image.
     /// (A 16-bit image's fill is always such an integer: `Sample::fill`.)
     pub(crate) fn read_i16(&self, size: (usize, usize), rect: PixelRect) -> Option<Vec<i16>> {
-        let level = self.images.iter().find(|l| l.image.size == size && l.sample == Sample::I16)?;
-        let fill = exact_i16(self.fill)?;
+        let (level, fill) = self.i16_image(size)?;
         self.decode(level, rect, fill, |place, raw, out| place.keep(raw, out, level))
+    }
+
+    /// True when `read_i16` gives the image of `size` pixels.
+    pub(crate) fn keeps_i16(&self, size: (usize, usize)) -> bool {
+        self.i16_image(size).is_some()
+    }
+
+    /// The 16-bit image of `size` pixels, and its fill, where both are
+    /// 16-bit integers.
+    fn i16_image(&self, size: (usize, usize)) -> Option<(&Level, i16)> {
+        let level = self.images.iter().find(|l| l.image.size == size && l.sample == Sample::I16)?;
+        Some((level, exact_i16(self.fill)?))
     }
 
     /// Decodes the blocks under `rect` of `level`, each through `put`;

@@ -94,6 +94,11 @@ pub(crate) struct LevelInfo {
     pub pixel: (f64, f64),
     /// The part of the last column and of the last row on the raster.
     pub cover: (f64, f64),
+    /// What a block of this level takes in the block cache a pixel: 2
+    /// for heights kept 16-bit as stored, else 4 a plane (the header sets
+    /// it, as `Store::read_pixels` keeps the level). Read-ahead and
+    /// reading whole are sized by it.
+    pub cache_pixel_bytes: usize,
 }
 
 impl LevelInfo {
@@ -114,6 +119,7 @@ impl LevelInfo {
             overview,
             pixel,
             cover: (cover(base.0, pixel.0, width), cover(base.1, pixel.1, height)),
+            cache_pixel_bytes: 4,
         }
     }
 

@@ -91,7 +91,7 @@ pub(super) fn file_blocks(store: &Arc<Store>, level: usize, rect: &super::PixelR
     missing.dedup();
     // Read ahead at most a quarter of the block budget: more would be
     // pushed out again before the window reaches it.
-    let block_bytes = (BLOCK * BLOCK * store.cache_pixel_bytes) as u64;
+    let block_bytes = (BLOCK * BLOCK * base.cache_pixel_bytes) as u64;
     if missing.len() < 2 || missing.len() as u64 * block_bytes > super::blocks::block_budget() / 4 {
         return;
     }

@@ -158,6 +158,12 @@ impl Tiling {
         self.fill_i16().is_some()
     }
 
+    /// True when `read_i16` gives level `level` (not one the members
+    /// have no overviews for).
+    pub(super) fn gives_i16(&self, level: usize) -> bool {
+        self.holds_i16() && (level == 0 || self.member_overviews)
+    }
+
     /// The fill as a 16-bit integer, for a mosaic of Int16 files whose
     /// fill is one.
     fn fill_i16(&self) -> Option<i16> {
