@@ -97,6 +97,12 @@ impl Surface {
         if self.is_planet() { geodesy::WGS84_A.to_radians() } else { 1.0 }
     }
 
+    /// Corner-sample spacing at tile level `level`, metres along the
+    /// ground (at the equator on the planet).
+    pub fn spacing_m(&self, level: u8) -> f64 {
+        self.step(level) * self.metres_per_unit()
+    }
+
     /// Whether a sample lies on the grid; a flat scene ends at its edges.
     pub fn on_grid(&self, level: u8, gx: i64, gy: i64) -> bool {
         if self.is_planet() {

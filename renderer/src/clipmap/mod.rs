@@ -481,7 +481,7 @@ impl Clipmap {
         let wanted_step = 2.0 * height_m.max(0.01) * pixel_angle;
         // Colour reads one tile level finer than the geometry.
         let mut finest = max_level.min(relief_source::MAX_LEVEL - 1);
-        while finest > 0 && surface.step(finest) * surface.metres_per_unit() < wanted_step {
+        while finest > 0 && surface.spacing_m(finest) < wanted_step {
             finest -= 1;
         }
         let coarsest = finest.saturating_sub(self.config.levels as u8 - 1);

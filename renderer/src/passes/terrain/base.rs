@@ -87,15 +87,7 @@ impl Base {
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
         });
         let lowest_m = lowest(&heights);
-        Some(Self {
-            cols,
-            rows,
-            world,
-            heights,
-            lowest_m,
-            vertices,
-            cell_m: surface.step(0) * surface.metres_per_unit(),
-        })
+        Some(Self { cols, rows, world, heights, lowest_m, vertices, cell_m: surface.spacing_m(0) })
     }
 
     /// Fetches again the samples inside `area` (grid units) and writes
@@ -161,7 +153,7 @@ impl Base {
         let horizon = if over_floor >= 0.0 { horizon_m(over_floor.max(1.0)) } else { f64::INFINITY };
         // The nearest base cell is about where the coarsest level ends.
         let nearest = active.first().and_then(|&t| clipmap.level(t)).map_or(height, |level| {
-            let reach = (level.n / 2) as f64 * surface.step(level.tile_level) * surface.metres_per_unit();
+            let reach = (level.n / 2) as f64 * surface.spacing_m(level.tile_level);
             reach.hypot(height)
         });
         let stride: i64 = if planet {

@@ -128,7 +128,7 @@ pub fn reach_m(surface: &Surface, level: &ClipLevel, x: f64, y: f64) -> f64 {
     }
     // A degree of latitude is at least a (1 - e^2) pi / 180 metres, and of
     // longitude that times the cosine of the window's farthest latitude.
-    let metres = surface.step(level.tile_level) * surface.metres_per_unit() * (1.0 - relief_source::geodesy::WGS84_E2);
+    let metres = surface.spacing_m(level.tile_level) * (1.0 - relief_source::geodesy::WGS84_E2);
     let cos = lats.iter().map(|lat| lat.to_radians().cos()).fold(1.0, f64::min);
     (across * metres * cos).min(down * metres)
 }

@@ -196,9 +196,8 @@ impl Levels {
         finest_m: f64,
     ) -> Vec<LevelDraw> {
         let n = clipmap.config.n;
-        let spacing = |t: u8| surface.step(t) * surface.metres_per_unit();
         // Always the coarsest; finer ones while their samples are far enough apart.
-        let kept = active.iter().enumerate().take_while(|&(k, &t)| k == 0 || spacing(t) >= finest_m).count();
+        let kept = active.iter().enumerate().take_while(|&(k, &t)| k == 0 || surface.spacing_m(t) >= finest_m).count();
         let mut draws = Vec::new();
         for (k, &t) in active.iter().enumerate().take(kept) {
             let Some(level) = clipmap.level(t) else { continue };

@@ -256,7 +256,7 @@ impl TerrainPass {
         if (view.eye - ground).dot(surface.enu(x, y)[2]) < 10.0 * crate::camera::NEAR_M {
             return None;
         }
-        let cell = surface.step(coarsest.tile_level) * surface.metres_per_unit() * std::f64::consts::SQRT_2;
+        let cell = surface.spacing_m(coarsest.tile_level) * std::f64::consts::SQRT_2;
         let sag = cell * cell / (2.0 * relief_source::geodesy::WGS84_B);
         let horizon = Horizon::new(view.eye, self.clipmap.lowest_m(active) - sag - 1.0)?;
         (horizon.reach_m * 1.01 < ground::reach_m(surface, coarsest, x, y)).then_some(horizon)

@@ -61,7 +61,7 @@ impl Window {
         let texel = 2.0 * half_m / MASK_SIZE as f64;
         // The tile level whose samples are about a texel apart.
         let mut level = 0u8;
-        while level < water.finest_level() && surface.step(level) * surface.metres_per_unit() > texel {
+        while level < water.finest_level() && surface.spacing_m(level) > texel {
             level += 1;
         }
         // Each texel centre's grid point (longitudes kept near the
