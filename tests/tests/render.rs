@@ -111,6 +111,26 @@ async fn render_returns_the_frame_the_generation_and_its_passes() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_frame_says_which_terrain_blocks_it_left_out_and_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scene(dir.path(), ""), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    // The scene's camera, 9 km up looking north at 45 degrees down: the
+    // levels reach past its horizon (339 km away), so some blocks inside
+    // the view's frustum are hidden by the planet, and left out.
+    let frame = render(&channel, None, (320, 180)).await.unwrap();
+    let d = frame.drawn.unwrap();
+    assert!(d.terrain_blocks_beyond_horizon > 0, "{d:?}");
+    assert!(d.terrain_blocks_drawn + d.terrain_blocks_beyond_horizon < d.terrain_blocks, "{d:?}");
+    // Straight down from 20 km the horizon lies outside the view.
+    let frame = render(&channel, Some(camera(10.25, 45.25, 20_000.0, 0.0, -90.0)), (320, 180)).await.unwrap();
+    let d = frame.drawn.unwrap();
+    assert_eq!(d.terrain_blocks_beyond_horizon, 0, "{d:?}");
+    assert!(0 < d.terrain_blocks_drawn && d.terrain_blocks_drawn < d.terrain_blocks, "{d:?}");
+    daemon.stop(&[]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bad_requests_get_invalid_argument_and_the_daemon_keeps_serving() {
     let dir = tempfile::tempdir().unwrap();
     let daemon = Reliefd::start(&scene(dir.path(), ""), &[]).unwrap();

@@ -151,6 +151,7 @@ fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
             billboards: f.drawn.billboards as u32,
             terrain_blocks: f.drawn.terrain_blocks as u32,
             terrain_blocks_drawn: f.drawn.terrain_blocks_drawn as u32,
+            terrain_blocks_beyond_horizon: f.drawn.terrain_blocks_beyond_horizon as u32,
             shadow_maps_drawn: f.drawn.shadow_maps_drawn as u32,
             shadow_maps_kept: f.drawn.shadow_maps_kept as u32,
         }),

@@ -385,6 +385,7 @@ def frame(r: pb.RenderResponse) -> Frame:
             billboards=r.drawn.billboards,
             terrain_blocks=r.drawn.terrain_blocks,
             terrain_blocks_drawn=r.drawn.terrain_blocks_drawn,
+            terrain_blocks_beyond_horizon=r.drawn.terrain_blocks_beyond_horizon,
             shadow_maps_drawn=r.drawn.shadow_maps_drawn,
             shadow_maps_kept=r.drawn.shadow_maps_kept,
         )

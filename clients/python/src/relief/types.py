@@ -333,9 +333,11 @@ class FrameDrawn:
     billboards: int
     #: The terrain's clipmap level blocks (16 x 16 cells) with cells to
     #: draw, and those drawn: the rest lay wholly outside the view or, on
-    #: the planet, wholly beyond its horizon.
+    #: the planet, wholly beyond its horizon. The last are also counted
+    #: apart: blocks inside the view's frustum that the horizon hid.
     terrain_blocks: int = 0
     terrain_blocks_drawn: int = 0
+    terrain_blocks_beyond_horizon: int = 0
     #: Shadow cascades drawn for this frame, and kept from the frame before
     #: (the same cascades over the same casters: a still camera draws none).
     shadow_maps_drawn: int = 0

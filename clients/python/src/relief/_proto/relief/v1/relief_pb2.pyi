@@ -483,12 +483,13 @@ class RenderResponse(_message.Message):
     def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., drawn: _Optional[_Union[FrameDrawn, _Mapping]] = ..., sun: _Optional[_Union[SunPosition, _Mapping]] = ...) -> None: ...
 
 class FrameDrawn(_message.Message):
-    __slots__ = ("buildings", "models", "billboards", "terrain_blocks", "terrain_blocks_drawn", "shadow_maps_drawn", "shadow_maps_kept")
+    __slots__ = ("buildings", "models", "billboards", "terrain_blocks", "terrain_blocks_drawn", "terrain_blocks_beyond_horizon", "shadow_maps_drawn", "shadow_maps_kept")
     BUILDINGS_FIELD_NUMBER: _ClassVar[int]
     MODELS_FIELD_NUMBER: _ClassVar[int]
     BILLBOARDS_FIELD_NUMBER: _ClassVar[int]
     TERRAIN_BLOCKS_FIELD_NUMBER: _ClassVar[int]
     TERRAIN_BLOCKS_DRAWN_FIELD_NUMBER: _ClassVar[int]
+    TERRAIN_BLOCKS_BEYOND_HORIZON_FIELD_NUMBER: _ClassVar[int]
     SHADOW_MAPS_DRAWN_FIELD_NUMBER: _ClassVar[int]
     SHADOW_MAPS_KEPT_FIELD_NUMBER: _ClassVar[int]
     buildings: int
@@ -496,9 +497,10 @@ class FrameDrawn(_message.Message):
     billboards: int
     terrain_blocks: int
     terrain_blocks_drawn: int
+    terrain_blocks_beyond_horizon: int
     shadow_maps_drawn: int
     shadow_maps_kept: int
-    def __init__(self, buildings: _Optional[int] = ..., models: _Optional[int] = ..., billboards: _Optional[int] = ..., terrain_blocks: _Optional[int] = ..., terrain_blocks_drawn: _Optional[int] = ..., shadow_maps_drawn: _Optional[int] = ..., shadow_maps_kept: _Optional[int] = ...) -> None: ...
+    def __init__(self, buildings: _Optional[int] = ..., models: _Optional[int] = ..., billboards: _Optional[int] = ..., terrain_blocks: _Optional[int] = ..., terrain_blocks_drawn: _Optional[int] = ..., terrain_blocks_beyond_horizon: _Optional[int] = ..., shadow_maps_drawn: _Optional[int] = ..., shadow_maps_kept: _Optional[int] = ...) -> None: ...
 
 class StreamFramesRequest(_message.Message):
     __slots__ = ("width", "height", "format", "max_fps", "quality", "camera", "view_id", "sun")
