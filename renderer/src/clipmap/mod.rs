@@ -20,6 +20,11 @@ mod normals;
 /// (interpolation reaches 0.5 within a millionth of the cell).
 pub const OFF_GRID: f32 = -1.0e6;
 
+/// A sample's height as the terrain draws it: nodata (NaN) at 0, sea level.
+pub fn drawn_height(h: f32) -> f32 {
+    if h.is_finite() { h } else { 0.0 }
+}
+
 /// A colour as the GPU keeps it: premultiplied by its alpha, so that
 /// filtering a texel with a transparent neighbour (nodata beside data, a
 /// polygon's edge) blends coverage, never the neighbour's black, and the
@@ -372,7 +377,7 @@ impl ClipLevel {
                     let h = heights[k * width + m];
                     let (x, y) = surface.sample_point(self.tile_level, gx, gy);
                     let on = surface.on_grid(self.tile_level, gx, gy);
-                    let h = if h.is_finite() { f64::from(h) } else { 0.0 };
+                    let h = f64::from(drawn_height(h));
                     self.lowest_m = self.lowest_m.min(h);
                     let p = surface.world(x, y, h) - self.anchor;
                     let slot = self.slot(gx, gy);

@@ -58,9 +58,7 @@ impl Base {
         let (mut world, mut vertices) = (Vec::with_capacity(heights.len()), Vec::with_capacity(heights.len()));
         let samples = ys.flat_map(|gy| xs.clone().map(move |gx| (gx, gy)));
         for (((gx, gy), h), color) in samples.zip(heights.iter_mut()).zip(colors) {
-            if !h.is_finite() {
-                *h = 0.0;
-            }
+            *h = crate::clipmap::drawn_height(*h);
             let (x, y) = surface.sample_point(0, gx, gy);
             let p = surface.world(x, y, f64::from(*h));
             let up = surface.enu(x, y)[2].as_vec3();
