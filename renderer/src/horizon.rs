@@ -35,7 +35,7 @@ impl Horizon {
     pub fn new(eye: DVec3, floor_m: f64) -> Option<Self> {
         // The surface at a constant geodetic height h lies on or outside
         // the ellipsoid of semi-axes a + h and b + h where h >= 0; below
-        // sea level it dips inside, by under |h| e^4 / 32 (1.6 cm at
+        // sea level it dips inside, by about |h| e^4 / 32 (1.55 cm at
         // -11 km; `tests`): taken four times over, and a centimetre.
         let h = floor_m - floor_m.min(0.0).abs() * WGS84_E2 * WGS84_E2 / 8.0 - 0.01;
         let (a, b) = (WGS84_A + h, WGS84_B + h);

@@ -51,9 +51,7 @@ impl Reliefd {
         let err_log = Arc::clone(&log);
         let (log_done, log_ended) = mpsc::channel();
         std::thread::Builder::new().name("reliefd-stderr".into()).spawn(move || {
-            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
-                err_log.lock().expect("log lock").push(line);
-            }
+            each_line(stderr, |line| err_log.lock().expect("log lock").push(line));
             let _ = log_done.send(());
         })?;
         let stdout = child.stdout.take().context("reliefd has no stdout")?;
@@ -61,12 +59,12 @@ impl Reliefd {
         let printed = Arc::new(Mutex::new(Vec::new()));
         let out_log = Arc::clone(&printed);
         std::thread::Builder::new().name("reliefd-stdout".into()).spawn(move || {
-            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            each_line(stdout, |line| {
                 if let Some(addr) = line.strip_prefix("listening on ") {
                     let _ = tx.send(addr.to_owned());
                 }
                 out_log.lock().expect("log lock").push(line);
-            }
+            });
         })?;
         match rx.recv_timeout(Duration::from_secs(60)) {
             Ok(addr) => Ok(Self { child, addr, log, log_ended: Mutex::new(log_ended), printed, _cache: cache }),
@@ -153,6 +151,17 @@ impl Drop for Reliefd {
     fn drop(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+}
+
+/// Calls `f` with each line `reader` gives, to its end; bytes that are not
+/// UTF-8 (a path in another encoding) are replaced, never the end of it.
+fn each_line(reader: impl std::io::Read, mut f: impl FnMut(String)) {
+    let mut reader = BufReader::new(reader);
+    let mut line = Vec::new();
+    while reader.read_until(b'\n', &mut line).is_ok_and(|n| n > 0) {
+        f(String::from_utf8_lossy(&line).trim_end_matches(['\n', '\r']).to_owned());
+        line.clear();
     }
 }
 

@@ -333,15 +333,17 @@ class FrameDrawn:
     billboards: int
     #: The terrain's clipmap level blocks (16 x 16 cells) with cells to
     #: draw, and those drawn: the rest lay wholly outside the view or, on
-    #: the planet, wholly beyond its horizon. The last are also counted
-    #: apart: blocks inside the view's frustum that the horizon hid.
+    #: the planet, wholly beyond its horizon (those last are counted in
+    #: ``terrain_blocks_beyond_horizon``).
     terrain_blocks: int = 0
     terrain_blocks_drawn: int = 0
-    terrain_blocks_beyond_horizon: int = 0
     #: Shadow cascades drawn for this frame, and kept from the frame before
     #: (the same cascades over the same casters: a still camera draws none).
     shadow_maps_drawn: int = 0
     shadow_maps_kept: int = 0
+    #: Blocks inside the view's frustum left out because the planet's
+    #: horizon hid them.
+    terrain_blocks_beyond_horizon: int = 0
 
 
 @dataclass(frozen=True)

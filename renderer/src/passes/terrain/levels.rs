@@ -182,10 +182,11 @@ impl Levels {
 
     /// What each active level draws: every cell but the hole the next
     /// finer level fills, by blocks, leaving out the blocks `cull` (the
-    /// view's frustum, or a shadow cascade's box, and the eye) shows wholly
-    /// outside it, or wholly beyond its horizon. Levels whose samples are closer than `finest_m` metres
-    /// are left out, the finest level kept drawn whole (no hole): a shadow
-    /// map's texels cannot tell them apart.
+    /// view's frustum, or a shadow cascade's box, and the eye) shows
+    /// wholly outside it, or wholly beyond its horizon. Levels whose
+    /// samples are closer than `finest_m` metres are left out, the finest
+    /// level kept drawn whole (no hole): a shadow map's texels cannot tell
+    /// them apart.
     pub fn draws(
         &mut self,
         device: &wgpu::Device,

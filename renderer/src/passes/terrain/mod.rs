@@ -400,7 +400,7 @@ impl TerrainPass {
             for (i, gx) in xs.clone().enumerate() {
                 let (x, y) = surface.sample_point(level, gx, gy);
                 let h = heights[j * cols + i];
-                world.push(surface.world(x, y, if h.is_finite() { f64::from(h) } else { 0.0 }));
+                world.push(surface.world(x, y, f64::from(crate::clipmap::drawn_height(h))));
             }
         }
         let at = |i: usize, j: usize| world[j.min(rows - 1) * cols + i.min(cols - 1)];

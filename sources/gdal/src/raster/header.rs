@@ -276,8 +276,6 @@ impl Header {
     }
 }
 
-/// The levels of the pyramid: halving the base until one pixel; each uses
-/// the file's overview of exactly its size when `use_overviews`.
 /// What decides how a raster's file levels are kept in the block cache.
 struct Kept<'a> {
     ds: &'a Dataset,
@@ -316,6 +314,8 @@ impl Kept<'_> {
     }
 }
 
+/// The levels of the pyramid: halving the base until one pixel; each uses
+/// the file's overview of exactly its size when `use_overviews`.
 fn level_infos(
     ds: &Dataset,
     decoder: &Decoder,

@@ -64,6 +64,9 @@ impl Raster {
             && fresh.kind == self.kind
             && fresh.units == self.units
             && header.decoder == self.store.decoder
+            // Levels alike in size, overviews and in how the cache keeps
+            // their blocks (a file turned from Int16 to Float32 is read
+            // again whole: no block of it could be kept as it was).
             && header.levels == self.store.levels
             && fresh.missing == self.missing;
         if !same_frame {

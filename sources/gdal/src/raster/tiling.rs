@@ -158,10 +158,14 @@ impl Tiling {
         self.fill_i16().is_some()
     }
 
-    /// True when `read_i16` gives level `level` (not one the members
-    /// have no overviews for).
+    /// True when `read_i16` gives level `level`, as far as the plan tells
+    /// without opening a member: not a level the members have no overviews
+    /// for, nor one whose grid a member does not start on. (A member
+    /// without an overview of that size is found only by reading it.)
     pub(super) fn gives_i16(&self, level: usize) -> bool {
-        self.holds_i16() && (level == 0 || self.member_overviews)
+        self.holds_i16()
+            && (level == 0
+                || self.member_overviews && self.members.iter().all(|m| m.on_level(1 << level, self.size).is_some()))
     }
 
     /// The fill as a 16-bit integer, for a mosaic of Int16 files whose
