@@ -218,28 +218,26 @@ impl Store {
             return Err(changing());
         }
         let level = overview.and_then(|o| self.levels.iter().position(|l| l.overview == Some(o)));
-        let size = (self.levels[level.unwrap_or(0)].width, self.levels[level.unwrap_or(0)].height);
-        // Heights read as stored stay 16-bit: from the file's blocks decoded
-        // here, a mosaic's members, or GDAL's read of an Int16 band (with
-        // no holes punched in them).
+        let info = &self.levels[level.unwrap_or(0)];
+        let size = (info.width, info.height);
+        // Heights read as stored stay 16-bit where the header found the
+        // level can (`LevelInfo::kept_i16`): from the file's blocks decoded
+        // here, a mosaic's members, or GDAL's read of an Int16 band.
         let mut members_tried = false;
-        if self.holes.is_empty() && self.decoder.heights_as_stored() {
-            let values = match &self.tiling {
-                Some(tiling) if tiling.holds_i16() => {
+        if info.kept_i16() {
+            let values = match (&self.tiling, &self.native) {
+                (Some(tiling), _) => {
                     // What the members cannot give as i16, they cannot as f32.
                     members_tried = true;
                     tiling.read_i16(level.unwrap_or(0), rect)?
                 }
-                Some(_) => None,
-                None => match &self.native {
-                    // None for another type (or a block that will not decode:
-                    // the read below says what is wrong).
-                    Some(native) if native.decodes(size) => native.read_i16(size, rect),
-                    // The same GDAL read as `Decoder::read`, not widened.
-                    _ => with_dataset(self.version, &self.open_path, |ds| {
-                        self.decoder.read_i16(ds, overview, rect, &self.path)
-                    })?,
-                },
+                // None for a block that will not decode: the read below
+                // says what is wrong.
+                (None, Some(native)) if native.decodes(size) => native.read_i16(size, rect),
+                // The same GDAL read as `Decoder::read`, not widened.
+                _ => with_dataset(self.version, &self.open_path, |ds| {
+                    self.decoder.read_i16(ds, overview, rect, &self.path)
+                })?,
             };
             if let Some(values) = values {
                 let nodata = self.decoder.nodata().and_then(exact_i16);

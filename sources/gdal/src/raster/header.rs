@@ -287,9 +287,11 @@ struct Kept<'a> {
 }
 
 impl Kept<'_> {
-    /// Sets each level's `cache_pixel_bytes` as `Store::read_pixels` keeps
-    /// its blocks (a level halved here is kept f32), and says how, for the
-    /// state's `block_cache`.
+    /// Sets each level's `cache_pixel_bytes`: 2 where the level's heights
+    /// can be read as the 16-bit integers stored, by the path
+    /// `Store::read_pixels` takes for it (the mosaic's members, the blocks
+    /// decoded here, or GDAL), which then reads it so; else f32 (a level
+    /// halved here too). Says how, for the state's `block_cache`.
     fn size(&self, levels: &mut [LevelInfo]) -> String {
         let f32_bytes = 4 * self.decoder.planes();
         for (index, level) in levels.iter_mut().enumerate() {
@@ -303,12 +305,11 @@ impl Kept<'_> {
                 };
             level.cache_pixel_bytes = if sixteen { 2 } else { f32_bytes };
         }
-        if levels[0].cache_pixel_bytes != 2 {
+        if !levels[0].kept_i16() {
             return format!("decoded f32 ({f32_bytes} bytes a pixel)");
         }
         let overviews = levels.iter().filter(|l| l.overview.is_some());
-        let (all, wide) =
-            overviews.fold((0, 0), |(all, wide), l| (all + 1, wide + usize::from(l.cache_pixel_bytes != 2)));
+        let (all, wide) = overviews.fold((0, 0), |(all, wide), l| (all + 1, wide + usize::from(!l.kept_i16())));
         let wide = if wide > 0 { format!("; {wide} of its {all} overviews decoded f32") } else { String::new() };
         format!("16-bit heights as the file stores them (2 bytes a pixel){wide}; a level halved here, decoded f32")
     }

@@ -123,6 +123,12 @@ impl LevelInfo {
         }
     }
 
+    /// True when this level's blocks are kept as the 16-bit heights the
+    /// file stores (`Store::read_pixels` reads them so).
+    pub(crate) fn kept_i16(&self) -> bool {
+        self.cache_pixel_bytes == 2
+    }
+
     /// How much of column `x` lies on the raster (1 but for a partial last one).
     pub(crate) fn column_cover(&self, x: usize) -> f64 {
         if x + 1 == self.width { self.cover.0 } else { 1.0 }
