@@ -32,9 +32,10 @@ const OPTIONS: &[&str] = &[
     "overviews",
 ];
 
-/// Routes GDAL's own messages to tracing instead of stderr: every failure
-/// that matters comes back as an error value anyway.
-pub(crate) fn install_gdal_error_handler() {
+/// Sets GDAL up for relief, once: its block cache and directory listing
+/// (below), and its own messages routed to tracing instead of stderr
+/// (every failure that matters comes back as an error value anyway).
+pub(crate) fn configure_gdal() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // Reads of uncompressed GeoTIFFs skip GDAL's block cache: relief
@@ -42,6 +43,15 @@ pub(crate) fn install_gdal_error_handler() {
         let _unknown_option_is_harmless = gdal::config::set_config_option("GTIFF_DIRECT_IO", "YES");
         if std::env::var_os("GDAL_CACHEMAX").is_none() {
             let _ = gdal::config::set_config_option("GDAL_CACHEMAX", crate::raster::GDAL_CACHE_MB);
+        }
+        // GDAL lists a file's whole folder at every open to find its side
+        // files (.ovr, .aux.xml, .msk), and sorts the list. A mosaic's
+        // members share a folder of hundreds of files, each opened on
+        // each read thread: a first frame of a 400-file mosaic listed its
+        // folder about a thousand times. Without the list GDAL asks for
+        // each side file by name, and finds the same ones.
+        if std::env::var_os("GDAL_DISABLE_READDIR_ON_OPEN").is_none() {
+            let _ = gdal::config::set_config_option("GDAL_DISABLE_READDIR_ON_OPEN", "TRUE");
         }
         gdal::config::set_error_handler(|class, code, msg| match class {
             CplErrType::Fatal | CplErrType::Failure => tracing::debug!(code, "gdal: {msg}"),

@@ -301,6 +301,31 @@ fn overviews_and_halving_give_heights_within_the_kernel_tolerance() {
 }
 
 #[test]
+fn overviews_in_a_side_file_are_found_in_a_folder_of_many_files() {
+    // relief turns off GDAL's listing of a file's folder at each open:
+    // GDAL must still find a .ovr beside the file by its name.
+    let dir = tempfile::tempdir().unwrap();
+    let hill = examples::write_dem(&dir.path().join("hill.tif"), &examples::hill_spec(), examples::hill).unwrap();
+    let inside = tiled_copy(&hill, &dir.path().join("inside.tif"), Some("AVERAGE"));
+    let beside = tiled_copy(&hill, &dir.path().join("beside.tif"), None);
+    // Opened read-only, GDAL writes the overviews to beside.tif.ovr.
+    Dataset::open(&beside).unwrap().build_overviews("AVERAGE", &[2, 4, 8], &[]).unwrap();
+    assert!(dir.path().join("beside.tif.ovr").exists());
+    for k in 0..200 {
+        std::fs::write(dir.path().join(format!("other-{k:03}.tif")), b"not read").unwrap();
+    }
+    let (inside, beside) = (open(&inside, &[("read", text("windowed"))]), open(&beside, &[("read", text("windowed"))]));
+    if std::env::var_os("GDAL_DISABLE_READDIR_ON_OPEN").is_none() {
+        let listing_off = gdal::config::get_config_option("GDAL_DISABLE_READDIR_ON_OPEN", "").unwrap();
+        assert_eq!(listing_off, "TRUE", "the gdal source turns the listing off when it opens a raster");
+    }
+    let details = beside.info().details;
+    assert!(details["overviews"].contains("3 of the file's"), "{details:?}");
+    // The same overviews, from the file or beside it: the same tiles.
+    assert_same_tiles(&inside, &beside, 8, "overviews beside the file");
+}
+
+#[test]
 fn a_large_raster_is_never_read_whole() {
     let dir = tempfile::tempdir().unwrap();
     // 4096 x 4096 Int16 (32 MiB of samples), tiled, with overviews: a

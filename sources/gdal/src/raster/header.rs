@@ -40,7 +40,7 @@ impl Raster {
     /// Reads the file's header (no pixels): frame, CRS, units, decoder,
     /// levels. A VRT that names missing files is opened without them.
     pub(super) fn header(path: &Path, options: &ReadOptions) -> Result<Header, SourceError> {
-        crate::source::install_gdal_error_handler();
+        crate::source::configure_gdal();
         let fingerprint = Fingerprint::of(path, "raster")?;
         let members = vrt::members(path)?;
         let ds = open_dataset_named(&members.open_path, path)?;
