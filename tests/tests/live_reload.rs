@@ -353,3 +353,38 @@ async fn a_sidecar_written_after_its_raster_is_picked_up() {
     assert!(edit::height_at(channel, 10.25, 45.25).await.unwrap().is_some());
     daemon.stop(&[]).unwrap();
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_file_in_a_new_folder_that_a_vrt_comes_to_name_is_watched_from_then_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let (west, east) = (dir.path().join("west"), dir.path().join("east"));
+    std::fs::create_dir_all(&west).unwrap();
+    std::fs::create_dir_all(&east).unwrap();
+    let west_dem = fixtures::write_dem(&west.join("hill.tif"), &fixtures::hill_spec(), fixtures::hill).unwrap();
+    // The same hill's eastern neighbour, 10.5..11 E, in a folder of its own.
+    let east_spec = fixtures::RasterSpec { origin_x: 10.5, ..fixtures::hill_spec() };
+    let east_dem = fixtures::write_dem(&east.join("hill.tif"), &east_spec, |_, _| 700.0).unwrap();
+    let vrt = dir.path().join("mosaic.vrt");
+    let build = |files: &[&Path]| {
+        let status = std::process::Command::new("gdalbuildvrt").arg("-q").arg(&vrt).args(files).status().unwrap();
+        assert!(status.success(), "gdalbuildvrt (gdal-bin)");
+    };
+    build(&[&west_dem]);
+    let manifest = fixtures::write_manifest(dir.path(), "[scene]\nname = \"grows\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"mosaic.vrt\"\n\n[layers]\nheight = \"dem\"\n").unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    assert_eq!(edit::height_at(channel.clone(), 10.75, 45.25).await.unwrap(), None);
+
+    // The VRT now names the eastern file too: read once the VRT is saved.
+    build(&[&west_dem, &east_dem]);
+    edit::wait_for(channel.clone(), 2).await.unwrap();
+    assert_eq!(edit::height_at(channel.clone(), 10.75, 45.25).await.unwrap(), Some(700.0));
+
+    // An edit to the eastern file alone, in a folder no file of the scene
+    // was in when reliefd started, is seen too.
+    edit::rewrite_window(&east_dem, 0, 0, 400, 400, |_, _, h| h + 100.0).unwrap();
+    let state = edit::wait_for(channel.clone(), 3).await.unwrap();
+    assert_eq!(state.generation, 3, "the edit in the new folder was not seen");
+    assert_eq!(edit::height_at(channel, 10.75, 45.25).await.unwrap(), Some(800.0));
+    daemon.stop(&[]).unwrap();
+}

@@ -128,6 +128,7 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         .map(|s| (Target::Source(s.spec.id.clone()), Pending::new(Instant::now())))
         .collect();
     let mut poll = (settings.poll_ms > 0).then(|| tokio::time::interval(Duration::from_millis(settings.poll_ms)));
+    let mut seen_generation = scene.snapshot().generation;
     let mut tick = tokio::time::interval(Duration::from_millis(settings.settle_ms.clamp(1, 50)));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
 
@@ -161,25 +162,21 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         let mut quiet = Vec::new();
         let mut manifest = false;
         for (target, p) in &pending {
-            let busy = match target {
-                Target::Source(_) => {
-                    // One look at each folder, for all of the target's datasets
-                    // there (a mosaic has hundreds in one folder).
-                    let mut folders: BTreeMap<&Path, BTreeSet<&str>> = BTreeMap::new();
-                    for ((dir, stem), _) in groups.iter().filter(|(_, t)| t.contains(target)) {
-                        folders.entry(dir.as_path()).or_default().insert(stem.as_str());
-                    }
-                    folders.iter().map(|(dir, stems)| busy(dir, stems)).fold(Busy::default(), Busy::or)
-                }
-                Target::Manifest => Busy::default(),
+            // What is on disk only ever holds a read back: the folders are
+            // looked at only once a dataset would be read without it.
+            let unhindered = readiness(p, now, &settings, Busy::default());
+            let ready = match target {
+                Target::Source(_) if unhindered.is_some() => readiness(p, now, &settings, on_disk(&groups, target)),
+                _ => unhindered,
             };
-            match (target, readiness(p, now, &settings, busy)) {
+            match (target, ready) {
                 (Target::Manifest, Some(_)) => manifest = true,
                 (Target::Source(id), Some(Ready::Fast)) => fast.push(id.clone()),
                 (Target::Source(id), Some(Ready::Quiet)) => quiet.push(id.clone()),
                 (_, None) => {}
             }
         }
+        let read = manifest || !fast.is_empty() || !quiet.is_empty();
         if manifest {
             pending.remove(&Target::Manifest);
             let s = Arc::clone(&scene);
@@ -210,7 +207,12 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
                 }
             }
         }
-        if manifest || !pending.is_empty() {
+        // The files the scene reads change with what it read (a VRT that
+        // names new files) or by a request: looked at again when a read
+        // ran here or the scene moved on, not at every tick.
+        let generation = scene.snapshot().generation;
+        if read || generation != seen_generation {
+            seen_generation = generation;
             let now_groups = interests(&scene);
             if now_groups != groups {
                 groups = now_groups;
@@ -218,6 +220,16 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
             }
         }
     }
+}
+
+/// What on disk holds back a read of the source `target`: one look at each
+/// folder, for all of its datasets there (a mosaic has hundreds in one).
+fn on_disk(groups: &HashMap<(PathBuf, String), BTreeSet<Target>>, target: &Target) -> Busy {
+    let mut folders: BTreeMap<&Path, BTreeSet<&str>> = BTreeMap::new();
+    for ((dir, stem), _) in groups.iter().filter(|(_, t)| t.contains(target)) {
+        folders.entry(dir.as_path()).or_default().insert(stem.as_str());
+    }
+    folders.iter().map(|(dir, stems)| busy(dir, stems)).fold(Busy::default(), Busy::or)
 }
 
 /// Records one notify event against the datasets it touches.
