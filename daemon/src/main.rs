@@ -62,12 +62,27 @@ enum Command {
     Check { manifest: PathBuf },
 }
 
+/// A mosaic's members are kept open by the hundred (each file's plan for
+/// reading it), on top of sockets and GDAL's handles: the soft limit on
+/// open files (often 1024) is raised to the hard one.
+fn raise_open_file_limit() {
+    use rustix::process::{Resource, Rlimit, getrlimit, setrlimit};
+    let limit = getrlimit(Resource::Nofile);
+    if let (Some(current), Some(maximum)) = (limit.current, limit.maximum)
+        && current < maximum
+        && let Err(e) = setrlimit(Resource::Nofile, Rlimit { current: Some(maximum), maximum: Some(maximum) })
+    {
+        tracing::debug!("the open-file limit stays {current}: {e}");
+    }
+}
+
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .init();
+    raise_open_file_limit();
     let args = Args::parse();
     match run(args) {
         Ok(code) => code,

@@ -3,9 +3,11 @@
 //! own overviews for the VRT's implicit ones, are then what a read through
 //! the VRT gives, without it. Two costs go: GDAL's VRT machinery on every
 //! block (a coarse level over 400 files is 400 reads of parts of files),
-//! and opening the VRT again for every new version on every thread: a
-//! member's handle is kept while the member is unchanged, so a reload
-//! after one member's edit opens that member alone.
+//! and opening the VRT again for every new version on every thread. Each
+//! member is checked once per version of its file for all threads (its
+//! band, and the plan for decoding its blocks here), so a reload after
+//! one member's edit opens that member alone, and a member relief decodes
+//! is read without opening it through GDAL on every thread.
 //!
 //! Anything else a VRT may do (scaling, lookup tables, resampling, masks,
 //! overlaps with transparency aside, other data types, overviews of its
@@ -14,9 +16,11 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, OnceLock};
 
 use gdal::Dataset;
 use gdal::raster::RasterBand;
+use moka::sync::Cache;
 use relief_source::SourceError;
 
 use super::decode::{read_values, read_window};
@@ -25,8 +29,8 @@ use super::pixels::exact_i16;
 use super::vrt::Members;
 use super::{FileStamp, PixelRect, format_err};
 
-/// Member handles each thread keeps (an open GeoTIFF is a file descriptor
-/// and its directory in memory).
+/// GDAL handles of members each thread keeps, for members GDAL reads (an
+/// open GeoTIFF is a file descriptor and its directory in memory).
 const HANDLES_PER_THREAD: usize = 32;
 
 /// How to read one band of a mosaic from its members.
@@ -309,22 +313,24 @@ impl Member {
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
         }
-        let values = with_member(self, |ds, native| {
-            let band = ds.rasterband(self.band).map_err(|e| format_err(e, &self.path))?;
-            if band.size() != (self.at.width(), self.at.height()) || band.band_type().name() != data_type {
-                return Ok(None);
-            }
-            let image = if level == 0 { band.size() } else { size };
-            if let Some(values) = native.and_then(|n| T::decode(n, image, rect)) {
-                return Ok(Some(values));
-            }
-            if level == 0 {
-                return T::read(&band, rect, &self.path).map(Some);
-            }
-            let count = band.overview_count().unwrap_or(0).max(0) as usize;
-            let overview = (0..count).filter_map(|i| band.overview(i).ok()).find(|o| o.size() == size);
-            overview.map(|o| T::read(&o, rect, &self.path)).transpose()
-        })?;
+        let checked = checked(self)?;
+        if checked.size != (self.at.width(), self.at.height()) || checked.data_type != data_type {
+            return Ok(None);
+        }
+        let image = if level == 0 { checked.size } else { size };
+        let decoded = checked.native.as_ref().and_then(|n| T::decode(n, image, rect));
+        let values = match decoded {
+            Some(values) => Some(values),
+            None => with_member(self, |ds| {
+                let band = ds.rasterband(self.band).map_err(|e| format_err(e, &self.path))?;
+                if level == 0 {
+                    return T::read(&band, rect, &self.path).map(Some);
+                }
+                let count = band.overview_count().unwrap_or(0).max(0) as usize;
+                let overview = (0..count).filter_map(|i| band.overview(i).ok()).find(|o| o.size() == size);
+                overview.map(|o| T::read(&o, rect, &self.path)).transpose()
+            })?,
+        };
         if FileStamp::of(&self.path) != Some(self.stamp) {
             return Err(changing());
         }
@@ -332,9 +338,46 @@ impl Member {
     }
 }
 
-/// A member open on this thread: its path and stamp, GDAL's handle, and
-/// the plan for decoding its blocks here when it is a plain GeoTIFF.
-type Handle = (PathBuf, FileStamp, Dataset, Option<Native>);
+/// What one version of a member's file is, found once for every thread:
+/// its band's size and type, and the plan for decoding its blocks here
+/// when it is a plain GeoTIFF (GDAL reads it otherwise).
+struct Checked {
+    /// The version of the file checked.
+    stamp: FileStamp,
+    size: (usize, usize),
+    data_type: String,
+    native: Option<Native>,
+}
+
+/// Members whose check is kept (each plan holds the file open). A
+/// mosaic's first frame reads every member: checked once, not on each
+/// thread, and read without opening GDAL at all where relief decodes it.
+const CHECKED_MEMBERS: u64 = 512;
+
+/// The check of `member`'s file as its stamp says (a member written since
+/// is checked afresh).
+fn checked(member: &Member) -> Result<Arc<Checked>, SourceError> {
+    static CHECKED: OnceLock<Cache<(PathBuf, usize), Arc<Checked>>> = OnceLock::new();
+    let cache = CHECKED.get_or_init(|| Cache::new(CHECKED_MEMBERS));
+    let key = (member.path.clone(), member.band);
+    if let Some(checked) = cache.get(&key).filter(|c| c.stamp == member.stamp) {
+        return Ok(checked);
+    }
+    let ds = super::open_dataset(&member.path)?;
+    let band = ds.rasterband(member.band).map_err(|e| format_err(e, &member.path))?;
+    let checked = Arc::new(Checked {
+        stamp: member.stamp,
+        size: band.size(),
+        data_type: band.band_type().name(),
+        native: Native::plan(&ds, member.band, &member.path).filter(|n| n.stamp == member.stamp),
+    });
+    cache.insert(key, Arc::clone(&checked));
+    Ok(checked)
+}
+
+/// A member open on this thread for GDAL to read: its path and stamp, and
+/// GDAL's handle.
+type Handle = (PathBuf, FileStamp, Dataset);
 
 thread_local! {
     static MEMBERS: RefCell<Vec<Handle>> = const { RefCell::new(Vec::new()) };
@@ -343,28 +386,23 @@ thread_local! {
 /// Runs `f` on this thread's handle of `member` as its stamp says (a
 /// member written since is opened afresh, never read through a handle that
 /// may hold its old directory or blocks).
-fn with_member<T>(
-    member: &Member,
-    f: impl FnOnce(&Dataset, Option<&Native>) -> Result<T, SourceError>,
-) -> Result<T, SourceError> {
+fn with_member<T>(member: &Member, f: impl FnOnce(&Dataset) -> Result<T, SourceError>) -> Result<T, SourceError> {
     MEMBERS.with(|handles| {
         let mut handles = handles.borrow_mut();
-        let at = handles.iter().position(|(p, s, _, _)| *s == member.stamp && *p == member.path);
+        let at = handles.iter().position(|(p, s, _)| *s == member.stamp && *p == member.path);
         let entry = match at {
             Some(at) => handles.remove(at),
             None => {
                 if handles.len() >= HANDLES_PER_THREAD {
                     handles.remove(0);
                 }
-                let ds = super::open_dataset(&member.path)?;
-                let native = Native::plan(&ds, member.band, &member.path).filter(|n| n.stamp == member.stamp);
-                (member.path.clone(), member.stamp, ds, native)
+                (member.path.clone(), member.stamp, super::open_dataset(&member.path)?)
             }
         };
         // Most recently used last.
         handles.push(entry);
-        let (_, _, ds, native) = handles.last().expect("just pushed");
-        f(ds, native.as_ref())
+        let (_, _, ds) = handles.last().expect("just pushed");
+        f(ds)
     })
 }
 
