@@ -104,23 +104,33 @@ pub(crate) fn with_dataset<T>(
     path: &Path,
     f: impl FnOnce(&Dataset) -> Result<T, SourceError>,
 ) -> Result<T, SourceError> {
-    HANDLES.with(|handles| {
-        let mut handles = handles.borrow_mut();
-        let at = match handles.iter().position(|(v, _)| *v == version) {
-            Some(at) => at,
-            None => {
-                if handles.len() >= HANDLES_PER_THREAD {
-                    handles.remove(0);
-                }
-                handles.push((version, super::open_dataset(path)?));
-                handles.len() - 1
+    HANDLES.with(|handles| kept_open(handles, version, HANDLES_PER_THREAD, || super::open_dataset(path), f))
+}
+
+/// Runs `f` on the handle `handles` keep under `key` (most recently used
+/// last), opening it with `open` first when they keep none, and dropping
+/// the least recently used past `limit`: a thread's GDAL handles, which
+/// are never shared between threads.
+pub(crate) fn kept_open<K: PartialEq, T>(
+    handles: &RefCell<Vec<(K, Dataset)>>,
+    key: K,
+    limit: usize,
+    open: impl FnOnce() -> Result<Dataset, SourceError>,
+    f: impl FnOnce(&Dataset) -> Result<T, SourceError>,
+) -> Result<T, SourceError> {
+    let mut handles = handles.borrow_mut();
+    let entry = match handles.iter().position(|(k, _)| *k == key) {
+        Some(at) => handles.remove(at),
+        None => {
+            let ds = open()?;
+            if handles.len() >= limit {
+                handles.remove(0);
             }
-        };
-        // Most recently used last.
-        let entry = handles.remove(at);
-        handles.push(entry);
-        f(&handles.last().expect("just pushed").1)
-    })
+            (key, ds)
+        }
+    };
+    handles.push(entry);
+    f(&handles.last().expect("just pushed").1)
 }
 
 impl Store {

@@ -23,6 +23,7 @@ use gdal::raster::RasterBand;
 use moka::sync::Cache;
 use relief_source::SourceError;
 
+use super::blocks::kept_open;
 use super::decode::{read_values, read_window};
 use super::native::Native;
 use super::pixels::exact_i16;
@@ -375,35 +376,17 @@ fn checked(member: &Member) -> Result<Arc<Checked>, SourceError> {
     Ok(checked)
 }
 
-/// A member open on this thread for GDAL to read: its path and stamp, and
-/// GDAL's handle.
-type Handle = (PathBuf, FileStamp, Dataset);
-
 thread_local! {
-    static MEMBERS: RefCell<Vec<Handle>> = const { RefCell::new(Vec::new()) };
+    /// Members open on this thread for GDAL to read, by path and stamp.
+    static MEMBERS: RefCell<Vec<((PathBuf, FileStamp), Dataset)>> = const { RefCell::new(Vec::new()) };
 }
 
 /// Runs `f` on this thread's handle of `member` as its stamp says (a
 /// member written since is opened afresh, never read through a handle that
 /// may hold its old directory or blocks).
 fn with_member<T>(member: &Member, f: impl FnOnce(&Dataset) -> Result<T, SourceError>) -> Result<T, SourceError> {
-    MEMBERS.with(|handles| {
-        let mut handles = handles.borrow_mut();
-        let at = handles.iter().position(|(p, s, _)| *s == member.stamp && *p == member.path);
-        let entry = match at {
-            Some(at) => handles.remove(at),
-            None => {
-                if handles.len() >= HANDLES_PER_THREAD {
-                    handles.remove(0);
-                }
-                (member.path.clone(), member.stamp, super::open_dataset(&member.path)?)
-            }
-        };
-        // Most recently used last.
-        handles.push(entry);
-        let (_, _, ds) = handles.last().expect("just pushed");
-        f(ds)
-    })
+    let key = (member.path.clone(), member.stamp);
+    MEMBERS.with(|handles| kept_open(handles, key, HANDLES_PER_THREAD, || super::open_dataset(&member.path), f))
 }
 
 #[cfg(test)]
