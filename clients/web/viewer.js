@@ -28,7 +28,8 @@
     viewId: null,
     generation: 0, // from the event stream
     frames: 0, // frames shown
-    lastFrame: null, // the last RenderResponse, image included
+    lastFrame: null, // the last RenderResponse (its image came beside it)
+    frameBytes: 0, // the last frame image's size on the wire
     state: null, // the last SceneState
     lastError: null, // the last error shown, as text
     refused: null, // the HTTP status (401, 403) of the last refusal, if any
@@ -607,14 +608,33 @@
   let framesSize = null;
   let framesAttempt = 0;
 
-  function framesUrl(size) {
-    const query = new URLSearchParams({
+  function framesQuery(size) {
+    return new URLSearchParams({
       view: relief.viewId,
       width: String(size.width),
       height: String(size.height),
       max_fps: String(MAX_FPS),
     });
-    return withToken(`api/frames?${query}`);
+  }
+
+  /** The frames WebSocket's URL: binary frames, JPEG while dragging, PNG at rest. */
+  function framesUrl(size) {
+    const url = new URL(withToken(`api/frames/ws?${framesQuery(size)}`), location.href);
+    url.protocol = url.protocol === "https:" ? "wss:" : "ws:";
+    return url.toString();
+  }
+
+  /**
+   * A binary frame message: u32 (little-endian) header length, the header
+   * `{"frame": RenderResponse}` as JSON, then the image's bytes.
+   */
+  function decodeFrame(buffer) {
+    if (buffer.byteLength < 4) return null;
+    const length = new DataView(buffer).getUint32(0, true);
+    if (4 + length > buffer.byteLength) return null;
+    const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, length)));
+    if (!header.frame) return null;
+    return { frame: header.frame, image: new Uint8Array(buffer, 4 + length) };
   }
 
   function openFrames() {
@@ -624,44 +644,52 @@
     if (!relief.viewId || !size) return;
     framesSize = size;
     setConn("frames", "connecting");
-    const url = framesUrl(size);
-    const source = new EventSource(url);
-    frames = source;
-    source.addEventListener("open", () => {
+    const socket = new WebSocket(framesUrl(size));
+    socket.binaryType = "arraybuffer";
+    frames = socket;
+    let opened = false;
+    socket.addEventListener("open", () => {
+      opened = true;
       framesAttempt = 0;
       relief.refused = null;
       setConn("frames", "open");
     });
-    source.addEventListener("frame", (message) => {
-      let frame;
+    socket.addEventListener("message", (message) => {
+      if (socket !== frames) return;
+      if (typeof message.data === "string") {
+        // {"error": {code, message}}: the view failed; the socket closes.
+        let body;
+        try {
+          body = JSON.stringify(JSON.parse(message.data).error ?? {});
+        } catch {
+          body = message.data;
+        }
+        const error = parseStreamError(body);
+        report(error, "frame");
+        if (error.notFound) reopenView(socket);
+        return;
+      }
+      let decoded;
       try {
-        frame = JSON.parse(message.data);
+        decoded = decodeFrame(message.data);
       } catch (error) {
         report(error, "frame");
         return;
       }
-      showFrame(frame);
+      if (decoded) showFrame(decoded.frame, decoded.image);
     });
-    source.addEventListener("error", (message) => {
-      if (source !== frames) return;
-      if (message.data) {
-        // An `event: error` the server sent: {code, message}.
-        const error = parseStreamError(message.data);
-        report(error, "frame");
-        if (error.notFound) reopenView(source);
-      } else if (source.readyState === EventSource.CLOSED) {
-        framesRefused(source, url);
-      } else {
-        setConn("frames", "reconnecting");
-      }
+    socket.addEventListener("close", () => {
+      if (socket !== frames) return;
+      // Refused at the upgrade: the same stream over HTTP says why.
+      framesRefused(socket, withToken(`api/frames?${framesQuery(size)}`), opened);
     });
   }
 
-  /** The daemon refused the stream: ask again to learn why, then recover. */
-  async function framesRefused(source, url) {
+  /** The stream closed or was refused: learn why if it never opened, then recover. */
+  async function framesRefused(source, url, opened) {
     setConn("frames", "reconnecting");
     const delay = backoff(framesAttempt++);
-    const error = await whyRefused(url);
+    const error = opened ? null : await whyRefused(url);
     if (source !== frames) return;
     if (error) {
       report(error, "frames");
@@ -681,22 +709,29 @@
     openView();
   }
 
-  function showFrame(frame) {
+  /** The object URL of the frame shown, let go once the next is. */
+  let frameUrl = null;
+
+  function showFrame(frame, image) {
     const entry = { generation: Number(frame.generation ?? 0), received: Date.now(), shown: null };
     relief.frameLog.push(entry);
     if (relief.frameLog.length > 200) relief.frameLog.shift();
     ui.view.addEventListener("load", () => { entry.shown = Date.now(); }, { once: true });
     relief.lastFrame = frame;
     relief.frames += 1;
+    relief.frameBytes = image.byteLength;
     const first = relief.frames === 1;
-    const image = frame.image ?? "";
-    if (image) {
+    if (image.byteLength) {
       if (first) {
         ui.view.addEventListener("load", () => {
           document.body.dataset.ready = "1";
         }, { once: true });
       }
-      ui.view.src = `data:image/png;base64,${image}`;
+      const type = frame.format === "IMAGE_FORMAT_JPEG" ? "image/jpeg" : "image/png";
+      const previous = frameUrl;
+      frameUrl = URL.createObjectURL(new Blob([image], { type }));
+      ui.view.src = frameUrl;
+      if (previous) URL.revokeObjectURL(previous);
     }
     const passes = frame.passes ?? [];
     const total = passes.reduce((sum, pass) => sum + num(pass.elapsedMs), 0);

@@ -48,7 +48,7 @@ fn rmse(a: &Frame, b: &Frame) -> f64 {
 /// that variable names a folder (to look at what the table measures).
 fn save(frame: &Frame, name: &str) -> anyhow::Result<()> {
     let Some(dir) = std::env::var_os("RELIEF_BENCH_FRAMES") else { return Ok(()) };
-    let png = relief_daemon::png::encode(&frame.rgba, frame.width, frame.height).map_err(anyhow::Error::msg)?;
+    let png = relief_daemon::codec::png(&frame.rgba, frame.width, frame.height).map_err(anyhow::Error::msg)?;
     std::fs::write(std::path::Path::new(&dir).join(format!("instances-{name}.png")), png)?;
     Ok(())
 }

@@ -7,13 +7,13 @@
 
 pub mod backing;
 pub mod camera;
+pub mod codec;
 pub mod content;
 pub mod effects;
 pub mod frames;
 pub mod graph;
 pub mod manifest;
 pub mod navigate;
-pub mod png;
 mod priority;
 pub mod registry;
 pub mod scene;

@@ -33,6 +33,16 @@ pub enum ManifestError {
 /// the pixels) while the user drags.
 pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 
+/// Default of `[quality] frame_jpeg_quality`: the JPEG quality of frames
+/// sent while the camera moves (`make accuracy` shows its error against
+/// bytes and encode time).
+pub const DEFAULT_FRAME_JPEG_QUALITY: u8 = 80;
+
+/// Checks a JPEG quality knob: 1 to 100.
+pub fn jpeg_quality(q: u32) -> Result<u8, String> {
+    u8::try_from(q).ok().filter(|q| (1..=100).contains(q)).ok_or_else(|| format!("{q} is not from 1 to 100"))
+}
+
 /// The effects a scene may declare, and the layers each one reads.
 pub const EFFECTS: &[(&str, &[&str])] = &[
     ("lighting", &["height"]),
@@ -162,6 +172,7 @@ struct RawQuality {
     clipmap_levels: Option<usize>,
     color_detail: Option<usize>,
     interactive_scale: Option<f64>,
+    frame_jpeg_quality: Option<u32>,
     instance_bands_m: Option<Vec<f64>>,
     instance_band_densities: Option<Vec<f64>>,
     instance_model_distance_m: Option<f64>,
@@ -244,6 +255,8 @@ pub struct Manifest {
     /// The fraction of each side a view is rendered at while its user
     /// drags (full size again once the camera rests).
     pub interactive_scale: f64,
+    /// The JPEG quality of frames sent while a view is interactive.
+    pub frame_jpeg_quality: u8,
     /// The instances layer's distance bands and where models give way to
     /// billboards.
     pub bands: InstanceBands,
@@ -470,6 +483,11 @@ impl Manifest {
         if !(interactive_scale.is_finite() && (0.1..=1.0).contains(&interactive_scale)) {
             return Err(field("quality.interactive_scale", format!("{interactive_scale} is not from 0.1 to 1")));
         }
+        let frame_jpeg_quality = raw
+            .quality
+            .frame_jpeg_quality
+            .map_or(Ok(DEFAULT_FRAME_JPEG_QUALITY), jpeg_quality)
+            .map_err(|message| field("quality.frame_jpeg_quality", message))?;
         let tile_size = raw.scene.tile_size.unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
             return Err(field("scene.tile_size", format!("{tile_size} is not a power of two from 16 to 4096")));
@@ -540,6 +558,7 @@ impl Manifest {
             quality,
             clipmap,
             interactive_scale,
+            frame_jpeg_quality,
             bands,
             camera: raw.camera.unwrap_or_default(),
             sun,

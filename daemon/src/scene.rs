@@ -2,7 +2,7 @@
 //! (and manifest edits) into new generations, the rebuild of the cached
 //! tiles a change touched, and the events that tell viewers about it.
 
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
@@ -91,7 +91,14 @@ pub struct Scene {
     passes: RwLock<Vec<relief_renderer::PassStats>>,
     /// Works out each new version's content address in the background.
     content: ContentKeys,
+    /// The last [`DIRT_LOG`] generations' dirty extents by source, oldest
+    /// first, logged before each is served: what a cache that fell behind
+    /// refreshes.
+    dirt_log: Mutex<VecDeque<(u64, Vec<DirtyRegion>)>>,
 }
+
+/// Generations of dirt remembered for caches that fall behind.
+const DIRT_LOG: usize = 64;
 
 /// How many events a slow Watch subscriber may fall behind before it is
 /// told it lagged (it then gets a fresh snapshot).
@@ -136,6 +143,7 @@ impl Scene {
                 effects_ran: RwLock::new(BTreeMap::new()),
                 passes: RwLock::new(Vec::new()),
                 content,
+                dirt_log: Mutex::new(VecDeque::new()),
             },
             open_errors,
         ))
@@ -178,6 +186,19 @@ impl Scene {
 
     pub fn effects_ran(&self) -> BTreeMap<String, f64> {
         self.effects_ran.read().expect("scene lock is never poisoned").clone()
+    }
+
+    /// The dirty extents of every generation after `since` up to `upto`,
+    /// by source; None when the log no longer holds them all.
+    pub fn dirt_between(&self, since: u64, upto: u64) -> Option<Vec<DirtyRegion>> {
+        let log = self.dirt_log.lock().expect("the dirt log's lock is never held across a panic");
+        if since >= upto {
+            return Some(Vec::new());
+        }
+        if log.front().is_none_or(|(g, _)| *g > since + 1) || log.back().is_none_or(|(g, _)| *g < upto) {
+            return None;
+        }
+        Some(log.iter().filter(|(g, _)| *g > since && *g <= upto).flat_map(|(_, d)| d.iter().cloned()).collect())
     }
 
     pub fn generations(&self) -> watch::Receiver<u64> {
@@ -388,7 +409,7 @@ impl Scene {
             "cached tiles rebuilt"
         );
 
-        let dirty = new
+        let dirty: Vec<DirtyRegion> = new
             .slots
             .iter()
             .filter_map(|s| {
@@ -398,6 +419,13 @@ impl Scene {
             })
             .collect();
         let generation = new.generation;
+        {
+            let mut log = self.dirt_log.lock().expect("the dirt log's lock is never held across a panic");
+            log.push_back((generation, dirty.clone()));
+            while log.len() > DIRT_LOG {
+                log.pop_front();
+            }
+        }
         self.swap(new);
         let elapsed_ms = started.elapsed().as_secs_f64() * 1e3;
         record(&self.snapshot(), &changed_sources, &stats, elapsed_ms);

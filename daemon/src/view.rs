@@ -1,12 +1,12 @@
 //! Rendered views of the scene: the camera, the terrain the renderer reads
 //! (answered from the tile store), and one shared GPU device behind a lock.
 
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{BTreeMap, HashMap};
 use std::sync::{Arc, Mutex};
 
 use relief_renderer::{
-    ClipmapConfig, Detail, Detailed, Frame, Gpu, InstanceBands, PassCounters, PassStats, RenderError, RenderSettings,
-    Renderer, SceneLayers, Surface, TerrainSamples,
+    ClipmapConfig, Detail, Detailed, Dirt, Frame, Gpu, InstanceBands, PassCounters, PassStats, RenderError,
+    RenderSettings, Renderer, SceneLayers, Surface, TerrainSamples,
 };
 use relief_source::{Extent, Quality};
 use tokio::sync::{Semaphore, watch};
@@ -14,7 +14,9 @@ use tokio::sync::{Semaphore, watch};
 pub use crate::camera::Camera;
 use crate::camera::{default_camera, pose};
 use crate::effects::EffectSettings;
-use crate::scene::{EventKind, Scene};
+use crate::graph::SceneSnapshot;
+use crate::manifest::Manifest;
+use crate::scene::Scene;
 pub use crate::scene_tiles::{ModelCache, SceneBuildings, SceneInstances, SceneTerrain};
 use crate::sun::{Sun, SunAngles};
 
@@ -22,8 +24,6 @@ use crate::sun::{Sun, SunAngles};
 pub const MAX_IMAGE_SIDE: u32 = 4096;
 /// Renders running or waiting for the device at once; more are refused.
 pub const MAX_RENDERS_IN_FLIGHT: usize = 4;
-/// Generations of dirt remembered for renderers that fall behind.
-const DIRT_LOG: usize = 64;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ViewError {
@@ -43,22 +43,148 @@ pub enum ViewError {
     UnknownSource(String),
 }
 
+/// What the renderers' caches did since start: each refreshed only where
+/// a source it reads changed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CacheWork {
+    pub level_samples_written: u64,
+    pub water_coverage_texels: u64,
+    pub shadow_maps_drawn: u64,
+    pub shadow_maps_redrawn_in_part: u64,
+    pub shadow_maps_kept: u64,
+    pub shadow_regions: u64,
+    pub shadow_texels: u64,
+    pub building_tiles_built: u64,
+    pub instance_tiles_built: u64,
+    pub detail_fits: u64,
+}
+
+impl CacheWork {
+    fn add(&mut self, frame: &Frame) {
+        let d = &frame.drawn;
+        self.level_samples_written += frame.update.samples_written;
+        self.water_coverage_texels += d.water_texels;
+        self.shadow_maps_drawn += d.shadow_maps_drawn as u64;
+        self.shadow_maps_redrawn_in_part += d.shadow_maps_redrawn_in_part as u64;
+        self.shadow_maps_kept += d.shadow_maps_kept as u64;
+        self.shadow_regions += d.shadow_regions as u64;
+        self.shadow_texels += d.shadow_texels;
+        self.building_tiles_built += d.building_tiles_built as u64;
+        self.instance_tiles_built += d.instance_tiles_built as u64;
+    }
+}
+
+/// A renderer, the generation it has seen and the manifest it drew with.
+struct Seen {
+    renderer: Renderer,
+    generation: u64,
+    manifest: Arc<Manifest>,
+}
+
+/// The detail's noise fitted to the height layer.
+#[derive(Clone, Copy)]
+struct DetailFit {
+    /// The generation it was fitted at, and the one its noise last changed at.
+    generation: u64,
+    changed_at: u64,
+    /// The grid area its fit read; None when it could not be fitted.
+    area: Option<Extent>,
+    detail: Option<Detail>,
+}
+
 /// Renderers by clipmap configuration, with the generation each has seen.
 struct Renderers {
     gpu: Option<Arc<Gpu>>,
     /// By clipmap configuration and octaves of synthesized detail (0: none).
-    by_config: HashMap<(ClipmapConfig, u32), (Renderer, u64)>,
-    /// The detail's noise fitted to the height layer, and the generation
-    /// it was fitted at.
-    detail_fit: Option<(u64, Option<Detail>)>,
-    /// (generation, extents it dirtied), oldest first.
-    dirt: VecDeque<(u64, Vec<Extent>)>,
+    by_config: HashMap<(ClipmapConfig, u32), Seen>,
+    detail_fit: Option<DetailFit>,
+    /// What the caches did since start (the detail's fits among it).
+    work: CacheWork,
     /// Each pass's runs and time since start, over every renderer; built
     /// where some renderer now has it.
     passes: PassCounters,
 }
 
 impl Renderers {
+    /// Fits the detail's noise to `snap` if it has not been, or if the
+    /// height layer changed where the last fit read since.
+    fn refit_detail(&mut self, scene: &Scene, snap: &SceneSnapshot, terrain: &SceneTerrain<'_>) {
+        let height = snap.manifest.layers.get("height");
+        if let Some(fit) = &mut self.detail_fit {
+            if fit.generation == snap.generation {
+                return;
+            }
+            let touched = scene.dirt_between(fit.generation, snap.generation).is_none_or(|regions| {
+                regions
+                    .iter()
+                    .filter(|d| Some(&d.source_id) == height)
+                    .any(|d| d.extents.iter().any(|e| fit.area.is_none_or(|a| a.overlaps(e))))
+            });
+            if !touched {
+                fit.generation = snap.generation;
+                return;
+            }
+        }
+        let level = terrain.height_level();
+        let at = level.and_then(|l| terrain.data_centre(l)).zip(level);
+        let detail = at.and_then(|(at, level)| Detail::fit(terrain, at, level, Detail::DEFAULT_OCTAVES));
+        // What the fit reads: 64 samples of the data's level round its
+        // place, and 32 plus 5 of the level above round half of it.
+        let area = at.map(|((x, y), level)| {
+            let step = snap.grid.sample_step(level);
+            let (cx, cy) = snap.grid.sample_point(level, x, y);
+            let reach = 80.0 * step;
+            Extent { min_x: cx - reach, min_y: cy - reach, max_x: cx + reach, max_y: cy + reach }
+        });
+        self.work.detail_fits += 1;
+        let changed_at = match &self.detail_fit {
+            Some(f) if f.detail == detail => f.changed_at,
+            _ => snap.generation,
+        };
+        self.detail_fit = Some(DetailFit { generation: snap.generation, changed_at, area, detail });
+    }
+
+    /// What renderer `key` must refresh to draw `snap`: None when it has
+    /// seen it; the whole grid when the dirt log lost generations it has
+    /// not seen, the manifest was edited or the detail's noise changed;
+    /// else the height and colour layers' extents (widened by the
+    /// detail's reach below the data where it is drawn) and the water
+    /// layer's.
+    fn dirt_for(
+        &self,
+        scene: &Scene,
+        snap: &SceneSnapshot,
+        key: (ClipmapConfig, u32),
+        detail: Option<Detail>,
+    ) -> Option<Dirt> {
+        let seen = self.by_config.get(&key)?;
+        if seen.generation >= snap.generation && Arc::ptr_eq(&seen.manifest, &snap.manifest) {
+            return None;
+        }
+        let whole = Dirt::everything(snap.grid.extent());
+        let noise_changed = detail.is_some() && self.detail_fit.is_some_and(|f| f.changed_at > seen.generation);
+        let regions = scene.dirt_between(seen.generation, snap.generation);
+        let Some(regions) = regions.filter(|_| Arc::ptr_eq(&seen.manifest, &snap.manifest) && !noise_changed) else {
+            return Some(whole);
+        };
+        let layer = |name: &str| snap.manifest.layers.get(name);
+        let (height, color, water) = (layer("height"), layer("color"), layer("water"));
+        // A synthesized sample reads the coarser ones round it: four-point
+        // taps two samples out, halving at each finer level.
+        let reach = detail.map_or(0.0, |d| 4.0 * snap.grid.sample_step(d.data_level));
+        let mut dirt = Dirt::default();
+        for d in &regions {
+            let id = Some(&d.source_id);
+            if id == height || id == color {
+                dirt.terrain.extend(d.extents.iter().map(|e| e.dilate(reach, reach)));
+            }
+            if id == water {
+                dirt.water.extend_from_slice(&d.extents);
+            }
+        }
+        Some(dirt)
+    }
+
     /// Adds a frame's passes to the totals; built where a renderer has it.
     fn count_passes(&mut self, frame: &Frame) -> Vec<PassStats> {
         for &(name, ms) in &frame.passes {
@@ -67,7 +193,7 @@ impl Renderers {
             }
         }
         for &name in relief_renderer::PASSES {
-            let built = self.by_config.values().any(|(r, _)| r.counters().is_built(name));
+            let built = self.by_config.values().any(|s| s.renderer.counters().is_built(name));
             self.passes.set_built(name, built);
         }
         self.passes.stats().to_vec()
@@ -83,6 +209,11 @@ pub struct Rendered {
     pub passes: Vec<PassStats>,
     /// The sun it was lit by over its camera, and where that came from.
     pub sun: (SunAngles, Sun),
+    /// The manifest it was drawn with.
+    pub manifest: Arc<Manifest>,
+    /// Shown again for a later generation that changed nothing it draws
+    /// (a status change, a source no layer reads): not rendered again.
+    pub carried_over: bool,
 }
 
 pub struct Viewer {
@@ -110,40 +241,24 @@ pub struct Overrides {
 
 impl Viewer {
     /// A viewer over `scene`, its camera from the manifest or framing the
-    /// height layer. Keeps a log of dirty areas so renderers refresh only
-    /// what a new generation rebuilt.
+    /// height layer. Renderers refresh only what each new generation
+    /// rebuilt (the scene's log of dirty extents).
     pub fn new(scene: &Arc<Scene>) -> Arc<Self> {
         let camera = watch::Sender::new(default_camera(&scene.snapshot()));
-        let viewer = Arc::new(Self {
+        Arc::new(Self {
             scene: Arc::clone(scene),
             renderers: Mutex::new(Renderers {
                 gpu: None,
                 by_config: HashMap::new(),
                 detail_fit: None,
-                dirt: VecDeque::new(),
+                work: CacheWork::default(),
                 passes: PassCounters::default(),
             }),
             camera,
             permits: Semaphore::new(MAX_RENDERS_IN_FLIGHT),
             frames: std::sync::atomic::AtomicU64::new(0),
             models: ModelCache::default(),
-        });
-        let weak = Arc::downgrade(&viewer);
-        let mut events = scene.events();
-        tokio::spawn(async move {
-            while let Ok(event) = events.recv().await {
-                let Some(viewer) = weak.upgrade() else { break };
-                if let EventKind::Generation { dirty, .. } = event.kind {
-                    let extents = dirty.into_iter().flat_map(|d| d.extents).collect();
-                    let mut r = viewer.renderers();
-                    r.dirt.push_back((event.generation, extents));
-                    while r.dirt.len() > DIRT_LOG {
-                        r.dirt.pop_front();
-                    }
-                }
-            }
-        });
-        viewer
+        })
     }
 
     /// The renderers, locked. A frame that panicked mid-way (a driver bug)
@@ -223,18 +338,13 @@ impl Viewer {
         let effects = effects.unwrap_or(snap.manifest.effect_settings);
         let mut guard = self.renderers();
         let r = &mut *guard;
-        // Detail below the data: its noise fitted to the height layer once
-        // a generation, over the middle of the layer's data.
-        // (A fit that fails, for nodata there, is kept too: no detail this
-        // generation, and the state says it did not run.)
+        // Detail below the data: its noise fitted to the height layer over
+        // the middle of the layer's data, again only when the height layer
+        // changed there (a fit that fails, for nodata there, is kept too:
+        // no detail, and the state says it did not run).
         let detail = effects.detail_octaves.and_then(|octaves| {
-            if r.detail_fit.is_none_or(|(g, _)| g != snap.generation) {
-                let level = terrain.height_level();
-                let at = level.and_then(|l| terrain.data_centre(l)).zip(level);
-                let fit = at.and_then(|(at, level)| Detail::fit(&terrain, at, level, octaves));
-                r.detail_fit = Some((snap.generation, fit));
-            }
-            r.detail_fit.and_then(|(_, d)| d).map(|d| Detail { octaves, ..d })
+            r.refit_detail(&self.scene, &snap, &terrain);
+            r.detail_fit.and_then(|f| f.detail).map(|d| Detail { octaves, ..d })
         });
         let detail_surface = Surface::new(snap.grid.clone());
         let detailed = detail.map(|d| Detailed::new(&terrain, &detail_surface, d));
@@ -248,28 +358,22 @@ impl Viewer {
         }
         let gpu = Arc::clone(r.gpu.as_ref().expect("opened above"));
         // A manifest edit may change the grid: start over then.
-        r.by_config.retain(|_, (renderer, _)| renderer.surface().grid() == &snap.grid);
+        r.by_config.retain(|_, seen| seen.renderer.surface().grid() == &snap.grid);
         if !r.by_config.contains_key(&key) {
             if r.by_config.len() >= 3 {
                 r.by_config.clear();
             }
             let renderer = Renderer::new(gpu, Surface::new(snap.grid.clone()), config)?;
-            r.by_config.insert(key, (renderer, snap.generation));
+            let seen = Seen { renderer, generation: snap.generation, manifest: Arc::clone(&snap.manifest) };
+            r.by_config.insert(key, seen);
         }
-        let oldest = r.dirt.front().map_or(u64::MAX, |(g, _)| *g);
-        let (renderer, seen) = r.by_config.get_mut(&key).expect("inserted above");
-        if *seen < snap.generation {
-            // Detail refitted to a new generation changes every synthesized sample.
-            if oldest > *seen + 1 || detail.is_some() {
-                renderer.invalidate(source, &snap.grid.extent());
-            }
-            for (_, extents) in r.dirt.iter().filter(|(g, _)| *g > *seen && *g <= snap.generation) {
-                for e in extents {
-                    renderer.invalidate(source, e);
-                }
-            }
-            *seen = snap.generation;
+        let dirt = r.dirt_for(&self.scene, &snap, key, detail);
+        let seen = r.by_config.get_mut(&key).expect("inserted above");
+        if let Some(dirt) = dirt {
+            seen.renderer.invalidate(source, &dirt);
         }
+        (seen.generation, seen.manifest) = (snap.generation, Arc::clone(&snap.manifest));
+        let renderer = &mut seen.renderer;
         let quality = quality.unwrap_or(snap.manifest.quality);
         let buildings = SceneBuildings::new(&self.scene.store, &snap, quality);
         let instances = SceneInstances::new(&self.scene.store, &snap, quality, &self.models);
@@ -311,10 +415,43 @@ impl Viewer {
         for (pass, ms) in &frame.passes {
             metrics::histogram!("relief_render_pass_seconds", "pass" => *pass).record(ms / 1e3);
         }
+        r.work.add(&frame);
         let passes = r.count_passes(&frame);
         self.scene.set_passes(passes.clone());
         self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        Ok(Rendered { frame, generation: snap.generation, camera, passes, sun: (sun, sun_spec) })
+        Ok(Rendered {
+            frame,
+            generation: snap.generation,
+            camera,
+            passes,
+            sun: (sun, sun_spec),
+            manifest: Arc::clone(&snap.manifest),
+            carried_over: false,
+        })
+    }
+
+    /// Whether a frame drawn at generation `since` with `manifest` would
+    /// draw anything differently now: the manifest was edited, or a layer
+    /// the scene draws (height, colour, water, buildings, instances)
+    /// changed since. A generation that changed nothing drawn (a source
+    /// turning to error, one no layer reads) need not be rendered again.
+    pub fn draws_differently(&self, since: u64, manifest: &Arc<Manifest>) -> bool {
+        let snap = self.scene.snapshot();
+        if !Arc::ptr_eq(manifest, &snap.manifest) {
+            return true;
+        }
+        if since >= snap.generation {
+            return false;
+        }
+        let layers: Vec<&String> = snap.manifest.layers.values().collect();
+        self.scene
+            .dirt_between(since, snap.generation)
+            .is_none_or(|regions| regions.iter().any(|d| layers.contains(&&d.source_id)))
+    }
+
+    /// What the renderers' caches did since start.
+    pub fn cache_work(&self) -> CacheWork {
+        self.renderers().work
     }
 
     /// What the device is, once a frame has opened it.

@@ -9,6 +9,7 @@
 mod camera;
 mod clipmap;
 mod detail;
+mod dirt;
 mod error;
 mod gpu;
 mod horizon;
@@ -22,6 +23,7 @@ mod uniforms;
 pub use camera::{MAX_ALTITUDE_M, NEAR_M, Pose, View};
 pub use clipmap::{COLOR_DETAIL, ClipLevel, Clipmap, ClipmapConfig, Rect, StorageRect, TerrainSamples, UpdateStats};
 pub use detail::{Detail, Detailed};
+pub use dirt::Dirt;
 pub use error::RenderError;
 pub use gpu::Gpu;
 pub use passes::atmosphere::Atmosphere;

@@ -11,15 +11,17 @@ use relief_source::Extent;
 
 use crate::camera::{Pose, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
+use crate::dirt::Dirt;
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::passes::atmosphere::{Atmosphere, AtmospherePass, AtmosphereView};
-use crate::passes::buildings::{BuildingsPass, DrawnTerrain, MeshTiles};
+use crate::passes::buildings::{BuildingsCasting, BuildingsPass, DrawnTerrain, MeshTiles};
+use crate::passes::casting::ShadowCaster;
 use crate::passes::fog::{Fog, FogPass};
-use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesPass, InstancesView};
+use crate::passes::instances::{InstanceBands, InstanceTiles, InstancesCasting, InstancesPass, InstancesView};
 use crate::passes::overlay::Eye;
-use crate::passes::shadows::{Casters, ShadowView, Shadows, ShadowsPass};
-use crate::passes::terrain::TerrainPass;
+use crate::passes::shadows::{ShadowView, Shadows, ShadowsPass};
+use crate::passes::terrain::{TerrainCasting, TerrainPass};
 use crate::passes::water::{Water, WaterPass, WaterSamples, WaterView};
 use crate::passes::{self, PassCounters};
 use crate::surface::Surface;
@@ -120,10 +122,20 @@ pub struct Drawn {
     pub instances_in_view: usize,
     pub models: usize,
     pub billboards: usize,
-    /// Shadow maps drawn this frame, and kept from the last one (the same
-    /// cascades over the same casters).
+    /// Shadow maps drawn whole this frame, redrawn in part (only the
+    /// regions over what changed in the casters), and kept from the last
+    /// one (the same cascades over the same casters); the regions redrawn
+    /// and the map texels drawn in all.
     pub shadow_maps_drawn: usize,
+    pub shadow_maps_redrawn_in_part: usize,
     pub shadow_maps_kept: usize,
+    pub shadow_regions: usize,
+    pub shadow_texels: u64,
+    /// Texels of the water's coverage read again this frame.
+    pub water_texels: u64,
+    /// Building mesh tiles and instance tiles brought to the device.
+    pub building_tiles_built: usize,
+    pub instance_tiles_built: usize,
 }
 
 /// A rendered frame.
@@ -205,11 +217,17 @@ impl Renderer {
         &self.counters
     }
 
-    /// The scene rebuilt tiles in `area`: refresh those samples only.
-    pub fn invalidate(&mut self, source: &dyn TerrainSamples, area: &Extent) {
-        self.terrain.invalidate(&self.gpu, &self.surface, source, area);
+    /// The scene rebuilt tiles where `dirt` says: each cache refreshes
+    /// only where a layer it reads changed (the terrain's samples and the
+    /// shadow maps under them, the water's coverage).
+    pub fn invalidate(&mut self, source: &dyn TerrainSamples, dirt: &Dirt) {
+        for area in &dirt.terrain {
+            self.terrain.invalidate(&self.gpu, &self.surface, source, area);
+        }
         if let Some(water) = &mut self.water {
-            water.invalidate(area);
+            for area in &dirt.water {
+                water.invalidate(area);
+            }
         }
     }
 
@@ -286,7 +304,9 @@ impl Renderer {
                 ground: &ground,
                 camera: (pose.position[0], pose.position[1]),
             };
+            let built = buildings.tiles_built;
             let shown = buildings.prepare(device, &self.frame_buffer, &on, meshes);
+            drawn.building_tiles_built = (buildings.tiles_built - built) as usize;
             drawn.buildings = shown.drawn;
             buildings_shown = Some(shown);
             buildings_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -309,7 +329,9 @@ impl Renderer {
                 ground_m,
                 bands: &settings.bands,
             };
+            let built = instances.tiles_built;
             let shown = instances.prepare(&self.gpu, &at, tiles)?;
+            drawn.instance_tiles_built = (instances.tiles_built - built) as usize;
             (drawn.instances_in_view, drawn.models, drawn.billboards) =
                 (shown.in_view, shown.models_drawn, shown.billboards_drawn);
             instances_shown = Some(shown);
@@ -326,28 +348,46 @@ impl Renderer {
             let started = Instant::now();
             let at = ShadowView {
                 view: &view,
-                pose,
                 aspect,
-                pixel_angle,
                 sun,
                 sin_elevation: sun.dot(up),
                 above_ground_m,
                 frame: frame_uniform,
-            };
-            let casters = Casters {
-                terrain: &mut self.terrain,
-                surface: &self.surface,
-                draw: &draw,
-                buildings: self.buildings.as_mut().zip(buildings_shown.as_ref()),
-                instances: self.instances.as_mut().zip(instances_shown.as_ref()),
             };
             if self.shadows.as_ref().is_some_and(|p| p.cascades != shadows.cascades) {
                 self.shadows = None;
             }
             let pass = self.shadows.get_or_insert_with(|| ShadowsPass::new(&self.gpu.device, shadows.cascades));
             self.counters.set_built(passes::SHADOWS, true);
-            pass.run(&self.gpu, &self.frame_buffer, shadows, &at, casters)?;
-            (drawn.shadow_maps_drawn, drawn.shadow_maps_kept) = (pass.work.drawn, pass.work.kept);
+            let mut terrain = TerrainCasting {
+                pass: &mut self.terrain,
+                surface: &self.surface,
+                draw: &draw,
+                view: (&view, pose, pixel_angle),
+                chosen: None,
+            };
+            let mut casters: Vec<&mut dyn ShadowCaster> = vec![&mut terrain];
+            let mut buildings = self
+                .buildings
+                .as_mut()
+                .zip(buildings_shown.as_ref())
+                .map(|(pass, draw)| BuildingsCasting::new(pass, draw, view.eye));
+            if let Some(b) = &mut buildings {
+                casters.push(b);
+            }
+            let mut instances = (self.instances.as_mut().zip(instances_shown.as_ref()))
+                .map(|(pass, draw)| InstancesCasting { pass, draw });
+            if let Some(i) = &mut instances {
+                casters.push(i);
+            }
+            pass.run(&self.gpu, &self.frame_buffer, shadows, &at, &mut casters)?;
+            drop(casters);
+            // The levels' records are the camera's again.
+            self.terrain.write_records(&self.gpu.queue, &draw, &frame_uniform);
+            let work = pass.work;
+            (drawn.shadow_maps_drawn, drawn.shadow_maps_kept) = (work.drawn, work.kept);
+            (drawn.shadow_maps_redrawn_in_part, drawn.shadow_regions, drawn.shadow_texels) =
+                (work.redrawn_in_part, work.regions, work.texels);
             passes.push((passes::SHADOWS, self.counters.ran(passes::SHADOWS, started)));
         }
 
@@ -406,6 +446,7 @@ impl Renderer {
             let pass = self.water.get_or_insert_with(|| WaterPass::new(&self.gpu, &self.frame_buffer));
             self.counters.set_built(passes::WATER, true);
             pass.run(&self.gpu, &self.frame_buffer, &target, &knobs, &at)?;
+            drawn.water_texels = pass.texels_read;
             passes.push((passes::WATER, self.counters.ran(passes::WATER, started)));
         }
         let shadowed = settings.shadows.map(|s| s.cascades);

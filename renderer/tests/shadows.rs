@@ -7,8 +7,9 @@
 mod common;
 
 use common::raycast::{PEAKS_TOP_M, peaks, reference, score};
-use common::{pose, save, utm_scene_of};
+use common::{pose, save, terrain_dirt, utm_scene_of};
 use relief_renderer::{ClipmapConfig, Pose, RenderSettings, Shadows, SunAngles};
+use relief_source::Extent;
 
 const SUN: SunAngles = SunAngles { azimuth_deg: 250.0, elevation_deg: 12.0 };
 const LIT: RenderSettings = RenderSettings { sun: SUN, ..RenderSettings::new(480, 270, true) };
@@ -93,13 +94,48 @@ fn maps_are_kept_while_cascades_and_casters_stay_and_drawn_when_either_changes()
     let turned = renderer.render(&source, &at, &RenderSettings { sun, ..settings }).unwrap();
     assert_eq!(counts(&turned), (cascades, 0), "the sun moved");
 
-    // The terrain's samples are rebuilt under the view: drawn again, and
-    // (the same heights) to the same image.
+    // The terrain's samples are rebuilt under the view: the regions of the
+    // maps over them drawn again, and (the same heights) to the same image.
     renderer.render(&source, &at, &settings).unwrap();
-    renderer.invalidate(&source, &relief_source::Extent::new(300_000.0, 5_090_000.0, 305_000.0, 5_100_000.0));
+    renderer.invalidate(&source, &terrain_dirt(Extent::new(300_000.0, 5_090_000.0, 305_000.0, 5_100_000.0)));
     let rebuilt = renderer.render(&source, &at, &settings).unwrap();
-    assert_eq!(counts(&rebuilt), (cascades, 0), "the terrain changed");
+    let d = rebuilt.drawn;
+    assert_eq!(d.shadow_maps_drawn, 0, "{d:?}");
+    assert!(d.shadow_maps_redrawn_in_part >= 1 && d.shadow_regions >= 1, "the terrain changed: {d:?}");
+    assert_eq!(d.shadow_maps_redrawn_in_part + d.shadow_maps_kept, cascades);
     assert_eq!(rebuilt.rgba, first.rgba);
+}
+
+/// The peaks with a 600 m tower over 301..301.6 km E, 5,096..5,096.6 km N.
+fn peaks_with_tower(x: f64, y: f64) -> f64 {
+    let tower = (301_000.0..=301_600.0).contains(&x) && (5_096_000.0..=5_096_600.0).contains(&y);
+    peaks(x, y) + if tower { 600.0 } else { 0.0 }
+}
+
+#[test]
+fn an_edit_redraws_only_the_regions_of_the_maps_it_touches_to_the_image_drawn_from_scratch() {
+    let (mut renderer, before) = utm_scene_of(ClipmapConfig::default(), peaks);
+    let at = over_the_peaks();
+    let settings = RenderSettings { shadows: Some(Shadows::DEFAULT), ..LIT };
+    let cascades = Shadows::DEFAULT.cascades as usize;
+    let without = renderer.render(&before, &at, &settings).unwrap();
+    let after = common::Analytic { height: peaks_with_tower, surface: before.surface.clone(), ..before };
+    renderer.invalidate(&after, &terrain_dirt(Extent::new(301_000.0, 5_096_000.0, 301_600.0, 5_096_600.0)));
+    let edited = renderer.render(&after, &at, &settings).unwrap();
+    let d = edited.drawn;
+    assert_eq!(d.shadow_maps_drawn, 0, "{d:?}");
+    assert!(d.shadow_regions >= 1, "{d:?}");
+    let whole = (cascades * 1024 * 1024) as u64;
+    assert!(d.shadow_texels * 10 < whole, "{} of {whole} texels redrawn for a 600 m tower", d.shadow_texels);
+    // The same frame as a renderer that never saw the peaks without it.
+    let (mut scratch, _) = utm_scene_of(ClipmapConfig::default(), peaks_with_tower);
+    let fresh = scratch.render(&after, &at, &settings).unwrap();
+    save(&edited, "shadows-edited.png");
+    save(&fresh, "shadows-scratch.png");
+    let off = edited.rgba.chunks(4).zip(fresh.rgba.chunks(4)).filter(|(a, b)| a != b).count();
+    assert_eq!(off, 0, "{off} pixels differ from the frame drawn from scratch");
+    // The tower shows: it differs from the frame before.
+    assert!(edited.rgba != without.rgba, "the tower does not show");
 }
 
 #[test]

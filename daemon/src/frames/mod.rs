@@ -13,7 +13,8 @@
 mod stream;
 mod views;
 
-use std::sync::{Arc, Mutex, OnceLock};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 
 use bytes::Bytes;
 use tokio::sync::{Notify, watch};
@@ -22,6 +23,7 @@ use tokio_util::sync::CancellationToken;
 pub use stream::{CameraSource, FrameStream, StreamSpec, start};
 pub use views::{OpenView, ViewSettings, Views};
 
+use crate::codec::Codec;
 use crate::scene::Scene;
 use crate::view::{Camera, Overrides, Rendered, ViewError, Viewer};
 
@@ -40,6 +42,8 @@ pub struct ViewKey {
     pub height: u32,
     /// The request's quality overrides.
     pub overrides: Overrides,
+    /// Drawn while the viewer drags (at `interactive_scale`).
+    pub interactive: bool,
 }
 
 impl ViewKey {
@@ -48,36 +52,90 @@ impl ViewKey {
     }
 }
 
-/// A rendered frame as the hub shares it; its PNG is encoded once, by the
-/// first stream that wants it.
+/// How a stream or a call wants its frames.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FrameFormat {
+    /// Raw RGBA8.
+    Rgba,
+    Png,
+    /// JPEG of this quality (1 to 100), always.
+    Jpeg(u8),
+    /// JPEG of this quality while the view is interactive (the camera
+    /// moving), PNG (lossless) at rest.
+    Live(u8),
+}
+
+impl FrameFormat {
+    /// The codec for a frame, interactive or at rest; None for raw RGBA.
+    pub fn codec(self, interactive: bool) -> Option<Codec> {
+        match self {
+            Self::Rgba => None,
+            Self::Png => Some(Codec::Png),
+            Self::Jpeg(q) => Some(Codec::Jpeg(q)),
+            Self::Live(q) if interactive => Some(Codec::Jpeg(q)),
+            Self::Live(_) => Some(Codec::Png),
+        }
+    }
+}
+
+/// An encoded image and the milliseconds its encoding took.
+pub type Encoded = Result<(Bytes, f64), String>;
+
+/// A rendered frame as the hub shares it; each encoding is made once, by
+/// the first stream that wants it, and shared with the frames that carry
+/// it over to later generations.
 pub struct HubFrame {
-    pub rendered: Rendered,
+    pub rendered: Arc<Rendered>,
     pub rgba: Bytes,
-    /// The PNG and the milliseconds its encoding took.
-    png: OnceLock<Result<(Bytes, f64), String>>,
+    /// The generation it is shown for: the one it was rendered at, or a
+    /// later one that changed nothing it draws.
+    pub generation: u64,
+    /// Shown again for a later generation, not rendered again.
+    pub carried_over: bool,
+    /// Drawn while its view was interactive (smaller, and lossy on the
+    /// wire where the stream asks for `Live`).
+    pub interactive: bool,
+    encoded: Arc<Mutex<HashMap<Codec, Encoded>>>,
 }
 
 impl HubFrame {
-    pub fn new(mut rendered: Rendered) -> Self {
+    pub fn new(mut rendered: Rendered, interactive: bool) -> Self {
         let rgba = Bytes::from(std::mem::take(&mut rendered.frame.rgba));
-        Self { rendered, rgba, png: OnceLock::new() }
+        let generation = rendered.generation;
+        let carried_over = rendered.carried_over;
+        let encoded = Arc::default();
+        Self { rendered: Arc::new(rendered), rgba, generation, carried_over, interactive, encoded }
     }
 
-    /// The frame as a PNG, encoded on first use, and how long that took.
+    /// This frame shown for a later `generation` that changed nothing it
+    /// draws: the same image and encodings.
+    pub fn carried(&self, generation: u64) -> Self {
+        Self {
+            rendered: Arc::clone(&self.rendered),
+            rgba: self.rgba.clone(),
+            generation,
+            carried_over: true,
+            interactive: self.interactive,
+            encoded: Arc::clone(&self.encoded),
+        }
+    }
+
+    /// The frame encoded by `codec`, on first use, and how long that took.
     /// Blocking.
-    pub fn png(&self) -> Result<(Bytes, f64), String> {
-        self.png
-            .get_or_init(|| {
+    pub fn encoded(&self, codec: Codec) -> Encoded {
+        let mut done = self.encoded.lock().expect("never held across a panic");
+        done.entry(codec)
+            .or_insert_with(|| {
                 let f = &self.rendered.frame;
                 let started = std::time::Instant::now();
-                let png = crate::png::encode(&self.rgba, f.width, f.height)?;
-                Ok((Bytes::from(png), started.elapsed().as_secs_f64() * 1e3))
+                let image = codec.encode(&self.rgba, f.width, f.height)?;
+                Ok((Bytes::from(image), started.elapsed().as_secs_f64() * 1e3))
             })
             .clone()
     }
 
-    pub fn is_png_encoded(&self) -> bool {
-        self.png.get().is_some()
+    pub fn is_encoded(&self, codec: Codec) -> bool {
+        self.encoded.lock().expect("never held across a panic").contains_key(&codec)
     }
 }
 
@@ -101,6 +159,9 @@ pub struct HubCounters {
     pub streams: usize,
     pub open_views: usize,
     pub frames_rendered: u64,
+    /// Frames shown again for a later generation that changed nothing
+    /// their view draws, instead of rendered.
+    pub frames_carried_over: u64,
 }
 
 pub struct FrameHub {
@@ -112,6 +173,7 @@ pub struct FrameHub {
     slots: Mutex<(Vec<Arc<Slot>>, usize)>,
     wake: Notify,
     rendered: std::sync::atomic::AtomicU64,
+    carried: std::sync::atomic::AtomicU64,
 }
 
 /// A stream's hold on a distinct view: dropping it leaves the view.
@@ -146,6 +208,7 @@ impl FrameHub {
             slots: Mutex::new((Vec::new(), 0)),
             wake: Notify::new(),
             rendered: std::sync::atomic::AtomicU64::new(0),
+            carried: std::sync::atomic::AtomicU64::new(0),
         });
         tokio::spawn(Arc::clone(&hub).schedule(shutdown));
         hub
@@ -196,6 +259,7 @@ impl FrameHub {
             streams: guard.0.iter().map(|s| s.tx.receiver_count()).sum(),
             open_views: self.views.len(),
             frames_rendered: self.rendered.load(std::sync::atomic::Ordering::Relaxed),
+            frames_carried_over: self.carried.load(std::sync::atomic::Ordering::Relaxed),
         }
     }
 
@@ -228,11 +292,22 @@ impl FrameHub {
                 }
                 continue;
             };
+            // A generation that changed nothing this view draws is shown
+            // by its last frame again, not rendered.
+            let last = slot.tx.borrow().as_ref().and_then(|p| p.as_ref().ok().cloned());
+            if let Some(last) =
+                last.filter(|f| !self.viewer.draws_differently(f.rendered.generation, &f.rendered.manifest))
+            {
+                *slot.done_at.lock().expect("never held across a panic") = Some(generation);
+                self.carried.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                slot.tx.send_replace(Some(Ok(Arc::new(last.carried(generation)))));
+                continue;
+            }
             let (viewer, key) = (Arc::clone(&self.viewer), slot.key);
             slot.drawing.store(true, std::sync::atomic::Ordering::Relaxed);
             let job = tokio::task::spawn_blocking(move || {
                 let rendered = viewer.draw(Some(key.camera), key.width, key.height, key.overrides)?;
-                Ok::<_, ViewError>(HubFrame::new(rendered))
+                Ok::<_, ViewError>(HubFrame::new(rendered, key.interactive))
             });
             let result = tokio::select! {
                 r = job => r,
@@ -240,7 +315,7 @@ impl FrameHub {
             };
             let published = match result {
                 Ok(Ok(frame)) => {
-                    *slot.done_at.lock().expect("never held across a panic") = Some(frame.rendered.generation);
+                    *slot.done_at.lock().expect("never held across a panic") = Some(frame.generation);
                     self.rendered.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                     Ok(Arc::new(frame))
                 }

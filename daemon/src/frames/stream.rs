@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 
-use super::{FrameHub, HubFrame, OpenView, Subscription, ViewKey, ViewSettings};
+use super::{FrameFormat, FrameHub, HubFrame, OpenView, Subscription, ViewKey, ViewSettings};
 use crate::view::{Camera, Overrides, ViewError};
 
 /// Whose camera a stream shows.
@@ -28,8 +28,9 @@ pub struct StreamSpec {
     pub height: u32,
     pub overrides: Overrides,
     pub max_fps: f64,
-    /// Encode PNG before sending (off the async threads).
-    pub png: bool,
+    /// How frames travel (each encoded before sending, off the async
+    /// threads).
+    pub format: FrameFormat,
     /// The fraction of each side while a view is interactive.
     pub interactive_scale: f64,
 }
@@ -86,7 +87,7 @@ impl StreamSpec {
     fn key(&self, (camera, interactive): (Camera, bool)) -> ViewKey {
         let scale = if interactive { self.interactive_scale } else { 1.0 };
         let side = |v: u32| ((f64::from(v) * scale).round() as u32).max(1);
-        ViewKey { camera, width: side(self.width), height: side(self.height), overrides: self.overrides }
+        ViewKey { camera, width: side(self.width), height: side(self.height), overrides: self.overrides, interactive }
     }
 }
 
@@ -197,10 +198,12 @@ async fn run(
             // Either way the view left has done its part.
             let left = previous.take().as_mut().and_then(newest);
             let ((Some(Ok(frame)), _) | (_, Some(Ok(frame)))) = (newest(&mut sub), left) else { continue };
-            if spec.png && !frame.is_png_encoded() {
+            if let Some(codec) = spec.format.codec(frame.interactive)
+                && !frame.is_encoded(codec)
+            {
                 let job = Arc::clone(&frame);
                 // An encoding error shows when the transport asks for it.
-                let _ = tokio::task::spawn_blocking(move || job.png()).await;
+                let _ = tokio::task::spawn_blocking(move || job.encoded(codec)).await;
             }
             if let CameraSource::View(view) = &spec.source {
                 view.shown(&frame);

@@ -179,6 +179,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             ("clipmap_levels".to_string(), m.clipmap.levels.to_string()),
             ("color_detail".to_string(), m.clipmap.color_detail.to_string()),
             ("interactive_scale".to_string(), m.interactive_scale.to_string()),
+            ("frame_jpeg_quality".to_string(), m.frame_jpeg_quality.to_string()),
             ("instance_bands_m".to_string(), join(&m.bands.edges_m)),
             ("instance_band_densities".to_string(), join(&m.bands.densities)),
             ("instance_model_distance_m".to_string(), m.bands.model_distance_m.to_string()),
@@ -206,6 +207,22 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
                 .collect(),
             raster_cache_bytes: relief_source_gdal::cached_bytes(),
             raster_cache_budget_bytes: relief_source_gdal::block_budget(),
+            stream_frames_carried_over: frames.frames_carried_over,
+            renderer_caches: Some({
+                let w = hub.viewer().cache_work();
+                pb::CacheWork {
+                    level_samples_written: w.level_samples_written,
+                    water_coverage_texels: w.water_coverage_texels,
+                    shadow_maps_drawn: w.shadow_maps_drawn,
+                    shadow_maps_redrawn_in_part: w.shadow_maps_redrawn_in_part,
+                    shadow_maps_kept: w.shadow_maps_kept,
+                    shadow_regions: w.shadow_regions,
+                    shadow_texels: w.shadow_texels,
+                    building_tiles_built: w.building_tiles_built,
+                    instance_tiles_built: w.instance_tiles_built,
+                    detail_fits: w.detail_fits,
+                }
+            }),
         }),
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),
@@ -336,7 +353,7 @@ pub fn camera_to(c: &crate::view::Camera) -> pb::Camera {
 
 /// RGBA8 rows as a PNG.
 pub fn png(rgba: &[u8], width: u32, height: u32) -> Result<Vec<u8>, tonic::Status> {
-    crate::png::encode(rgba, width, height).map_err(tonic::Status::internal)
+    crate::codec::png(rgba, width, height).map_err(tonic::Status::internal)
 }
 
 /// The renderer's passes in relief.v1.

@@ -1,6 +1,7 @@
 //! The HTTP transport, on the gRPC port: the browser viewer's page, and
 //! each call as JSON (the relief.v1 messages in the proto3 JSON mapping),
-//! streams as Server-Sent Events. Every route parses its input, hands it
+//! streams as Server-Sent Events, and frames also as binary messages on a
+//! WebSocket (`/api/frames/ws`). Every route parses its input, hands it
 //! to the one implementation of the call and writes the answer; errors are
 //! the gRPC status's code and message, with the matching HTTP status.
 
@@ -10,6 +11,7 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::body::Bytes;
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Extension, Path, Query, State};
 use axum::http::{HeaderValue, Method, StatusCode, Uri, header};
 use axum::response::sse::{Event, KeepAlive, Sse};
@@ -137,12 +139,18 @@ fn camera_param(q: &HashMap<String, String>) -> Result<Option<pb::Camera>, HttpE
     }))
 }
 
-fn format_param(q: &HashMap<String, String>) -> Result<i32, HttpError> {
+/// The `format` parameter: png (the default where `live` is not), jpeg,
+/// rgba, or live (JPEG while the view is interactive, PNG at rest: the
+/// default of the frames WebSocket).
+fn format_param(q: &HashMap<String, String>, live: bool) -> Result<i32, HttpError> {
     match q.get("format").map(String::as_str) {
+        None if live => Ok(pb::ImageFormat::Unspecified as i32),
         None | Some("png") => Ok(pb::ImageFormat::Png as i32),
+        Some("jpeg") => Ok(pb::ImageFormat::Jpeg as i32),
         Some("rgba") => Ok(pb::ImageFormat::Rgba8 as i32),
+        Some("live") => Ok(pb::ImageFormat::Unspecified as i32),
         Some(other) => Err(HttpError(Status::invalid_argument(format!(
-            "invalid query parameter 'format': '{other}' (png or rgba)"
+            "invalid query parameter 'format': '{other}' (png, jpeg, rgba or live)"
         )))),
     }
 }
@@ -193,22 +201,25 @@ async fn set_camera(State(c): Shared, Extension(scope): Extension<Scope>, bytes:
     reply(c.view.set_camera(scope, &pb::SetCameraRequest { camera: Some(camera) }))
 }
 
-/// The image itself (PNG, or raw RGBA with its size in headers), with the
+/// The image itself (PNG, JPEG, or raw RGBA with its size in headers), with the
 /// generation, camera and pass timings in `x-relief-*` headers.
 async fn render_image(State(c): Shared, Query(q): Params) -> Result<Response, HttpError> {
     let request = pb::RenderRequest {
         camera: camera_param(&q)?,
         width: param(&q, "width")?.unwrap_or(0),
         height: param(&q, "height")?.unwrap_or(0),
-        format: format_param(&q)?,
+        format: format_param(&q, false)?,
         quality: None,
         sun: sun_param(&q)?,
     };
     let r = c.view.render(&request).await?;
-    let png = r.format == pb::ImageFormat::Png as i32;
     let mut response = r.image.clone().into_response();
     let headers = response.headers_mut();
-    let content_type = if png { "image/png" } else { "application/octet-stream" };
+    let content_type = match pb::ImageFormat::try_from(r.format) {
+        Ok(pb::ImageFormat::Png) => "image/png",
+        Ok(pb::ImageFormat::Jpeg) => "image/jpeg",
+        _ => "application/octet-stream",
+    };
     headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(content_type));
     let camera = r.camera.unwrap_or_default();
     let text = [
@@ -245,18 +256,74 @@ async fn render_json(State(c): Shared, bytes: Bytes) -> Reply<pb::RenderResponse
     reply(c.view.render(&request).await)
 }
 
-async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse, HttpError> {
-    let request = pb::StreamFramesRequest {
-        width: param(&q, "width")?.unwrap_or(0),
-        height: param(&q, "height")?.unwrap_or(0),
-        format: format_param(&q)?,
-        max_fps: param(&q, "max_fps")?.unwrap_or(0.0),
-        quality: None,
-        camera: camera_param(&q)?,
+/// A frame stream's request from its query parameters.
+fn frames_request(q: &HashMap<String, String>, live: bool) -> Result<pb::StreamFramesRequest, HttpError> {
+    let quality = param::<u32>(q, "jpeg_quality")?
+        .map(|v| pb::QualityOverrides { frame_jpeg_quality: Some(v), ..Default::default() });
+    Ok(pb::StreamFramesRequest {
+        width: param(q, "width")?.unwrap_or(0),
+        height: param(q, "height")?.unwrap_or(0),
+        format: format_param(q, live)?,
+        max_fps: param(q, "max_fps")?.unwrap_or(0.0),
+        quality,
+        camera: camera_param(q)?,
         view_id: q.get("view").cloned().unwrap_or_default(),
-        sun: sun_param(&q)?,
-    };
+        sun: sun_param(q)?,
+    })
+}
+
+async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse, HttpError> {
+    let request = frames_request(&q, false)?;
     Ok(sse("frame", c.view.stream_frames(&request)?))
+}
+
+/// Frames on a WebSocket, each one binary message (`ws_frame`); the
+/// stream is checked before the upgrade, so a bad request is an HTTP
+/// error. Ends with a text message `{"error": ...}` when the view fails.
+async fn frames_ws(State(c): Shared, Query(q): Params, ws: WebSocketUpgrade) -> Result<Response, HttpError> {
+    let request = frames_request(&q, true)?;
+    let frames = c.view.stream_frames(&request)?;
+    Ok(ws.on_upgrade(move |socket| send_frames(socket, frames)))
+}
+
+async fn send_frames(mut socket: WebSocket, mut frames: super::view::Frames) {
+    loop {
+        tokio::select! {
+            item = frames.next() => match item {
+                Some(Ok(frame)) => {
+                    if socket.send(Message::Binary(ws_frame(frame))).await.is_err() {
+                        return;
+                    }
+                }
+                Some(Err(status)) => {
+                    let body = serde_json::json!({ "error": error_body(&status) }).to_string();
+                    let _ = socket.send(Message::Text(body.into())).await;
+                    let _ = socket.send(Message::Close(None)).await;
+                    return;
+                }
+                None => return,
+            },
+            incoming = socket.recv() => match incoming {
+                None | Some(Err(_) | Ok(Message::Close(_))) => return,
+                Some(Ok(_)) => {}
+            },
+        }
+    }
+}
+
+/// One frame as a binary WebSocket message: the length of a JSON header
+/// (4 bytes, little-endian), the header `{"frame": RenderResponse}` in
+/// the proto3 JSON mapping without its image, then the image's bytes
+/// (PNG, JPEG or RGBA8 as `frame.format` says). A header that names
+/// another member than "frame" may follow on the same connection.
+pub fn ws_frame(mut frame: pb::RenderResponse) -> Bytes {
+    let image = std::mem::take(&mut frame.image);
+    let header = serde_json::json!({ "frame": frame }).to_string();
+    let mut out = Vec::with_capacity(4 + header.len() + image.len());
+    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    out.extend_from_slice(&image);
+    Bytes::from(out)
 }
 
 async fn open_view(State(c): Shared, bytes: Bytes) -> Reply<pb::ViewState> {
@@ -330,7 +397,16 @@ const ROUTES: &[(&str, &str, &str)] = &[
     ("PUT", "/api/camera", "Camera -> Camera (SetCamera)"),
     ("GET", "/api/render?camera=lon,lat,alt,heading,pitch,roll&fov=&width=&height=&format=png|rgba", "the image"),
     ("POST", "/api/render", "RenderRequest -> RenderResponse"),
-    ("GET", "/api/frames?view=ID|camera=...&width=&height=&max_fps=", "RenderResponse stream (SSE, event: frame)"),
+    (
+        "GET",
+        "/api/frames?view=ID|camera=...&width=&height=&max_fps=&format=png|jpeg|live|rgba&jpeg_quality=",
+        "RenderResponse stream (SSE, event: frame)",
+    ),
+    (
+        "GET",
+        "/api/frames/ws?(as /api/frames; format defaults to live)",
+        "WebSocket of binary frames: u32 LE header length, {\"frame\": RenderResponse} JSON, image bytes",
+    ),
     ("POST", "/api/views", "OpenViewRequest -> ViewState"),
     ("PATCH", "/api/views/{id}", "UpdateViewRequest -> ViewState"),
     ("POST", "/api/views/{id}/navigate", "NavigateRequest -> Camera"),
@@ -375,6 +451,7 @@ pub fn router(calls: Arc<Calls>, grpc: Router) -> Router {
         .route("/api/camera", get(get_camera).put(set_camera))
         .route("/api/render", get(render_image).post(render_json))
         .route("/api/frames", get(frames))
+        .route("/api/frames/ws", get(frames_ws))
         .route("/api/views", post(open_view))
         .route("/api/views/{id}", patch(update_view))
         .route("/api/views/{id}/navigate", post(navigate_view))

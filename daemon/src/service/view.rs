@@ -16,8 +16,9 @@ use tokio_stream::{Stream, StreamExt, wrappers::ReceiverStream};
 use tokio_util::sync::CancellationToken;
 use tonic::Status;
 
+use crate::codec::Codec;
 use crate::effects::EffectSettings;
-use crate::frames::{CameraSource, FrameHub, HubFrame, OpenView, StreamSpec, ViewSettings};
+use crate::frames::{CameraSource, FrameFormat, FrameHub, HubFrame, OpenView, StreamSpec, ViewSettings};
 use crate::navigate::{Gesture, navigate, pick};
 use crate::scene::Scene;
 use crate::service::auth::Scope;
@@ -44,24 +45,37 @@ struct FrameRequest {
     camera: Option<crate::view::Camera>,
     width: u32,
     height: u32,
-    png: bool,
+    format: FrameFormat,
     overrides: Overrides,
+}
+
+/// A request's image format: unspecified is PNG for one frame, and for a
+/// stream JPEG while its view is interactive and PNG at rest.
+fn frame_format(format: i32, stream: bool, jpeg_quality: u8) -> Result<FrameFormat, Status> {
+    match ImageFormat::try_from(format) {
+        Ok(ImageFormat::Unspecified) if stream => Ok(FrameFormat::Live(jpeg_quality)),
+        Ok(ImageFormat::Unspecified | ImageFormat::Png) => Ok(FrameFormat::Png),
+        Ok(ImageFormat::Jpeg) => Ok(FrameFormat::Jpeg(jpeg_quality)),
+        Ok(ImageFormat::Rgba8) => Ok(FrameFormat::Rgba),
+        Err(_) => Err(invalid_field("format", format!("{format} is not an image format"))),
+    }
 }
 
 fn frame_request(
     scene: &Scene,
     camera: Option<&Camera>,
     (width, height): (u32, u32),
-    format: i32,
+    (format, stream): (i32, bool),
     overrides: Option<&QualityOverrides>,
     sun: Option<&Sun>,
 ) -> Result<FrameRequest, Status> {
     let snap = scene.snapshot();
-    let png = match ImageFormat::try_from(format) {
-        Ok(ImageFormat::Unspecified | ImageFormat::Png) => true,
-        Ok(ImageFormat::Rgba8) => false,
-        Err(_) => return Err(invalid_field("format", format!("{format} is not an image format"))),
-    };
+    let jpeg_quality = overrides
+        .and_then(|o| o.frame_jpeg_quality)
+        .map(|q| crate::manifest::jpeg_quality(q).map_err(|e| invalid_field("quality.frame_jpeg_quality", e)))
+        .transpose()?
+        .unwrap_or(snap.manifest.frame_jpeg_quality);
+    let format = frame_format(format, stream, jpeg_quality)?;
     if let Some(o) = overrides {
         // Knobs of effects not drawn yet: refused, never ignored.
         if o.precision.is_some() {
@@ -113,7 +127,7 @@ fn frame_request(
             Ok(sun)
         })
         .transpose()?;
-    Ok(FrameRequest { camera, width, height, png, overrides: Overrides { clipmap, quality, bands, sun, effects } })
+    Ok(FrameRequest { camera, width, height, format, overrides: Overrides { clipmap, quality, bands, sun, effects } })
 }
 
 /// A request's camera in relief's types, checked against the scene (every
@@ -124,20 +138,27 @@ fn checked_camera(snap: &crate::graph::SceneSnapshot, c: &Camera) -> Result<crat
     Ok(camera)
 }
 
-/// A frame as relief.v1 answers it, the PNG encoded now if not yet.
-fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
+/// A frame as relief.v1 answers it, encoded now if not yet (the encoding
+/// is a pass timing: "encode png", "encode jpeg").
+pub fn response(frame: &HubFrame, format: FrameFormat) -> Result<RenderResponse, Status> {
     let f = &frame.rendered.frame;
     let mut passes: Vec<PassTiming> =
         f.passes.iter().map(|(pass, ms)| PassTiming { pass: (*pass).into(), elapsed_ms: *ms }).collect();
-    let (format, image) = if png {
-        let (png, ms) = frame.png().map_err(Status::internal)?;
-        passes.push(PassTiming { pass: "encode png".into(), elapsed_ms: ms });
-        (ImageFormat::Png, png)
-    } else {
-        (ImageFormat::Rgba8, frame.rgba.clone())
+    let (format, image) = match format.codec(frame.interactive) {
+        Some(codec) => {
+            let (image, ms) = frame.encoded(codec).map_err(Status::internal)?;
+            let (format, name) = match codec {
+                Codec::Png => (ImageFormat::Png, "encode png"),
+                Codec::Jpeg(_) => (ImageFormat::Jpeg, "encode jpeg"),
+            };
+            passes.push(PassTiming { pass: name.into(), elapsed_ms: ms });
+            (format, image)
+        }
+        None => (ImageFormat::Rgba8, frame.rgba.clone()),
     };
     Ok(RenderResponse {
-        generation: frame.rendered.generation,
+        carried_over: frame.carried_over,
+        generation: frame.generation,
         width: f.width,
         height: f.height,
         format: format as i32,
@@ -154,6 +175,13 @@ fn response(frame: &HubFrame, png: bool) -> Result<RenderResponse, Status> {
             terrain_blocks_beyond_horizon: f.drawn.terrain_blocks_beyond_horizon as u32,
             shadow_maps_drawn: f.drawn.shadow_maps_drawn as u32,
             shadow_maps_kept: f.drawn.shadow_maps_kept as u32,
+            shadow_maps_redrawn_in_part: f.drawn.shadow_maps_redrawn_in_part as u32,
+            shadow_regions: f.drawn.shadow_regions as u32,
+            shadow_texels: f.drawn.shadow_texels,
+            water_coverage_texels: f.drawn.water_texels,
+            level_samples_written: f.update.samples_written,
+            building_tiles_built: f.drawn.building_tiles_built as u32,
+            instance_tiles_built: f.drawn.instance_tiles_built as u32,
         }),
         sun: {
             let (angles, spec) = &frame.rendered.sun;
@@ -202,14 +230,14 @@ impl ViewCalls {
             &self.scene,
             r.camera.as_ref(),
             (r.width, r.height),
-            r.format,
+            (r.format, false),
             r.quality.as_ref(),
             r.sun.as_ref(),
         )?;
         let viewer = Arc::clone(self.viewer());
         tokio::task::spawn_blocking(move || {
             let rendered = viewer.render(req.camera, req.width, req.height, req.overrides).map_err(|e| status(&e))?;
-            response(&HubFrame::new(rendered), req.png)
+            response(&HubFrame::new(rendered, false), req.format)
         })
         .await
         .map_err(|e| Status::internal(format!("the render task failed: {e}")))?
@@ -222,7 +250,7 @@ impl ViewCalls {
             &self.scene,
             r.camera.as_ref(),
             (r.width, r.height),
-            r.format,
+            (r.format, true),
             r.quality.as_ref(),
             r.sun.as_ref(),
         )?;
@@ -243,13 +271,13 @@ impl ViewCalls {
             height: req.height,
             overrides: req.overrides,
             max_fps: fps,
-            png: req.png,
+            format: req.format,
             interactive_scale: self.scene.snapshot().manifest.interactive_scale,
         };
         let frames = crate::frames::start(&self.hub, spec, self.shutdown.clone()).map_err(|e| status(&e))?;
-        let png = req.png;
+        let format = req.format;
         Ok(Box::pin(ReceiverStream::new(frames).map(move |f| match f {
-            Ok(frame) => response(&frame, png),
+            Ok(frame) => response(&frame, format),
             Err(e) => Err(status(&e)),
         })))
     }
@@ -334,7 +362,7 @@ impl ViewCalls {
         let frame = view.last_frame().ok_or_else(|| status(&crate::view::ViewError::NoFrame(r.view_id.clone())))?;
         let snap = self.scene.snapshot();
         let at = (r.x, r.y);
-        let generation = frame.rendered.generation;
+        let generation = frame.generation;
         let started = Instant::now();
         let picked = tokio::task::spawn_blocking(move || pick(&snap, &frame, at))
             .await

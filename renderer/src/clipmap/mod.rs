@@ -194,6 +194,8 @@ pub struct ClipLevel {
     pub positions: Vec<[f32; 4]>,
     /// Toroidal n x n: each sample's normal (xyz; `normals.rs`).
     pub normals: Vec<[f32; 4]>,
+    /// Toroidal n x n: each sample's height as drawn (metres).
+    heights: Vec<f32>,
     /// Colour samples per geometry sample along a side (`ClipmapConfig::color_detail`).
     pub color_detail: usize,
     /// Toroidal (color_detail n) squared: colour samples of tile level
@@ -242,6 +244,7 @@ impl ClipLevel {
             anchor_sample: (0, 0),
             positions: vec![[0.0; 4]; n * n],
             normals: vec![[0.0; 4]; n * n],
+            heights: vec![0.0; n * n],
             colors: vec![[0; 4]; side * side],
             dirty: Vec::new(),
             color_dirty: Vec::new(),
@@ -347,6 +350,20 @@ impl ClipLevel {
         true
     }
 
+    /// The lowest and highest heights stored over `area` (grid units);
+    /// None where the window holds none of it.
+    pub fn heights_over(&self, surface: &Surface, area: &Extent) -> Option<(f64, f64)> {
+        let rect = area_in(surface, self.tile_level, area, &self.window());
+        let mut range: Option<(f64, f64)> = None;
+        for gy in rect.y.clone() {
+            for gx in rect.x.clone() {
+                let h = f64::from(self.heights[self.slot(gx, gy)]);
+                range = Some(range.map_or((h, h), |(lo, hi)| (lo.min(h), hi.max(h))));
+            }
+        }
+        range
+    }
+
     /// Fetches again the part of the window inside `area` (grid units),
     /// after the scene rebuilt tiles there. When that data is not ready the
     /// level is marked stale (refilled on its next move) and false returned.
@@ -377,10 +394,12 @@ impl ClipLevel {
                     let h = heights[k * width + m];
                     let (x, y) = surface.sample_point(self.tile_level, gx, gy);
                     let on = surface.on_grid(self.tile_level, gx, gy);
-                    let h = f64::from(drawn_height(h));
+                    let h = drawn_height(h);
+                    let slot = self.slot(gx, gy);
+                    self.heights[slot] = h;
+                    let h = f64::from(h);
                     self.lowest_m = self.lowest_m.min(h);
                     let p = surface.world(x, y, h) - self.anchor;
-                    let slot = self.slot(gx, gy);
                     self.positions[slot] = [p.x as f32, p.y as f32, p.z as f32, if on { 1.0 } else { OFF_GRID }];
                 }
             }
@@ -424,7 +443,8 @@ pub struct Dirty {
 pub struct UpdateStats {
     /// Tile levels drawn this frame, coarse to fine.
     pub active: Vec<u8>,
-    /// Samples fetched and written.
+    /// Samples fetched and written: those that came into view, and those
+    /// refreshed where the scene changed since the last frame.
     pub samples_written: u64,
     /// Levels that wanted data that was not ready (not drawn).
     pub not_ready: Vec<u8>,
@@ -437,11 +457,13 @@ pub struct Clipmap {
     pub config: ClipmapConfig,
     levels: BTreeMap<u8, ClipLevel>,
     active: Vec<u8>,
+    /// Samples refreshed by `invalidate` since the last update.
+    refreshed: u64,
 }
 
 impl Clipmap {
     pub fn new(config: ClipmapConfig) -> Self {
-        Self { config, levels: BTreeMap::new(), active: Vec::new() }
+        Self { config, levels: BTreeMap::new(), active: Vec::new(), refreshed: 0 }
     }
 
     pub fn level(&self, tile_level: u8) -> Option<&ClipLevel> {
@@ -546,16 +568,31 @@ impl Clipmap {
         }
         // Keep a level either side of the range; drop the rest.
         self.levels.retain(|&l, _| l + 1 >= coarsest && l <= finest + 1);
-        stats.samples_written = self.levels.values().map(|l| l.samples_written).sum::<u64>().saturating_sub(before);
+        // With the samples refreshed since the last frame (`invalidate`).
+        stats.samples_written = self.levels.values().map(|l| l.samples_written).sum::<u64>().saturating_sub(before)
+            + std::mem::take(&mut self.refreshed);
         self.active.clone_from(&stats.active);
         stats
     }
 
     /// Re-fetches what the scene rebuilt in `area`, in every kept level.
-    pub fn invalidate(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
+    /// Returns the lowest and highest heights the levels held there
+    /// before and hold after (None where no level holds any of it).
+    pub fn invalidate(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> Option<(f64, f64)> {
+        let before: u64 = self.levels.values().map(|l| l.samples_written).sum();
+        let mut range: Option<(f64, f64)> = None;
+        let mut widen = |r: Option<(f64, f64)>| {
+            if let Some((lo, hi)) = r {
+                range = Some(range.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
+            }
+        };
         for level in self.levels.values_mut() {
+            widen(level.heights_over(surface, area));
             level.refresh(surface, source, area);
+            widen(level.heights_over(surface, area));
         }
+        self.refreshed += self.levels.values().map(|l| l.samples_written).sum::<u64>() - before;
+        range
     }
 }
 

@@ -5,6 +5,7 @@
 
 pub mod atmosphere;
 pub mod buildings;
+pub mod casting;
 pub mod fog;
 pub mod instances;
 pub mod overlay;

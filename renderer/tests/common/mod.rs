@@ -85,6 +85,11 @@ pub fn utm_scene_of(config: ClipmapConfig, height: fn(f64, f64) -> f64) -> (Rend
     (Renderer::new(gpu(), surface, config).unwrap(), source)
 }
 
+/// The terrain rebuilt over `area`, and nothing else.
+pub fn terrain_dirt(area: relief_source::Extent) -> relief_renderer::Dirt {
+    relief_renderer::Dirt { terrain: vec![area], ..relief_renderer::Dirt::default() }
+}
+
 pub fn pose(lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) -> Pose {
     Pose { position: [lon, lat, alt], heading_deg: heading, pitch_deg: pitch, roll_deg: 0.0, vertical_fov_deg: 50.0 }
 }

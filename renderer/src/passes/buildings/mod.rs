@@ -17,7 +17,9 @@ use glam::DVec3;
 use relief_source::{Extent, MeshTile, Payload, TileKey};
 use wgpu::util::DeviceExt;
 
+use super::casting::{CastInto, Changes, ShadowCaster, TileCast, tile_changes};
 use crate::clipmap::Clipmap;
+use crate::gpu::Gpu;
 use crate::surface::Surface;
 use crate::uniforms::split;
 
@@ -70,9 +72,14 @@ struct Building {
 /// A mesh tile on the device.
 struct TileMesh {
     payload: Arc<Payload>,
+    /// A digest of the mesh: a tile built again the same keeps its buffers.
+    content: u64,
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     buildings: Vec<Building>,
+    /// A sphere (world) holding every building of the tile as stored.
+    centre: DVec3,
+    radius: f64,
 }
 
 /// The terrain a frame draws: where its levels are, and its height over a
@@ -96,9 +103,9 @@ pub struct BuildingsDraw {
     /// Buildings drawn, and mesh tiles asked for but not ready.
     pub drawn: usize,
     pub not_ready: usize,
-    /// The same for two draws that put the same buildings in the same
-    /// places (meshes, ranges, lifts): what a kept shadow map is keyed by.
-    pub caster_key: u64,
+    /// Per tile drawn, what the shadow maps take in of it (its mesh, the
+    /// buildings shown and their lifts).
+    cast: HashMap<TileKey, TileCast>,
 }
 
 /// The buildings' shader.
@@ -128,6 +135,8 @@ pub struct BuildingsPass {
     tiles: HashMap<TileKey, TileMesh>,
     /// Mesh tiles turned into device buffers since the pass was built.
     pub tiles_built: u64,
+    /// What the shadow maps hold of each tile.
+    cast: HashMap<TileKey, TileCast>,
 }
 
 impl BuildingsPass {
@@ -162,6 +171,7 @@ impl BuildingsPass {
             shadowed: None,
             tiles: HashMap::new(),
             tiles_built: 0,
+            cast: HashMap::new(),
         }
     }
 
@@ -188,18 +198,23 @@ impl BuildingsPass {
             }
         }
         let fetched = meshes.meshes(&keys);
-        let mut draw = BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0, caster_key: 0 };
+        let mut draw =
+            BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0, cast: HashMap::new() };
         let mut lifts: Vec<Lift> = Vec::new();
         for (key, payload) in keys.iter().zip(fetched) {
             let Some(payload) = payload else {
                 draw.not_ready += 1;
                 continue;
             };
-            let fresh = self.tiles.get(key).is_none_or(|t| !Arc::ptr_eq(&t.payload, &payload));
-            if fresh {
-                let Some(mesh) = TileMesh::new(device, surface, payload) else { continue };
-                self.tiles.insert(*key, mesh);
-                self.tiles_built += 1;
+            match self.tiles.get_mut(key) {
+                Some(t) if Arc::ptr_eq(&t.payload, &payload) => {}
+                // Built again the same (its input changed elsewhere): kept.
+                Some(t) if t.content == content_of(&payload) => t.payload = payload,
+                _ => {
+                    let Some(mesh) = TileMesh::new(device, surface, payload) else { continue };
+                    self.tiles.insert(*key, mesh);
+                    self.tiles_built += 1;
+                }
             }
             let tile = &self.tiles[key];
             // A building shows where a ring drawing its tile's level holds
@@ -221,6 +236,10 @@ impl BuildingsPass {
                 }
             }
             if !shown.is_empty() {
+                let tile_lifts = &lifts[first as usize..];
+                let reach = tile_lifts.iter().map(Lift::reach_m).fold(0.0, f64::max);
+                let key_of = super::key_of(&(tile.content, &shown, bytemuck::cast_slice::<Lift, u8>(tile_lifts)));
+                draw.cast.insert(*key, TileCast { key: key_of, centre: tile.centre, radius: tile.radius + reach });
                 draw.tiles.push((*key, first, shown));
             }
         }
@@ -235,7 +254,6 @@ impl BuildingsPass {
             lifts.truncate(most);
             draw.tiles.retain(|(_, first, _)| (*first as usize) < most);
         }
-        draw.caster_key = super::key_of(&(self.tiles_built, &draw.tiles, bytemuck::cast_slice::<Lift, u8>(&lifts)));
         if !lifts.is_empty() {
             let lifts_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("building lifts"),
@@ -288,18 +306,22 @@ impl BuildingsPass {
         }
     }
 
-    /// Draws the buildings this frame shows into a shadow map.
-    pub fn record_casters(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw) {
-        if let Some(caster) = &self.caster {
-            self.record_with(pass, caster, draw);
-        }
+    fn record_with(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, draw: &BuildingsDraw) {
+        self.record_tiles(pass, pipeline, draw, &|_| true);
     }
 
-    fn record_with(&self, pass: &mut wgpu::RenderPass<'_>, pipeline: &wgpu::RenderPipeline, draw: &BuildingsDraw) {
+    /// Records the tiles of `draw` that `keep` keeps.
+    fn record_tiles(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        pipeline: &wgpu::RenderPipeline,
+        draw: &BuildingsDraw,
+        keep: &dyn Fn(&TileKey) -> bool,
+    ) {
         let Some(bind_group) = &draw.bind_group else { return };
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind_group, &[]);
-        for (key, first, shown) in &draw.tiles {
+        for (key, first, shown) in draw.tiles.iter().filter(|(k, ..)| keep(k)) {
             let tile = &self.tiles[key];
             pass.set_vertex_buffer(0, tile.vertices.slice(..));
             pass.set_index_buffer(tile.indices.slice(..), wgpu::IndexFormat::Uint32);
@@ -307,6 +329,65 @@ impl BuildingsPass {
                 pass.draw_indexed(range.clone(), 0, *first..*first + 1);
             }
         }
+    }
+}
+
+/// A digest of a mesh tile's triangles, parts and colours.
+fn content_of(payload: &Payload) -> u64 {
+    let Payload::Mesh(mesh) = payload else { return 0 };
+    let parts: Vec<(u64, u32, u32, [u8; 4])> =
+        mesh.parts.iter().map(|p| (p.feature_id, p.first_index, p.index_count, p.color)).collect();
+    super::key_of(&(bytemuck::cast_slice::<[f64; 3], u8>(&mesh.positions), &mesh.indices, parts))
+}
+
+impl Lift {
+    /// How far it moves a building's points, metres (up or down).
+    fn reach_m(&self) -> f64 {
+        let length = |v: [f32; 4]| f64::from(v[0].hypot(v[1]).hypot(v[2]));
+        length(self.offset) + length(self.skirt)
+    }
+}
+
+/// The buildings as the shadow maps take them in: what `draw` (this
+/// frame, seen from `eye`) shows of them.
+pub struct BuildingsCasting<'a> {
+    pub pass: &'a mut BuildingsPass,
+    pub draw: &'a BuildingsDraw,
+    pub eye: DVec3,
+    /// The tiles the region being drawn sees.
+    seen: Vec<TileKey>,
+}
+
+impl<'a> BuildingsCasting<'a> {
+    pub fn new(pass: &'a mut BuildingsPass, draw: &'a BuildingsDraw, eye: DVec3) -> Self {
+        Self { pass, draw, eye, seen: Vec::new() }
+    }
+}
+
+impl ShadowCaster for BuildingsCasting<'_> {
+    /// Each tile whose buildings, or whose lifts, differ from what the
+    /// maps hold, where it was and where it is.
+    fn changes(&self) -> Changes {
+        tile_changes(&self.pass.cast, &self.draw.cast)
+    }
+
+    fn ready(&mut self, gpu: &Gpu, into: &CastInto<'_>) {
+        self.pass.prepare_casters(&gpu.device);
+        let eye = self.eye;
+        self.seen = (self.draw.cast.iter())
+            .filter(|(_, t)| into.volume.sees(t.centre - eye, t.radius))
+            .map(|(k, _)| *k)
+            .collect();
+    }
+
+    fn record(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(caster) = &self.pass.caster {
+            self.pass.record_tiles(pass, caster, self.draw, &|k| self.seen.contains(k));
+        }
+    }
+
+    fn cast(&mut self) {
+        self.pass.cast.clone_from(&self.draw.cast);
     }
 }
 
@@ -350,7 +431,12 @@ impl TileMesh {
             contents: bytemuck::cast_slice(&mesh.indices),
             usage: wgpu::BufferUsages::INDEX,
         });
-        Some(Self { payload, vertices, indices, buildings })
+        let n = mesh.positions.len().max(1) as f64;
+        let world: Vec<DVec3> = mesh.positions.iter().map(|p| surface.world(p[0], p[1], p[2])).collect();
+        let centre = world.iter().fold(DVec3::ZERO, |c, p| c + *p / n);
+        let radius = world.iter().map(|p| (*p - centre).length()).fold(0.0, f64::max);
+        let content = content_of(&payload);
+        Some(Self { payload, content, vertices, indices, buildings, centre, radius })
     }
 }
 

@@ -26,6 +26,7 @@ pub use bands::InstanceBands;
 use models::{GpuInstance, GpuModel, INSTANCE_ATTRIBUTES, MAX_MODELS, MODEL_ATTRIBUTES, ModelVertex};
 use sort::{Placed, PlacedTile};
 
+use super::casting::{CastInto, Changes, ShadowCaster, TileCast, tile_changes};
 use crate::camera::View;
 use crate::error::RenderError;
 use crate::gpu::Gpu;
@@ -70,9 +71,9 @@ pub struct InstancesDraw {
     /// the scene does not have.
     pub not_ready: usize,
     pub unknown_models: usize,
-    /// The same for two draws that place the same models in the same
-    /// places: what a kept shadow map is keyed by.
-    pub caster_key: u64,
+    /// Per tile in reach, what the shadow maps take in of it (the models
+    /// it places; billboards cast none).
+    cast: HashMap<TileKey, TileCast>,
 }
 
 const INSTANCE_BUFFER: wgpu::VertexBufferLayout<'static> = wgpu::VertexBufferLayout {
@@ -143,6 +144,8 @@ pub struct InstancesPass {
     tiles: HashMap<TileKey, PlacedTile>,
     /// Instance tiles sorted for drawing since the pass was built.
     pub tiles_built: u64,
+    /// What the shadow maps hold of each tile.
+    cast: HashMap<TileKey, TileCast>,
 }
 
 impl InstancesPass {
@@ -248,6 +251,7 @@ impl InstancesPass {
             by_name: HashMap::new(),
             tiles: HashMap::new(),
             tiles_built: 0,
+            cast: HashMap::new(),
         }
     }
 
@@ -269,7 +273,7 @@ impl InstancesPass {
             billboards_drawn: 0,
             not_ready: 0,
             unknown_models: 0,
-            caster_key: 0,
+            cast: HashMap::new(),
         };
         let reach = at.bands.reach_m();
         let keys = reach::keys(at, source.level(), reach);
@@ -287,9 +291,16 @@ impl InstancesPass {
         }
         self.tiles.retain(|k, _| keys.contains(k));
 
-        let tiles: Vec<&PlacedTile> = keys.iter().filter_map(|k| self.tiles.get(k)).collect();
+        let (keys, tiles): (Vec<TileKey>, Vec<&PlacedTile>) =
+            keys.iter().filter_map(|k| self.tiles.get(k).map(|t| (*k, t))).unzip();
         let shapes: Vec<sort::Shape> = self.models.iter().map(sort::Shape::of).collect();
-        let sorted = sort::sort(&tiles, at, &shapes);
+        let per_tile = sort::sort(&tiles, at, &shapes);
+        for ((key, tile), sorted) in keys.iter().zip(&tiles).zip(&per_tile) {
+            let models: Vec<&[u8]> = sorted.models.iter().map(|m| bytemuck::cast_slice::<GpuInstance, u8>(m)).collect();
+            let cast = TileCast { key: super::key_of(&models), centre: tile.centre, radius: tile.radius };
+            draw.cast.insert(*key, cast);
+        }
+        let sorted = per_tile.into_iter().fold(sort::Sorted::default(), sort::Sorted::merge);
         draw.in_view = sorted.in_view;
         let (per_model, mut billboards) = (sorted.models, sorted.billboards);
         // At most one device buffer of them (knobs reaching tens of
@@ -305,9 +316,6 @@ impl InstancesPass {
                 draw.models.push((slot as u32, start..all.len() as u32));
             }
         }
-        // Models cast shadows; billboards do not.
-        draw.caster_key =
-            super::key_of(&(self.tiles_built, &draw.models, bytemuck::cast_slice::<GpuInstance, u8>(&all)));
         billboards.truncate(most - all.len());
         draw.billboards_drawn = billboards.len();
         draw.billboards = all.len() as u32..(all.len() + billboards.len()) as u32;
@@ -371,13 +379,6 @@ impl InstancesPass {
             let (layout, shader) = (&self.model_pipeline_layout, &self.shader);
             self.caster =
                 Some(super::caster_pipeline(device, "instance casters", layout, shader, "vs_model", &MODEL_BUFFERS));
-        }
-    }
-
-    /// Draws the models this frame shows into a shadow map.
-    pub fn record_casters(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw) {
-        if let Some(caster) = &self.caster {
-            self.record_models(pass, caster, draw);
         }
     }
 
@@ -455,6 +456,37 @@ impl InstancesPass {
         }
         self.by_name.insert(name.to_owned(), slot);
         Ok(Some(slot))
+    }
+}
+
+/// The instances' models as the shadow maps take them in: what `draw`
+/// (this frame) places.
+pub struct InstancesCasting<'a> {
+    pub pass: &'a mut InstancesPass,
+    pub draw: &'a InstancesDraw,
+}
+
+impl ShadowCaster for InstancesCasting<'_> {
+    /// Each tile whose models differ from what the maps hold (an edit, or
+    /// a camera that moved them in their bands), where it was and is.
+    fn changes(&self) -> Changes {
+        tile_changes(&self.pass.cast, &self.draw.cast)
+    }
+
+    fn ready(&mut self, gpu: &Gpu, _: &CastInto<'_>) {
+        self.pass.prepare_casters(&gpu.device);
+    }
+
+    /// Every model this frame places (one instanced draw a model: the
+    /// region's scissor keeps what lies outside it out of the map).
+    fn record(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(caster) = &self.pass.caster {
+            self.pass.record_models(pass, caster, self.draw);
+        }
+    }
+
+    fn cast(&mut self) {
+        self.pass.cast.clone_from(&self.draw.cast);
     }
 }
 

@@ -59,7 +59,7 @@ pub struct Sorted {
 }
 
 impl Sorted {
-    fn merge(mut self, other: Self) -> Self {
+    pub fn merge(mut self, other: Self) -> Self {
         if self.models.len() < other.models.len() {
             self.models.resize(other.models.len(), Vec::new());
         }
@@ -72,7 +72,8 @@ impl Sorted {
     }
 }
 
-pub fn sort(tiles: &[&PlacedTile], at: &InstancesView<'_>, shapes: &[Shape]) -> Sorted {
+/// Each tile's instances sorted, in the order of `tiles`.
+pub fn sort(tiles: &[&PlacedTile], at: &InstancesView<'_>, shapes: &[Shape]) -> Vec<Sorted> {
     let reach = at.bands.reach_m();
     let cull = at.view.frustum(at.aspect);
     tiles
@@ -88,7 +89,7 @@ pub fn sort(tiles: &[&PlacedTile], at: &InstancesView<'_>, shapes: &[Shape]) -> 
             }
             out
         })
-        .reduce(Sorted::default, Sorted::merge)
+        .collect()
 }
 
 fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], reach: f64, out: &mut Sorted) {

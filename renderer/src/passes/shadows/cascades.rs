@@ -68,6 +68,40 @@ impl LightBox {
     pub fn axes(&self) -> (DVec3, DVec3, DVec3) {
         (self.right, self.up, self.toward)
     }
+
+    /// The part of the box over texels `x0..x1` and rows `y0..y1` (from
+    /// the top left) of a map `size` texels a side, along the whole of its
+    /// depth.
+    pub fn region(&self, (x0, y0, x1, y1): (u32, u32, u32, u32), size: u32) -> LightRegion {
+        let across = |t: u32| 2.0 * f64::from(t) / f64::from(size) - 1.0;
+        LightRegion {
+            bounds: *self,
+            x: (self.x + across(x0) * self.half, self.x + across(x1) * self.half),
+            // Rows run down; the box's up runs up.
+            y: (self.y - across(y1) * self.half, self.y - across(y0) * self.half),
+        }
+    }
+}
+
+/// A part of a [`LightBox`] across the sun's rays: what a region of its
+/// map is drawn from.
+#[derive(Debug, Clone, Copy)]
+pub struct LightRegion {
+    bounds: LightBox,
+    x: (f64, f64),
+    y: (f64, f64),
+}
+
+impl Sees for LightRegion {
+    fn sees(&self, centre: DVec3, radius: f64) -> bool {
+        let b = &self.bounds;
+        let (x, y) = (centre.dot(b.right), centre.dot(b.up));
+        x >= self.x.0 - radius
+            && x <= self.x.1 + radius
+            && y >= self.y.0 - radius
+            && y <= self.y.1 + radius
+            && b.sees(centre, radius)
+    }
 }
 
 impl Sees for LightBox {

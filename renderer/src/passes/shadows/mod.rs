@@ -2,28 +2,31 @@
 //! split by distance (`cascades.rs`); each slice's box, seen from the sun,
 //! gets a depth map into which the terrain's levels, the buildings and the
 //! instances' models are drawn by depth-only twins of their own pipelines
-//! (the frame uniform carrying the cascade's matrix). The maps are kept,
-//! not drawn again, while the cascades and everything drawn into them are
-//! unchanged (a still camera under a still sun). They are drawn before
-//! the frame's colour: the lit passes, built again to receive them
-//! (`receiving`, `receive.wgsl`), take from each pixel they draw the
+//! (the frame uniform carrying the cascade's matrix), each through the
+//! [`ShadowCaster`] trait (`casting.rs`): this pass knows no other pass.
+//! A map is kept, not drawn again, while its cascade and everything drawn
+//! into it are unchanged (a still camera under a still sun); where the
+//! casters changed in part (an edit), only the texels their changed areas
+//! cover are cleared and drawn again, under a scissor (`regions.rs`). The
+//! maps are drawn before the frame's colour: the lit passes, built again
+//! to receive them (`receiving`, `receive.wgsl`), take from each pixel they draw the
 //! sunlight the maps say is hidden, and the atmosphere, when declared,
 //! reads the same maps for its in-scattering (`lookup`, `air.wgsl`).
 //! Built only for a scene that declares it.
 
 pub mod cascades;
 
+mod regions;
+
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
 use wgpu::util::DeviceExt;
 
-use super::buildings::{BuildingsDraw, BuildingsPass};
-use super::instances::{InstancesDraw, InstancesPass};
-use super::terrain::{TerrainDraw, TerrainPass};
-use crate::camera::{Pose, View};
+use self::regions::TexelRect;
+use super::casting::{CastInto, Changes, ShadowCaster};
+use crate::camera::View;
 use crate::error::RenderError;
 use crate::gpu::Gpu;
-use crate::surface::Surface;
 use crate::target::{DEPTH_FORMAT, wait};
 use crate::uniforms::FrameUniform;
 
@@ -187,37 +190,30 @@ struct Maps {
     size: u32,
     layers: Vec<wgpu::TextureView>,
     lookup: wgpu::BindGroup,
-    /// What the maps were last drawn from (`key_of` the casters' frames
-    /// and content), none before the first.
-    drawn: Option<u64>,
+    /// What each cascade's map was last drawn for (`key_of` its box, the
+    /// sun's axes and the size), none before the first.
+    drawn: Vec<Option<u64>>,
 }
 
-/// The last frame's maps: drawn anew, and kept as they were (the same
-/// cascades over the same casters).
+/// What the last frame did to the maps: drawn whole, redrawn in part
+/// (scissored regions over what changed), kept as they were; the regions
+/// and the texels drawn in all.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct MapWork {
     pub drawn: usize,
+    pub redrawn_in_part: usize,
     pub kept: usize,
+    pub regions: usize,
+    pub texels: u64,
 }
 
-/// What casts shadows in this frame: the terrain's levels, and the
-/// buildings and instances drawn, with what the frame drew of them.
-pub struct Casters<'a> {
-    pub terrain: &'a mut TerrainPass,
-    pub surface: &'a Surface,
-    /// What the frame drew of the terrain.
-    pub draw: &'a TerrainDraw,
-    pub buildings: Option<(&'a mut BuildingsPass, &'a BuildingsDraw)>,
-    pub instances: Option<(&'a mut InstancesPass, &'a InstancesDraw)>,
-}
+/// What casts shadows in this frame: the passes drawn into the maps.
+pub type Casters<'a, 'b> = &'a mut [&'b mut dyn ShadowCaster];
 
 /// Where the frame is seen from and lit.
 pub struct ShadowView<'a> {
     pub view: &'a View,
-    pub pose: &'a Pose,
     pub aspect: f64,
-    /// The angle one pixel of the frame spans, radians.
-    pub pixel_angle: f64,
     /// Towards the sun (world axes), and the sine of its elevation.
     pub sun: DVec3,
     pub sin_elevation: f64,
@@ -234,7 +230,10 @@ pub struct ShadowsPass {
     cascades_buffer: wgpu::Buffer,
     sampler: wgpu::Sampler,
     maps: Option<Maps>,
-    /// The last frame's maps drawn and kept.
+    /// Clears a region of a map (depth 0, scissored): made the first time
+    /// a map is redrawn in part.
+    clear: Option<wgpu::RenderPipeline>,
+    /// The last frame's work on the maps.
     pub work: MapWork,
     /// The cascade count the lookup was built for (`lookup`).
     pub cascades: u32,
@@ -282,7 +281,16 @@ impl ShadowsPass {
             compare: Some(wgpu::CompareFunction::GreaterEqual),
             ..Default::default()
         });
-        Self { lookup_layout, cascades_buffer, sampler, maps: None, work: MapWork::default(), cascades, sun_held: None }
+        Self {
+            lookup_layout,
+            cascades_buffer,
+            sampler,
+            maps: None,
+            clear: None,
+            work: MapWork::default(),
+            cascades,
+            sun_held: None,
+        }
     }
 
     /// The layout of the cascades' bind group, for passes that read them.
@@ -295,17 +303,21 @@ impl ShadowsPass {
         self.maps.as_ref().map(|m| &m.lookup)
     }
 
-    /// The frame's shadow maps: the cascades fitted to the view and the
-    /// casters drawn into their maps (or the last frame's kept), before
-    /// the frame's colour is drawn. The frame uniform and the terrain's
-    /// records are the camera's again afterwards.
+    /// The frame's shadow maps: the cascades fitted to the view, and the
+    /// casters drawn into each map where it needs them: whole when its
+    /// box (or the sun, or its size) moved or everything changed, else
+    /// only over the texels the casters' changed areas cover (each region
+    /// cleared and drawn again under a scissor, from the casters that
+    /// region sees), else not at all. Before the frame's colour is drawn;
+    /// the frame uniform is the camera's again afterwards (the casters'
+    /// own buffers are theirs to restore).
     pub fn run(
         &mut self,
         gpu: &Gpu,
         frame_buffer: &wgpu::Buffer,
         shadows: &Shadows,
         at: &ShadowView<'_>,
-        casters: Casters<'_>,
+        casters: Casters<'_, '_>,
     ) -> Result<(), RenderError> {
         let fitted = if at.sin_elevation < LOWEST_SUN {
             Vec::new()
@@ -321,101 +333,179 @@ impl ShadowsPass {
             self.sun_held = Some(sun);
             cascades::fit(at.view, at.aspect, sun, at.sin_elevation, (near, far), shadows.cascades, shadows.map_size)
         };
-        let maps = self.maps(gpu, shadows);
-        let Casters { terrain, surface, draw, mut buildings, mut instances } = casters;
-        // The maps as drawn last are still true when the same casters would
-        // be drawn into the same boxes: the same terrain data, buildings and
-        // models.
-        let frames: Vec<FrameUniform> = fitted
-            .iter()
-            .map(|c| FrameUniform { view_proj: c.clip.as_mat4().to_cols_array_2d(), ..at.frame })
-            .collect();
+        let mut changes = Changes::Nothing;
+        for caster in casters.iter() {
+            changes.merge(caster.changes());
+        }
+        if self.clear.is_none() && matches!(changes, Changes::Areas(_)) {
+            self.clear = Some(clear_pipeline(&gpu.device));
+        }
+        let maps =
+            self.maps.take().filter(|m| m.size == shadows.map_size && m.layers.len() == shadows.cascades as usize);
+        let mut maps = match maps {
+            Some(maps) => maps,
+            None => Maps::new(gpu, shadows, &self.lookup_layout, &self.cascades_buffer, &self.sampler),
+        };
         // The boxes are fixed in the world (`cascades`): a camera that
         // moved a little finds the same ones, and their depths, measured in
         // the world, still hold. The terrain's samples count by their data
-        // (a level rolling with the camera draws the same surface).
-        let boxes: Vec<[u64; 5]> = fitted.iter().map(|c| c.anchored.map(f64::to_bits)).collect();
+        // (a level rolling with the camera draws the same surface), what
+        // changed in them by the casters' areas.
         let sun = fitted.first().map(|c| {
             let (r, u, t) = c.bounds.axes();
             [r, u, t].map(|a| a.to_array().map(f64::to_bits))
         });
-        let key = super::key_of(&(
-            boxes,
-            sun,
-            shadows.map_size,
-            terrain.data_epoch(),
-            draw.update.not_ready.is_empty(),
-            buildings.as_ref().map(|(_, d)| d.caster_key),
-            instances.as_ref().map(|(_, d)| d.caster_key),
-        ));
-        let keep = maps.drawn == Some(key);
-        if !keep {
-            if let Some((pass, _)) = &mut buildings {
-                pass.prepare_casters(&gpu.device);
-            }
-            if let Some((pass, _)) = &mut instances {
-                pass.prepare_casters(&gpu.device);
-            }
-            for ((cascade, frame), layer) in fitted.iter().zip(&frames).zip(&maps.layers) {
-                // Samples closer than half a texel add nothing the map can hold.
-                let finest_m = cascade.texel_m * CASTER_DETAIL;
-                let frame_view = (at.view, at.pose, at.pixel_angle);
-                let drawn = terrain.casters(&gpu.device, surface, draw, &cascade.bounds, finest_m, frame_view);
-                gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(frame));
-                terrain.write_records(&gpu.queue, draw, frame);
-                let mut encoder = gpu
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadow casters") });
-                {
-                    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                        label: Some("shadow casters"),
-                        color_attachments: &[],
-                        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                            view: layer,
-                            depth_ops: Some(wgpu::Operations {
-                                load: wgpu::LoadOp::Clear(0.0),
-                                store: wgpu::StoreOp::Store,
-                            }),
-                            stencil_ops: None,
-                        }),
-                        timestamp_writes: None,
-                        occlusion_query_set: None,
-                        multiview_mask: None,
-                    });
-                    terrain.record_casters(&mut pass, &drawn);
-                    if let Some((b, draw)) = &buildings {
-                        b.record_casters(&mut pass, draw);
-                    }
-                    if let Some((i, draw)) = &instances {
-                        i.record_casters(&mut pass, draw);
+        let mut work = MapWork::default();
+        if fitted.is_empty() {
+            maps.drawn.iter_mut().for_each(|d| *d = None);
+        }
+        for (k, cascade) in fitted.iter().enumerate() {
+            let key = super::key_of(&(cascade.anchored.map(f64::to_bits), sun, shadows.map_size));
+            let size = shadows.map_size;
+            let regions: Option<Vec<TexelRect>> = match &changes {
+                _ if maps.drawn[k] != Some(key) => None,
+                Changes::Everything => None,
+                Changes::Nothing => Some(Vec::new()),
+                Changes::Areas(areas) => {
+                    let rects = areas.iter().filter_map(|a| regions::texels(cascade, at.view.eye, a, size)).collect();
+                    let rects = regions::merged(rects);
+                    // Past half the map, one whole draw costs less.
+                    let texels: u64 = rects.iter().map(TexelRect::texels).sum();
+                    (texels * 2 < u64::from(size).pow(2)).then_some(rects)
+                }
+            };
+            let frame = FrameUniform { view_proj: cascade.clip.as_mat4().to_cols_array_2d(), ..at.frame };
+            let finest_m = cascade.texel_m * CASTER_DETAIL;
+            match regions {
+                None => {
+                    let into = CastInto { volume: &cascade.bounds, finest_m, frame: &frame };
+                    let target = Region { layer: &maps.layers[k], rect: None, clear: None };
+                    draw_region(gpu, frame_buffer, &target, &into, casters);
+                    work.drawn += 1;
+                    work.texels += u64::from(size).pow(2);
+                }
+                Some(rects) if rects.is_empty() => work.kept += 1,
+                Some(rects) => {
+                    work.redrawn_in_part += 1;
+                    for rect in rects {
+                        let region = cascade.bounds.region((rect.x0, rect.y0, rect.x1, rect.y1), size);
+                        let into = CastInto { volume: &region, finest_m, frame: &frame };
+                        let target = Region { layer: &maps.layers[k], rect: Some(rect), clear: self.clear.as_ref() };
+                        draw_region(gpu, frame_buffer, &target, &into, casters);
+                        work.regions += 1;
+                        work.texels += rect.texels();
                     }
                 }
-                gpu.queue.submit([encoder.finish()]);
             }
+            maps.drawn[k] = Some(key);
         }
-        if !keep {
-            terrain.write_records(&gpu.queue, draw, &at.frame);
+        for caster in casters.iter_mut() {
+            caster.cast();
         }
-        maps.drawn = Some(key);
-        self.work =
-            if keep { MapWork { drawn: 0, kept: fitted.len() } } else { MapWork { drawn: fitted.len(), kept: 0 } };
+        self.maps = Some(maps);
+        self.work = work;
         gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(&at.frame));
         let u = CascadeTable::new(&fitted, shadows.map_size);
         gpu.queue.write_buffer(&self.cascades_buffer, 0, bytemuck::bytes_of(&u));
         wait(gpu)
     }
-
-    /// The maps for `shadows`' size and count, made anew when they change.
-    fn maps(&mut self, gpu: &Gpu, shadows: &Shadows) -> &mut Maps {
-        let kept =
-            self.maps.take().filter(|m| m.size == shadows.map_size && m.layers.len() == shadows.cascades as usize);
-        let maps = match kept {
-            Some(maps) => maps,
-            None => Maps::new(gpu, shadows, &self.lookup_layout, &self.cascades_buffer, &self.sampler),
-        };
-        self.maps.insert(maps)
-    }
 }
+
+/// Where one draw into a map goes: its layer, and the region of it (the
+/// whole map, cleared by the pass, when None; else cleared by `clear`).
+struct Region<'a> {
+    layer: &'a wgpu::TextureView,
+    rect: Option<TexelRect>,
+    clear: Option<&'a wgpu::RenderPipeline>,
+}
+
+/// Draws what every caster chooses for `into` into `region`.
+fn draw_region(
+    gpu: &Gpu,
+    frame_buffer: &wgpu::Buffer,
+    region: &Region<'_>,
+    into: &CastInto<'_>,
+    casters: &mut [&mut dyn ShadowCaster],
+) {
+    for caster in casters.iter_mut() {
+        caster.ready(gpu, into);
+    }
+    gpu.queue.write_buffer(frame_buffer, 0, bytemuck::bytes_of(into.frame));
+    let mut encoder =
+        gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadow casters") });
+    {
+        let load = if region.rect.is_some() { wgpu::LoadOp::Load } else { wgpu::LoadOp::Clear(0.0) };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("shadow casters"),
+            color_attachments: &[],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: region.layer,
+                depth_ops: Some(wgpu::Operations { load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        if let Some(rect) = region.rect {
+            let [x, y, w, h] = rect.scissor();
+            pass.set_scissor_rect(x, y, w, h);
+            if let Some(clear) = region.clear {
+                pass.set_pipeline(clear);
+                pass.draw(0..3, 0..1);
+            }
+        }
+        for caster in casters.iter() {
+            caster.record(&mut pass);
+        }
+    }
+    gpu.queue.submit([encoder.finish()]);
+}
+
+/// A depth-only pipeline that writes the cleared depth (0: nothing nearer
+/// the sun) over the whole target, within the pass's scissor.
+fn clear_pipeline(device: &wgpu::Device) -> wgpu::RenderPipeline {
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("shadow region clear"),
+        source: wgpu::ShaderSource::Wgsl(CLEAR.into()),
+    });
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("shadow region clear"),
+        bind_group_layouts: &[],
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("shadow region clear"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &shader,
+            entry_point: Some("vs_clear"),
+            compilation_options: wgpu::PipelineCompilationOptions::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: DEPTH_FORMAT,
+            depth_write_enabled: Some(true),
+            depth_compare: Some(wgpu::CompareFunction::Always),
+            stencil: wgpu::StencilState::default(),
+            bias: wgpu::DepthBiasState::default(),
+        }),
+        multisample: wgpu::MultisampleState::default(),
+        fragment: None,
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// A triangle over the whole target at depth 0.
+pub const CLEAR: &str = "@vertex
+fn vs_clear(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let x = f32((i << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(i & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 0.0, 1.0);
+}
+";
 
 impl Maps {
     fn new(
@@ -462,6 +552,6 @@ impl Maps {
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::Sampler(sampler) },
             ],
         });
-        Self { size: shadows.map_size, layers, lookup, drawn: None }
+        Self { size: shadows.map_size, layers, lookup, drawn: vec![None; shadows.cascades as usize] }
     }
 }

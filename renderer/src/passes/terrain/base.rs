@@ -89,25 +89,46 @@ impl Base {
     }
 
     /// Fetches again the samples inside `area` (grid units) and writes
-    /// only their rows' spans of the vertex buffer. False when not ready.
+    /// only their rows' spans of the vertex buffer. Returns the world
+    /// points, before and after, of the cells round each sample whose
+    /// height changed (none when none did); None when not ready.
     pub fn refresh(
         &mut self,
         queue: &wgpu::Queue,
         surface: &Surface,
         source: &dyn TerrainSamples,
         area: &Extent,
-    ) -> bool {
+    ) -> Option<Vec<DVec3>> {
         let (x0, y0) = surface.sample_coords(0, area.min_x, area.max_y);
         let (x1, y1) = surface.sample_coords(0, area.max_x, area.min_y);
         let xs = (x0.floor() as i64).clamp(0, self.cols)..(x1.ceil() as i64 + 1).clamp(0, self.cols);
         let ys = (y0.floor() as i64).clamp(0, self.rows)..(y1.ceil() as i64 + 1).clamp(0, self.rows);
         if xs.is_empty() || ys.is_empty() {
-            return true;
+            return Some(Vec::new());
         }
-        let Some((world, heights, vertices)) = Self::vertices(surface, source, xs.clone(), ys.clone()) else {
-            return false;
-        };
+        let (world, heights, vertices) = Self::vertices(surface, source, xs.clone(), ys.clone())?;
         let width = (xs.end - xs.start) as usize;
+        let mut changed = Vec::new();
+        for (k, gy) in ys.clone().enumerate() {
+            let first = (gy * self.cols + xs.start) as usize;
+            for (m, gx) in xs.clone().enumerate() {
+                if self.heights[first + m] != heights[k * width + m] {
+                    changed.push((gx, gy));
+                }
+            }
+        }
+        // The cells round a changed sample, as they were.
+        let mut points = Vec::new();
+        let (cols, rows) = (self.cols, self.rows);
+        let round = |points: &mut Vec<DVec3>, world: &[DVec3]| {
+            for &(gx, gy) in &changed {
+                for (dx, dy) in [(-1, -1), (1, -1), (-1, 1), (1, 1)] {
+                    let (x, y) = ((gx + dx).clamp(0, cols - 1), (gy + dy).clamp(0, rows - 1));
+                    points.push(world[(y * cols + x) as usize]);
+                }
+            }
+        };
+        round(&mut points, &self.world);
         for (k, gy) in ys.enumerate() {
             let first = (gy * self.cols + xs.start) as usize;
             self.world[first..first + width].copy_from_slice(&world[k * width..(k + 1) * width]);
@@ -115,8 +136,10 @@ impl Base {
             let offset = (first * size_of::<BaseVertex>()) as u64;
             queue.write_buffer(&self.vertices, offset, bytemuck::cast_slice(&vertices[k * width..(k + 1) * width]));
         }
+        // And as they are.
+        round(&mut points, &self.world);
         self.lowest_m = lowest(&self.heights);
-        true
+        Some(points)
     }
 
     /// The base's cells for this frame, and how far it is sunk. On the

@@ -12,6 +12,7 @@ use wgpu::util::DeviceExt;
 use self::base::{Base, BaseVertex};
 pub use self::levels::MAX_LEVELS;
 use self::levels::{Cull, LEVEL_RECORDS, LevelDraw, LevelRecord, Levels};
+use super::casting::{Area, CastInto, Changes, ShadowCaster};
 use crate::camera::{Frustum, Pose, Sees, View};
 use crate::clipmap::{Clipmap, ClipmapConfig, TerrainSamples, UpdateStats};
 use crate::error::RenderError;
@@ -53,11 +54,14 @@ pub struct TerrainPass {
     shadowed: Option<super::Receiving>,
     /// The levels' and the base's.
     caster: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
-    /// Bumped whenever the scene's samples change under the levels or the
-    /// base (a rebuild, the base filled): a shadow map drawn at one epoch
-    /// shows the same surface at the same epoch, whichever windows the
-    /// levels have rolled to since.
-    data_epoch: u64,
+    /// Where the scene's samples changed under the levels or the base
+    /// since the shadow maps last took the terrain in (a rebuild; the base
+    /// filled is everything): a map drawn before shows the same surface
+    /// elsewhere, whichever windows the levels have rolled to since.
+    cast_changes: Changes,
+    /// Whether every level the frame wanted was ready when the maps last
+    /// took the terrain in (finer levels arriving change everything).
+    cast_complete: Option<bool>,
 }
 
 /// What a shadow cascade draws of the terrain: the base's cells in its
@@ -176,7 +180,8 @@ impl TerrainPass {
             source,
             shadowed: None,
             caster: None,
-            data_epoch: 0,
+            cast_changes: Changes::Everything,
+            cast_complete: None,
         })
     }
 
@@ -191,14 +196,17 @@ impl TerrainPass {
     }
 
     /// The scene rebuilt tiles in `area`: refresh those samples only, in
-    /// the levels and in the base (which is filled anew if not ready).
+    /// the levels and in the base (which is filled anew if not ready). The
+    /// ground there, between the heights it had and has, is a change for
+    /// the shadow maps.
     pub fn invalidate(&mut self, gpu: &Gpu, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) {
-        self.data_epoch += 1;
-        self.clipmap.invalidate(surface, source, area);
-        if let Some(base) = &mut self.base
-            && !base.refresh(&gpu.queue, surface, source, area)
-        {
-            self.base = None;
+        if let Some(range) = self.clipmap.invalidate(surface, source, area) {
+            self.cast_changes.add(Area::ground(surface, area, range));
+        }
+        match self.base.as_mut().map(|base| base.refresh(&gpu.queue, surface, source, area)) {
+            Some(Some(points)) if !points.is_empty() => self.cast_changes.add(Area { points }),
+            Some(None) => self.base = None,
+            _ => {}
         }
     }
 
@@ -219,7 +227,9 @@ impl TerrainPass {
         let update = self.clipmap.update(surface, source, pose, pixel_angle);
         if self.base.is_none() {
             self.base = Base::fill(&gpu.device, surface, source);
-            self.data_epoch += u64::from(self.base.is_some());
+            if self.base.is_some() {
+                self.cast_changes = Changes::Everything;
+            }
         }
         self.levels.upload(&gpu.queue, &mut self.clipmap, &update.active);
         let records: Vec<LevelRecord> = Levels::records(surface, &self.clipmap, &update.active, pose, view);
@@ -346,11 +356,6 @@ impl TerrainPass {
         self.record_levels(pass, levels, &casters.levels);
     }
 
-    /// Changes with the scene's samples under the levels and the base.
-    pub fn data_epoch(&self) -> u64 {
-        self.data_epoch
-    }
-
     /// The scene no longer casts shadows: the depth-only pipeline goes.
     pub fn drop_casters(&mut self) {
         self.caster = None;
@@ -440,5 +445,40 @@ impl TerrainPass {
             }),
             indices.len() as u32,
         ))
+    }
+}
+
+/// The terrain as the shadow maps take it in: what `draw` (this frame,
+/// seen with `view`) draws of it.
+pub struct TerrainCasting<'a> {
+    pub pass: &'a mut TerrainPass,
+    pub surface: &'a Surface,
+    pub draw: &'a TerrainDraw,
+    /// The frame's view, pose and the angle a pixel spans.
+    pub view: (&'a View, &'a Pose, f64),
+    pub chosen: Option<TerrainCasters>,
+}
+
+impl ShadowCaster for TerrainCasting<'_> {
+    fn changes(&self) -> Changes {
+        let complete = self.draw.update.not_ready.is_empty();
+        if self.pass.cast_complete == Some(complete) { self.pass.cast_changes.clone() } else { Changes::Everything }
+    }
+
+    fn ready(&mut self, gpu: &Gpu, into: &CastInto<'_>) {
+        let chosen = self.pass.casters(&gpu.device, self.surface, self.draw, into.volume, into.finest_m, self.view);
+        self.pass.write_records(&gpu.queue, self.draw, into.frame);
+        self.chosen = Some(chosen);
+    }
+
+    fn record(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if let Some(chosen) = &self.chosen {
+            self.pass.record_casters(pass, chosen);
+        }
+    }
+
+    fn cast(&mut self) {
+        self.pass.cast_changes = Changes::Nothing;
+        self.pass.cast_complete = Some(self.draw.update.not_ready.is_empty());
     }
 }

@@ -87,6 +87,12 @@ pub struct WaterPass {
     mask: wgpu::Texture,
     textures: wgpu::BindGroup,
     window: Option<Window>,
+    /// Where the water layer changed since the window was read (grid
+    /// units): read again at the next frame, only there.
+    pending: Vec<Extent>,
+    /// Coverage texels the last frame read (a window read whole, or the
+    /// blocks over what changed).
+    pub texels_read: u64,
 }
 
 impl WaterPass {
@@ -156,13 +162,14 @@ impl WaterPass {
                 },
             ],
         });
-        Self { overlay, mask, textures, window: None }
+        Self { overlay, mask, textures, window: None, pending: Vec::new(), texels_read: 0 }
     }
 
-    /// The scene rebuilt tiles in `area`: a window that read there is read again.
+    /// The scene rebuilt the water layer's tiles in `area`: the texels of
+    /// the window over it are read again at the next frame.
     pub fn invalidate(&mut self, area: &Extent) {
-        if self.window.as_ref().is_some_and(|w| w.area.overlaps(area)) {
-            self.window = None;
+        if self.window.is_some() {
+            self.pending.push(*area);
         }
     }
 
@@ -180,10 +187,42 @@ impl WaterPass {
         // at the ground, 60 km from high up.
         let half_m = (at.above_ground_m * 6.0 + 3000.0).min(60_000.0);
         let ground = at.surface.world(at.under.0, at.under.1, 0.0);
-        if !self.window.as_ref().is_some_and(|w| w.serves(ground, half_m)) {
+        self.texels_read = 0;
+        let pending = std::mem::take(&mut self.pending);
+        if let Some(window) = self.window.as_mut().filter(|w| w.serves(ground, half_m)) {
+            for area in &pending {
+                match window.refresh(at.surface, at.samples, area) {
+                    Ok(Some((cols, rows))) => {
+                        let block: Vec<u8> = rows
+                            .clone()
+                            .flat_map(|r| &window.texels[r * MASK_SIZE + cols.start..][..cols.len()])
+                            .copied()
+                            .collect();
+                        write_block(
+                            gpu,
+                            &self.mask,
+                            (cols.start as u32, rows.start as u32),
+                            (cols.len() as u32, rows.len() as u32),
+                            &block,
+                        );
+                        self.texels_read += (cols.len() * rows.len()) as u64;
+                    }
+                    Ok(None) => {}
+                    // Not ready: read the window whole once it is.
+                    Err(()) => {
+                        self.window = None;
+                        break;
+                    }
+                }
+            }
+        } else {
+            self.window = None;
+        }
+        if self.window.is_none() {
             self.window = Window::read(at.surface, at.samples, at.under, half_m);
             if let Some(w) = &self.window {
                 write(gpu, &self.mask, MASK_SIZE as u32, 1, &w.texels);
+                self.texels_read += w.texels.len() as u64;
             }
         }
         let Some(window) = &self.window else { return Ok(()) };
@@ -256,6 +295,22 @@ fn screen_box(
     // Rows run down from the top: NDC y up.
     let (y0, y1) = (height - px(hi[1], height), height - px(lo[1], height));
     Some([x0, y0, x1 - x0, y1 - y0])
+}
+
+/// Writes one-byte `texels` into the block of a texture at `origin`,
+/// `size` texels.
+fn write_block(gpu: &Gpu, texture: &wgpu::Texture, (x, y): (u32, u32), (width, height): (u32, u32), texels: &[u8]) {
+    gpu.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d { x, y, z: 0 },
+            aspect: wgpu::TextureAspect::All,
+        },
+        texels,
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(width), rows_per_image: Some(height) },
+        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+    );
 }
 
 /// Writes `texels` (`bytes` per texel) into a square texture `side` wide.

@@ -49,8 +49,9 @@ impl Raster {
     /// whose signatures differ from the last version's are read (no other),
     /// and compared in 64 x 64 pieces with the old pixels where those are
     /// at hand (a raster read whole always has them; a windowed one when
-    /// the cache does); the pieces that differ are the dirt. The mip levels
-    /// above change only there.
+    /// the cache does); the pieces that differ, narrowed to the pixels
+    /// that changed in them, are the dirt. The mip levels above change
+    /// only there.
     pub(crate) fn reload(&self, options: &ReadOptions) -> Result<Reloaded, SourceError> {
         let t = std::time::Instant::now();
         let header = match self.header_again(options)? {
@@ -247,7 +248,33 @@ fn diff_blocks<P: AsRef<[f32]> + Sync>(old: &[P], new: &[P], width: usize, heigh
         open = still_open;
     }
     rects.extend(open);
-    rects
+    // Each run of changed pieces narrowed to the pixels that changed in it:
+    // a 16-pixel edit is 16 pixels of dirt, not a piece's 64.
+    rects.into_iter().filter_map(|r| tighten(r, old, new, width, &same)).collect()
+}
+
+/// The box of the pixels of `rect` that differ between `old` and `new`.
+fn tighten<P: AsRef<[f32]>>(
+    rect: PixelRect,
+    old: &[P],
+    new: &[P],
+    width: usize,
+    same: &dyn Fn(f32, f32) -> bool,
+) -> Option<PixelRect> {
+    let mut tight: Option<PixelRect> = None;
+    for y in rect.y0..rect.y1 {
+        for (o, n) in old.iter().zip(new) {
+            let (o, n) = (&o.as_ref()[y * width..][rect.x0..rect.x1], &n.as_ref()[y * width..][rect.x0..rect.x1]);
+            let Some(first) = o.iter().zip(n).position(|(a, b)| !same(*a, *b)) else { continue };
+            let last = o.iter().zip(n).rposition(|(a, b)| !same(*a, *b)).unwrap_or(first);
+            let (x0, x1) = (rect.x0 + first, rect.x0 + last + 1);
+            tight = Some(match tight {
+                None => PixelRect { x0, y0: y, x1, y1: y + 1 },
+                Some(t) => PixelRect { x0: t.x0.min(x0), y0: t.y0, x1: t.x1.max(x1), y1: y + 1 },
+            });
+        }
+    }
+    tight
 }
 
 #[cfg(test)]
@@ -320,7 +347,7 @@ mod tests {
     }
 
     #[test]
-    fn block_diffs_find_exactly_the_changed_blocks() {
+    fn block_diffs_find_exactly_the_changed_pixels() {
         let (w, h) = (300, 200);
         let old = vec![vec![1.0f32; w * h]];
         let mut new = old.clone();
@@ -332,8 +359,9 @@ mod tests {
             new[0][y * w + x] = 3.0;
         }
         let rects = diff_blocks(&old, &new, w, h);
-        assert!(rects.contains(&PixelRect { x0: 0, y0: 128, x1: 64, y1: 192 }), "{rects:?}");
-        assert!(rects.contains(&PixelRect { x0: 128, y0: 0, x1: 256, y1: 128 }), "{rects:?}");
+        // Each narrowed to the pixels that changed.
+        assert!(rects.contains(&PixelRect { x0: 10, y0: 150, x1: 41, y1: 152 }), "{rects:?}");
+        assert!(rects.contains(&PixelRect { x0: 130, y0: 5, x1: 201, y1: 71 }), "{rects:?}");
         assert_eq!(rects.len(), 2, "{rects:?}");
         // NaN over NaN is no change.
         let holes = vec![vec![f32::NAN; 16]];
