@@ -342,6 +342,7 @@ impl Viewer {
         // the middle of the layer's data, again only when the height layer
         // changed there (a fit that fails, for nodata there, is kept too:
         // no detail, and the state says it did not run).
+        let started = std::time::Instant::now();
         let detail = effects.detail_octaves.and_then(|octaves| {
             r.refit_detail(&self.scene, &snap, &terrain);
             r.detail_fit.and_then(|f| f.detail).map(|d| Detail { octaves, ..d })
@@ -352,6 +353,7 @@ impl Viewer {
             Some(d) => d,
             None => &terrain,
         };
+        let fit_ms = started.elapsed().as_secs_f64() * 1e3;
         let key = (config, detail.map_or(0, |d| d.octaves));
         if r.gpu.is_none() {
             r.gpu = Some(Arc::new(Gpu::headless().map_err(|e| ViewError::NoDevice(e.to_string()))?));
@@ -367,11 +369,13 @@ impl Viewer {
             let seen = Seen { renderer, generation: snap.generation, manifest: Arc::clone(&snap.manifest) };
             r.by_config.insert(key, seen);
         }
+        let started = std::time::Instant::now();
         let dirt = r.dirt_for(&self.scene, &snap, key, detail);
         let seen = r.by_config.get_mut(&key).expect("inserted above");
         if let Some(dirt) = dirt {
             seen.renderer.invalidate(source, &dirt);
         }
+        let refresh_ms = started.elapsed().as_secs_f64() * 1e3;
         (seen.generation, seen.manifest) = (snap.generation, Arc::clone(&snap.manifest));
         let renderer = &mut seen.renderer;
         let quality = quality.unwrap_or(snap.manifest.quality);
@@ -396,7 +400,14 @@ impl Viewer {
             water: effects.water,
             ..RenderSettings::new(width, height, lighting)
         };
-        let frame = renderer.render_scene(source, layers, &pose, &settings)?;
+        let mut frame = renderer.render_scene(source, layers, &pose, &settings)?;
+        // Every millisecond of the frame in its timings: the detail's fit
+        // and the caches refreshed over the generation's dirt come first.
+        for (name, ms) in [("refresh caches", refresh_ms), ("fit detail", fit_ms)] {
+            if ms >= 0.05 {
+                frame.passes.insert(0, (name, ms));
+            }
+        }
         let mut ran = BTreeMap::new();
         // Lighting is shaded, and detail drawn, in the terrain pass.
         let terrain_ms = frame.passes.iter().find(|(p, _)| *p == "terrain").map_or(0.0, |(_, ms)| *ms);

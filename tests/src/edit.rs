@@ -144,3 +144,43 @@ pub async fn wait_for_status(
 pub fn version(state: &pb::SceneState, id: &str) -> u64 {
     state.sources.iter().find(|s| s.id == id).map_or(0, |s| s.version)
 }
+
+/// Moves every polygon of `layer` in the GeoPackage at `path` by (dx, dy)
+/// in one transaction, as a GIS commits an edit of a whole layer (QGIS'
+/// "move features" on a selection of all); returns how many it moved.
+pub fn move_every_polygon(path: &Path, layer: &str, (dx, dy): (f64, f64)) -> anyhow::Result<usize> {
+    use gdal::vector::{Geometry, LayerAccess};
+    let options = DatasetOptions {
+        open_flags: GdalOpenFlags::GDAL_OF_UPDATE | GdalOpenFlags::GDAL_OF_VECTOR,
+        ..DatasetOptions::default()
+    };
+    let mut ds =
+        Dataset::open_ex(path, options).with_context(|| format!("cannot open {} for update", path.display()))?;
+    let txn = ds.start_transaction()?;
+    let moved = {
+        let mut lyr = txn.layer_by_name(layer)?;
+        let fids: Vec<u64> = lyr.features().filter_map(|f| f.fid()).collect();
+        for &fid in &fids {
+            let mut feature = lyr.feature(fid).with_context(|| format!("feature {fid} is gone"))?;
+            let Some(geometry) = feature.geometry() else { continue };
+            let rings: Vec<String> = (0..geometry.geometry_count())
+                .map(|r| {
+                    let ring = geometry.get_geometry(r);
+                    let points: Vec<String> = (0..ring.point_count())
+                        .map(|i| {
+                            let (x, y, _) = ring.get_point(i as i32);
+                            format!("{} {}", x + dx, y + dy)
+                        })
+                        .collect();
+                    format!("({})", points.join(","))
+                })
+                .collect();
+            feature.set_geometry(Geometry::from_wkt(&format!("POLYGON({})", rings.join(",")))?)?;
+            lyr.set_feature(feature)?;
+        }
+        fids.len()
+    };
+    txn.commit()?;
+    ds.close()?;
+    Ok(moved)
+}

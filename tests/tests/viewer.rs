@@ -101,15 +101,24 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
     let db = psnr(&shown, &reference.image);
     assert!(db >= MIN_PSNR_DB, "the page shows {db:.1} dB from a Render of its camera");
 
+    // Frames come as binary WebSocket messages, lossless at rest.
+    assert_eq!(page.eval("window.relief.lastFrame.format").await.unwrap(), "IMAGE_FORMAT_PNG");
+    assert!(page.eval("window.relief.frameBytes").await.unwrap().as_u64().unwrap() > 1000);
+    assert!(page.eval("window.relief.lastFrame.image === undefined").await.unwrap().as_bool().unwrap());
+
     // A DEM edited on disk: the page's generation advances and its image
     // changes, pushed by the daemon.
-    let before = page.eval("window.relief.lastFrame.image").await.unwrap();
+    let (_, _, before) = displayed(&page).await;
     edit::rewrite_window(&dir.path().join("hill.tif"), 150, 150, 64, 64, |_, _, h| h + 900.0).unwrap();
-    page.wait_for("window.relief.generation >= 2 && Number(window.relief.lastFrame.generation) >= 2", PAGE_TIMEOUT)
-        .await
-        .unwrap();
+    page.wait_for(
+        "window.relief.generation >= 2 && window.relief.frameLog.some(f => f.generation >= 2 && f.shown)",
+        PAGE_TIMEOUT,
+    )
+    .await
+    .unwrap();
     assert_eq!(page.eval("document.getElementById('generation').textContent").await.unwrap(), "2");
-    assert_ne!(page.eval("window.relief.lastFrame.image").await.unwrap(), before, "the edit shows");
+    let (_, _, after) = displayed(&page).await;
+    assert_ne!(after, before, "the edit shows");
     let change = page.eval("document.getElementById('last-change').textContent").await.unwrap();
     assert!(change.as_str().unwrap().contains("dem"), "{change}");
 
@@ -155,11 +164,15 @@ async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() 
     let other_heading = other.eval(heading).await.unwrap();
 
     // Its own camera: the tab turns, the other tab and the scene do not.
+    // While it drags, its frames are JPEG; at rest PNG again.
+    tab.eval("window.relief.formats = new Set(); const show = window.relief; setInterval(() => { if (show.lastFrame) show.formats.add(show.lastFrame.format); }, 5)").await.unwrap();
     tab.drag((400.0, 300.0), (520.0, 300.0), 6).await.unwrap();
     tab.wait_for(&format!("Math.abs(({heading}) - {}) > 5", start.heading_deg), PAGE_TIMEOUT).await.unwrap();
     assert_eq!(scene_camera(&channel).await, start);
     tokio::time::sleep(Duration::from_millis(500)).await;
     assert_eq!(other.eval(heading).await.unwrap(), other_heading);
+    tab.wait_for("window.relief.formats.has('IMAGE_FORMAT_JPEG')", PAGE_TIMEOUT).await.unwrap();
+    tab.wait_for("window.relief.lastFrame.format === 'IMAGE_FORMAT_PNG'", PAGE_TIMEOUT).await.unwrap();
 
     // Follow mode: the tab shows the scene camera, and a drag moves it for
     // every follower; GetCamera over gRPC says so.

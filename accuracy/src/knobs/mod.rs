@@ -11,6 +11,7 @@ mod clipmap;
 mod color_detail;
 mod data;
 mod detail;
+mod frame_codec;
 mod interleave;
 mod precision;
 mod reprojection;
@@ -42,6 +43,7 @@ pub const ALL: &[(&str, Run)] = &[
     ("shadows", shadows::run),
     ("detail", detail::run),
     ("bands", bands::run),
+    ("frame_codec", frame_codec::run),
 ];
 
 /// What every knob's sweep may use.

@@ -1,0 +1,118 @@
+//! `frame_jpeg_quality`: the codec frames travel in while a view is
+//! interactive. The demo range at 1280 x 720 with every effect it
+//! declares, encoded as PNG (lossless, the frame at rest) and as JPEG at
+//! each quality, then decoded (by the `image` crate's decoder, as a
+//! viewer would): each encoding's pixels against the frame itself.
+
+use relief_daemon::codec::Codec;
+use relief_daemon::manifest::DEFAULT_FRAME_JPEG_QUALITY;
+use relief_daemon::view::SceneTerrain;
+use relief_renderer::{ClipmapConfig, Frame, RenderSettings};
+
+use super::{Context, HD, demo_pose, median};
+use crate::sweep::{Row, Sweep};
+
+/// Encodings timed per setting (the median kept).
+const RUNS: usize = 7;
+const QUALITIES: [u8; 9] = [30, 50, 60, 70, 80, 85, 90, 95, 100];
+
+pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
+    let scene = cx.load(&cx.demo)?;
+    let snap = scene.snapshot();
+    let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
+    let e = snap.manifest.effect_settings;
+    let settings = RenderSettings { atmosphere: e.atmosphere, fog: e.fog, shadows: e.shadows, water: e.water, ..HD };
+    let frames =
+        super::still_frames(&cx.gpu, &terrain, &snap.grid, ClipmapConfig::default(), &settings, &demo_pose(), 1)?;
+    let frame = frames.last().ok_or_else(|| anyhow::anyhow!("no frame"))?;
+    let mut rows = Vec::new();
+    let codecs = std::iter::once(Codec::Png).chain(QUALITIES.map(Codec::Jpeg));
+    for codec in codecs {
+        let (bytes, encode_ms) = timed(codec, frame)?;
+        let (decoded, decode_ms) = decode(&bytes)?;
+        let (rms, max) = difference(frame, &decoded);
+        let default = codec == Codec::Jpeg(DEFAULT_FRAME_JPEG_QUALITY);
+        rows.push(
+            Row::new(codec.name(), encode_ms, rms)
+                .default_if(default)
+                .with("KiB", format!("{:.0}", bytes.len() as f64 / 1024.0))
+                .with("decode ms", format!("{decode_ms:.1}"))
+                .with("max error", format!("{max:.0}")),
+        );
+    }
+    let why_default = why(&rows);
+    Ok(vec![Sweep {
+        knob: "frame_jpeg_quality".into(),
+        case: format!(
+            "The demo range at 1280 x 720 from its camera (9 km up, 25 degrees down) with every effect it declares \
+             (lighting, shadows, water, atmosphere, fog), the frame a viewer gets; PNG is what it gets at rest, \
+             JPEG q what it gets while its camera moves ([quality] frame_jpeg_quality, 4:2:0 chroma). Times are \
+             the median of {RUNS} encodings on this machine's CPU (reliefd encodes once per frame for all the \
+             streams that share it)."
+        ),
+        reference: "the rendered frame itself (RGBA8), which PNG reproduces exactly".into(),
+        error: "RMS difference of every pixel's R, G and B (0-255) after decoding".into(),
+        time: format!("encode ms, median of {RUNS}"),
+        rows,
+        why_default,
+    }])
+}
+
+/// The encoding of `frame` by `codec`, and its median time, ms.
+fn timed(codec: Codec, frame: &Frame) -> anyhow::Result<(Vec<u8>, f64)> {
+    let mut times = Vec::new();
+    let mut bytes = Vec::new();
+    for _ in 0..RUNS {
+        let started = std::time::Instant::now();
+        bytes = codec.encode(&frame.rgba, frame.width, frame.height).map_err(anyhow::Error::msg)?;
+        times.push(started.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok((bytes, median(times)))
+}
+
+/// The image back as RGBA8, and the time decoding took, ms.
+fn decode(bytes: &[u8]) -> anyhow::Result<(Vec<u8>, f64)> {
+    let started = std::time::Instant::now();
+    let image = image::load_from_memory(bytes)?.to_rgba8().into_raw();
+    Ok((image, started.elapsed().as_secs_f64() * 1e3))
+}
+
+/// RMS and max difference of R, G and B (0-255).
+fn difference(frame: &Frame, decoded: &[u8]) -> (f64, f64) {
+    let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
+    for (p, q) in frame.rgba.chunks(4).zip(decoded.chunks(4)) {
+        for k in 0..3 {
+            let d = f64::from(p[k]) - f64::from(q[k]);
+            sum += d * d;
+            max = max.max(d.abs());
+            n += 1;
+        }
+    }
+    ((sum / n.max(1) as f64).sqrt(), max)
+}
+
+/// Why quality 80, from the rows measured.
+fn why(rows: &[Row]) -> String {
+    let get = |name: &str| rows.iter().find(|r| r.setting == name);
+    let kib = |r: &Row| r.extra.iter().find(|(h, _)| h == "KiB").map_or_else(String::new, |(_, v)| v.clone());
+    let (Some(png), Some(q80), Some(q95), Some(q50)) = (get("png"), get("jpeg 80"), get("jpeg 95"), get("jpeg 50"))
+    else {
+        return "the sweep did not measure the settings it compares".into();
+    };
+    format!(
+        "A lossless PNG of this frame is {} KiB and takes {:.1} ms to encode; JPEG at 80 is {} KiB in {:.1} ms with \
+         an RMS error of {:.2} levels (95: {} KiB, {:.2}; 50: {} KiB, {:.2}). While the camera moves a frame lives \
+         for a fraction of a second and its size is what the wire and the viewer's decoder pay for each one; the \
+         default sits where the bytes have fallen most and the error has not yet climbed (the plot's knee). At \
+         rest the frame is lossless whatever this knob says.",
+        kib(png),
+        png.time,
+        kib(q80),
+        q80.time,
+        q80.error,
+        kib(q95),
+        q95.error,
+        kib(q50),
+        q50.error
+    )
+}
