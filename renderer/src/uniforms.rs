@@ -1,6 +1,6 @@
 //! What every pass of a frame reads: the camera's projection, the sun and
 //! the eye, in one buffer the renderer writes once per frame (bound as
-//! read-only storage: `passes::params_binding`).
+//! read-only storage: `crate::passes::pipeline::params_binding`).
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
@@ -31,7 +31,7 @@ pub fn frame_buffer(device: &wgpu::Device) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("frame"),
         size: size_of::<FrameUniform>() as u64,
-        usage: crate::passes::PARAMS_USAGE,
+        usage: crate::passes::pipeline::PARAMS_USAGE,
         mapped_at_creation: false,
     })
 }

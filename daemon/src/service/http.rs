@@ -286,7 +286,10 @@ async fn frames_ws(State(c): Shared, Query(q): Params, ws: WebSocketUpgrade) -> 
     Ok(ws.on_upgrade(move |socket| send_frames(socket, frames)))
 }
 
-async fn send_frames(mut socket: WebSocket, mut frames: super::view::Frames) {
+async fn send_frames(
+    mut socket: WebSocket,
+    mut frames: impl Stream<Item = Result<pb::RenderResponse, Status>> + Unpin,
+) {
     loop {
         tokio::select! {
             item = frames.next() => match item {

@@ -39,9 +39,9 @@ impl Overlay {
     ) -> Self {
         let own = size_of::<U>() / size_of::<[f32; 4]>();
         let table = group1.map_or(0, |(_, n)| n);
-        let shader = super::shader(device, label, &format!("{}\n{source}", fullscreen(own, table)));
+        let shader = crate::passes::pipeline::shader(device, label, &format!("{}\n{source}", fullscreen(own, table)));
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
-        let uniform = |min| super::params_binding(wgpu::BufferSize::new(min));
+        let uniform = |min| crate::passes::pipeline::params_binding(wgpu::BufferSize::new(min));
         let stages = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some(label),
@@ -88,7 +88,7 @@ impl Overlay {
         let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
             contents: bytemuck::bytes_of(&U::default()),
-            usage: super::PARAMS_USAGE,
+            usage: crate::passes::pipeline::PARAMS_USAGE,
         });
         Self { pipeline, layout, uniform }
     }

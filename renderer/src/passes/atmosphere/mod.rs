@@ -157,7 +157,7 @@ impl AtmospherePass {
                 wgpu::BindGroupLayoutEntry {
                     binding: 2,
                     visibility: wgpu::ShaderStages::VERTEX,
-                    ty: super::params_binding(None),
+                    ty: crate::passes::pipeline::params_binding(None),
                     count: None,
                 },
             ],
@@ -200,7 +200,7 @@ impl AtmospherePass {
         let composite_uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("atmosphere composite"),
             contents: bytemuck::bytes_of(&[1.0f32; 4]),
-            usage: super::PARAMS_USAGE,
+            usage: crate::passes::pipeline::PARAMS_USAGE,
         });
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
             label: Some("atmosphere composite"),

@@ -14,6 +14,7 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 use glam::DVec3;
+use rayon::prelude::*;
 use relief_source::{Extent, MeshTile, Payload, TileKey};
 use wgpu::util::DeviceExt;
 
@@ -47,7 +48,7 @@ struct Vertex {
     color: [f32; 4],
 }
 
-const _: () = assert!(size_of::<Vertex>() == 64, "the layout of super::VEC4_VERTICES");
+const _: () = assert!(size_of::<Vertex>() == 64, "the layout of crate::passes::pipeline::VEC4_VERTICES");
 
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable)]
@@ -113,12 +114,12 @@ const SOURCE: &str = include_str!("buildings.wgsl");
 
 /// The buildings' lit pipeline (`group0` the pass's bind group layout), as
 /// the pass makes it and its twin receiving shadows.
-fn lit_pipeline(group0: &wgpu::BindGroupLayout) -> super::LitPipeline<'_> {
-    super::LitPipeline {
+fn lit_pipeline(group0: &wgpu::BindGroupLayout) -> crate::passes::lit::LitPipeline<'_> {
+    crate::passes::lit::LitPipeline {
         label: "buildings",
         group0,
         stages: ("vs_building", "fs_building"),
-        buffers: &super::VEC4_VERTICES,
+        buffers: &crate::passes::pipeline::VEC4_VERTICES,
     }
 }
 
@@ -131,7 +132,7 @@ pub struct BuildingsPass {
     shader: wgpu::ShaderModule,
     caster: Option<wgpu::RenderPipeline>,
     /// The pipeline's twin receiving shadows, while the scene casts them.
-    shadowed: Option<super::Receiving>,
+    shadowed: Option<crate::passes::lit::Receiving>,
     tiles: HashMap<TileKey, TileMesh>,
     /// Mesh tiles turned into device buffers since the pass was built.
     pub tiles_built: u64,
@@ -141,7 +142,7 @@ pub struct BuildingsPass {
 
 impl BuildingsPass {
     pub fn new(device: &wgpu::Device) -> Self {
-        let shader = super::lit_shader(device, "buildings", SOURCE, None);
+        let shader = crate::passes::lit::lit_shader(device, "buildings", SOURCE, None);
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -152,7 +153,7 @@ impl BuildingsPass {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("buildings"),
             entries: &[
-                entry(0, super::params_binding(None)),
+                entry(0, crate::passes::pipeline::params_binding(None)),
                 entry(1, buffer(wgpu::BufferBindingType::Storage { read_only: true })),
             ],
         });
@@ -198,6 +199,30 @@ impl BuildingsPass {
             }
         }
         let fetched = meshes.meshes(&keys);
+        // Tiles new or changed made ready on the CPU side by side, then
+        // brought to the device: a bulk edit rebuilds them in parallel.
+        let fresh: Vec<(TileKey, Arc<Payload>)> = keys
+            .iter()
+            .zip(&fetched)
+            .filter_map(|(key, payload)| Some((*key, Arc::clone(payload.as_ref()?))))
+            .filter(|(key, payload)| match self.tiles.get(key) {
+                Some(t) => !Arc::ptr_eq(&t.payload, payload) && t.content != content_of(payload),
+                None => true,
+            })
+            .collect();
+        let prepared: Vec<(TileKey, Option<Prepared>)> =
+            fresh.into_par_iter().map(|(key, payload)| (key, Prepared::new(surface, payload))).collect();
+        for (key, prepared) in prepared {
+            match prepared.and_then(|p| TileMesh::new(device, p)) {
+                Some(mesh) => {
+                    self.tiles.insert(key, mesh);
+                    self.tiles_built += 1;
+                }
+                None => {
+                    self.tiles.remove(&key);
+                }
+            }
+        }
         let mut draw =
             BuildingsDraw { tiles: Vec::new(), bind_group: None, drawn: 0, not_ready: 0, cast: HashMap::new() };
         let mut lifts: Vec<Lift> = Vec::new();
@@ -206,17 +231,10 @@ impl BuildingsPass {
                 draw.not_ready += 1;
                 continue;
             };
-            match self.tiles.get_mut(key) {
-                Some(t) if Arc::ptr_eq(&t.payload, &payload) => {}
-                // Built again the same (its input changed elsewhere): kept.
-                Some(t) if t.content == content_of(&payload) => t.payload = payload,
-                _ => {
-                    let Some(mesh) = TileMesh::new(device, surface, payload) else { continue };
-                    self.tiles.insert(*key, mesh);
-                    self.tiles_built += 1;
-                }
-            }
-            let tile = &self.tiles[key];
+            // Built again the same (its input changed elsewhere): kept.
+            let Some(tile) = self.tiles.get_mut(key) else { continue };
+            tile.payload = payload;
+            let tile = &*tile;
             // A building shows where a ring drawing its tile's level holds
             // its centre (rings do not overlap: it is drawn once).
             let shows = |c: (f64, f64)| rings.iter().any(|r| r.level == key.level && r.shows(c));
@@ -238,7 +256,11 @@ impl BuildingsPass {
             if !shown.is_empty() {
                 let tile_lifts = &lifts[first as usize..];
                 let reach = tile_lifts.iter().map(Lift::reach_m).fold(0.0, f64::max);
-                let key_of = super::key_of(&(tile.content, &shown, bytemuck::cast_slice::<Lift, u8>(tile_lifts)));
+                let key_of = crate::passes::pipeline::key_of(&(
+                    tile.content,
+                    &shown,
+                    bytemuck::cast_slice::<Lift, u8>(tile_lifts),
+                ));
                 draw.cast.insert(*key, TileCast { key: key_of, centre: tile.centre, radius: tile.radius + reach });
                 draw.tiles.push((*key, first, shown));
             }
@@ -276,13 +298,13 @@ impl BuildingsPass {
     /// `lookup` describes (their layout and count), as the frame casts them.
     pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
         let pipelines = [lit_pipeline(&self.layout)];
-        super::Receiving::update(&mut self.shadowed, device, lookup, ("buildings", SOURCE), &pipelines);
+        crate::passes::lit::Receiving::update(&mut self.shadowed, device, lookup, ("buildings", SOURCE), &pipelines);
     }
 
     /// Draws the buildings; with `shadows` (the cascades' lookup, after
     /// `receive_shadows`), receiving them.
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &BuildingsDraw, shadows: Option<&wgpu::BindGroup>) {
-        let [pipeline] = super::Receiving::choose(self.shadowed.as_ref(), pass, shadows, [&self.pipeline]);
+        let [pipeline] = crate::passes::lit::Receiving::choose(self.shadowed.as_ref(), pass, shadows, [&self.pipeline]);
         self.record_with(pass, pipeline, draw);
     }
 
@@ -295,13 +317,13 @@ impl BuildingsPass {
     pub fn prepare_casters(&mut self, device: &wgpu::Device) {
         if self.caster.is_none() {
             let (layout, shader) = (&self.pipeline_layout, &self.shader);
-            self.caster = Some(super::caster_pipeline(
+            self.caster = Some(crate::passes::pipeline::caster_pipeline(
                 device,
                 "building casters",
                 layout,
                 shader,
                 "vs_building",
-                &super::VEC4_VERTICES,
+                &crate::passes::pipeline::VEC4_VERTICES,
             ));
         }
     }
@@ -337,7 +359,7 @@ fn content_of(payload: &Payload) -> u64 {
     let Payload::Mesh(mesh) = payload else { return 0 };
     let parts: Vec<(u64, u32, u32, [u8; 4])> =
         mesh.parts.iter().map(|p| (p.feature_id, p.first_index, p.index_count, p.color)).collect();
-    super::key_of(&(bytemuck::cast_slice::<[f64; 3], u8>(&mesh.positions), &mesh.indices, parts))
+    crate::passes::pipeline::key_of(&(bytemuck::cast_slice::<[f64; 3], u8>(&mesh.positions), &mesh.indices, parts))
 }
 
 impl Lift {
@@ -405,15 +427,36 @@ impl Building {
     }
 }
 
-impl TileMesh {
+/// A mesh tile made ready on the CPU (in parallel with the others), before
+/// its buffers are made.
+struct Prepared {
+    payload: Arc<Payload>,
+    content: u64,
+    vertices: Vec<Vertex>,
+    buildings: Vec<Building>,
+    centre: DVec3,
+    radius: f64,
+}
+
+impl Prepared {
     /// The tile's triangles in world positions with flat normals; None for
     /// a payload that is not a mesh or has no triangles.
-    fn new(device: &wgpu::Device, surface: &Surface, payload: Arc<Payload>) -> Option<Self> {
+    fn new(surface: &Surface, payload: Arc<Payload>) -> Option<Self> {
         let Payload::Mesh(mesh) = payload.as_ref() else { return None };
         if mesh.indices.is_empty() {
             return None;
         }
-        let (vertices, buildings) = vertices(surface, mesh);
+        let (vertices, buildings, (centre, radius)) = vertices(surface, mesh);
+        let content = content_of(&payload);
+        Some(Self { payload, content, vertices, buildings, centre, radius })
+    }
+}
+
+impl TileMesh {
+    /// The tile's buffers on the device; None for one too large for them.
+    fn new(device: &wgpu::Device, prepared: Prepared) -> Option<Self> {
+        let Prepared { payload, content, vertices, buildings, centre, radius } = prepared;
+        let Payload::Mesh(mesh) = payload.as_ref() else { return None };
         let largest = (vertices.len() * size_of::<Vertex>()).max(mesh.indices.len() * 4) as u64;
         if largest > device.limits().max_buffer_size {
             // A tile too big for one buffer (a coarse tile of a huge city):
@@ -431,20 +474,19 @@ impl TileMesh {
             contents: bytemuck::cast_slice(&mesh.indices),
             usage: wgpu::BufferUsages::INDEX,
         });
-        let n = mesh.positions.len().max(1) as f64;
-        let world: Vec<DVec3> = mesh.positions.iter().map(|p| surface.world(p[0], p[1], p[2])).collect();
-        let centre = world.iter().fold(DVec3::ZERO, |c, p| c + *p / n);
-        let radius = world.iter().map(|p| (*p - centre).length()).fold(0.0, f64::max);
-        let content = content_of(&payload);
         Some(Self { payload, content, vertices, indices, buildings, centre, radius })
     }
 }
 
-/// The device vertices of a mesh tile and its buildings. Normals are the
-/// area-weighted faces round each vertex (`extrude` gives every wall its
-/// own four vertices, so walls stay flat and roofs face up).
-fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>) {
+/// The device vertices of a mesh tile, its buildings, and a sphere (world)
+/// holding them. Normals are the area-weighted faces round each vertex
+/// (`extrude` gives every wall its own four vertices, so walls stay flat
+/// and roofs face up).
+fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>, (DVec3, f64)) {
     let world: Vec<DVec3> = mesh.positions.iter().map(|p| surface.world(p[0], p[1], p[2])).collect();
+    let n = world.len().max(1) as f64;
+    let centre = world.iter().fold(DVec3::ZERO, |c, p| c + *p / n);
+    let radius = world.iter().map(|p| (*p - centre).length()).fold(0.0, f64::max);
     let mut normals = vec![DVec3::ZERO; world.len()];
     for t in mesh.indices.chunks_exact(3) {
         let [a, b, c] = [0, 1, 2].map(|k| t[k] as usize);
@@ -500,7 +542,7 @@ fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>) 
             }
         })
         .collect();
-    (vertices, buildings)
+    (vertices, buildings, (centre, radius))
 }
 
 /// The area one active level shows buildings in: its window less the

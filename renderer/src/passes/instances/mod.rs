@@ -12,6 +12,7 @@ mod bands;
 mod models;
 mod reach;
 mod sort;
+mod view;
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -25,9 +26,9 @@ use wgpu::util::DeviceExt;
 pub use bands::InstanceBands;
 use models::{GpuInstance, GpuModel, INSTANCE_ATTRIBUTES, MAX_MODELS, MODEL_ATTRIBUTES, ModelVertex};
 use sort::{Placed, PlacedTile};
+pub use view::InstancesView;
 
 use super::casting::{CastInto, Changes, ShadowCaster, TileCast, tile_changes};
-use crate::camera::View;
 use crate::error::RenderError;
 use crate::gpu::Gpu;
 use crate::surface::Surface;
@@ -42,19 +43,6 @@ pub trait InstanceTiles {
     fn instances(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>>;
     /// The model an instance names; None for a name the scene does not know.
     fn model(&self, name: &str) -> Option<Arc<Model>>;
-}
-
-/// Where a frame looks from, for choosing and sorting instances.
-#[derive(Clone, Copy)]
-pub struct InstancesView<'a> {
-    pub surface: &'a Surface,
-    pub view: &'a View,
-    pub aspect: f64,
-    /// The camera's grid point and height (metres).
-    pub camera: [f64; 3],
-    /// The drawn ground under the camera, when the terrain is there.
-    pub ground_m: Option<f64>,
-    pub bands: &'a InstanceBands,
 }
 
 /// What a frame draws: one buffer of instances, models first (a range per
@@ -98,15 +86,15 @@ const MODEL_BUFFERS: [Option<wgpu::VertexBufferLayout<'static>>; 2] = [
 fn lit_pipelines<'a>(
     models: &'a wgpu::BindGroupLayout,
     billboards: &'a wgpu::BindGroupLayout,
-) -> [super::LitPipeline<'a>; 2] {
+) -> [crate::passes::lit::LitPipeline<'a>; 2] {
     [
-        super::LitPipeline {
+        crate::passes::lit::LitPipeline {
             label: "instance models",
             group0: models,
             stages: ("vs_model", "fs_model"),
             buffers: &MODEL_BUFFERS,
         },
-        super::LitPipeline {
+        crate::passes::lit::LitPipeline {
             label: "instance billboards",
             group0: billboards,
             stages: ("vs_billboard", "fs_billboard"),
@@ -133,7 +121,7 @@ pub struct InstancesPass {
     billboard_bind_group: wgpu::BindGroup,
     /// The models' and billboards' twins receiving shadows, while the
     /// scene casts them.
-    shadowed: Option<super::Receiving>,
+    shadowed: Option<crate::passes::lit::Receiving>,
     /// Bakes a model's normals for its billboard.
     normal_pipeline: wgpu::RenderPipeline,
     /// Billboards' colours and normals, a layer per model.
@@ -150,14 +138,14 @@ pub struct InstancesPass {
 
 impl InstancesPass {
     pub fn new(device: &wgpu::Device, frame_buffer: &wgpu::Buffer) -> Self {
-        let shader = super::lit_shader(device, "instances", SOURCE, None);
+        let shader = crate::passes::lit::lit_shader(device, "instances", SOURCE, None);
         let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
             ty,
             count: None,
         };
-        let uniform = super::params_binding(None);
+        let uniform = crate::passes::pipeline::params_binding(None);
         let model_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("instance models"),
             entries: &[entry(0, uniform)],
@@ -195,7 +183,7 @@ impl InstancesPass {
         let model_pipeline_layout = layout("instance models", &model_layout);
         let [model_pipeline, billboard_pipeline] =
             lit_pipelines(&model_layout, &billboard_layout).map(|p| p.build(device, &shader, None));
-        let normal_pipeline = super::pipeline(
+        let normal_pipeline = crate::passes::pipeline::pipeline(
             device,
             "billboard normals",
             &model_pipeline_layout,
@@ -297,7 +285,8 @@ impl InstancesPass {
         let per_tile = sort::sort(&tiles, at, &shapes);
         for ((key, tile), sorted) in keys.iter().zip(&tiles).zip(&per_tile) {
             let models: Vec<&[u8]> = sorted.models.iter().map(|m| bytemuck::cast_slice::<GpuInstance, u8>(m)).collect();
-            let cast = TileCast { key: super::key_of(&models), centre: tile.centre, radius: tile.radius };
+            let cast =
+                TileCast { key: crate::passes::pipeline::key_of(&models), centre: tile.centre, radius: tile.radius };
             draw.cast.insert(*key, cast);
         }
         let sorted = per_tile.into_iter().fold(sort::Sorted::default(), sort::Sorted::merge);
@@ -334,7 +323,7 @@ impl InstancesPass {
     /// `lookup` describes (their layout and count), as the frame casts them.
     pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
         let pipelines = lit_pipelines(&self.model_layout, &self.billboard_layout);
-        super::Receiving::update(&mut self.shadowed, device, lookup, ("instances", SOURCE), &pipelines);
+        crate::passes::lit::Receiving::update(&mut self.shadowed, device, lookup, ("instances", SOURCE), &pipelines);
     }
 
     /// Draws the models, then the billboards; with `shadows` (the
@@ -342,7 +331,7 @@ impl InstancesPass {
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &InstancesDraw, shadows: Option<&wgpu::BindGroup>) {
         let Some(buffer) = &draw.buffer else { return };
         let plain = [&self.model_pipeline, &self.billboard_pipeline];
-        let [models, billboards] = super::Receiving::choose(self.shadowed.as_ref(), pass, shadows, plain);
+        let [models, billboards] = crate::passes::lit::Receiving::choose(self.shadowed.as_ref(), pass, shadows, plain);
         self.record_models(pass, models, draw);
         if !draw.billboards.is_empty() {
             pass.set_pipeline(billboards);
@@ -377,8 +366,14 @@ impl InstancesPass {
     pub fn prepare_casters(&mut self, device: &wgpu::Device) {
         if self.caster.is_none() {
             let (layout, shader) = (&self.model_pipeline_layout, &self.shader);
-            self.caster =
-                Some(super::caster_pipeline(device, "instance casters", layout, shader, "vs_model", &MODEL_BUFFERS));
+            self.caster = Some(crate::passes::pipeline::caster_pipeline(
+                device,
+                "instance casters",
+                layout,
+                shader,
+                "vs_model",
+                &MODEL_BUFFERS,
+            ));
         }
     }
 

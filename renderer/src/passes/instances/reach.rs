@@ -4,7 +4,7 @@
 
 use relief_source::TileKey;
 
-use super::InstancesView;
+use super::view::InstancesView;
 
 /// How many levels coarser than the layer's own instance tiles are asked
 /// for near the poles.

@@ -9,8 +9,8 @@ use rayon::prelude::*;
 use relief_source::Payload;
 use std::sync::Arc;
 
-use super::InstancesView;
 use super::models::{GpuInstance, GpuModel};
+use super::view::InstancesView;
 use crate::camera::{Frustum, Sees};
 
 /// One instance of a tile, ready for sorting.

@@ -256,7 +256,10 @@ impl ShadowsPass {
         let lookup_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadow lookup"),
             entries: &[
-                entry(0, super::params_binding(wgpu::BufferSize::new(size_of::<CascadeTable>() as u64))),
+                entry(
+                    0,
+                    crate::passes::pipeline::params_binding(wgpu::BufferSize::new(size_of::<CascadeTable>() as u64)),
+                ),
                 entry(
                     1,
                     wgpu::BindingType::Texture {
@@ -271,7 +274,7 @@ impl ShadowsPass {
         let cascades_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("shadow cascades"),
             contents: bytemuck::bytes_of(&CascadeTable::default()),
-            usage: super::PARAMS_USAGE,
+            usage: crate::passes::pipeline::PARAMS_USAGE,
         });
         // Lit where the point is at least as near the sun as the map's.
         let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
@@ -360,7 +363,7 @@ impl ShadowsPass {
             maps.drawn.iter_mut().for_each(|d| *d = None);
         }
         for (k, cascade) in fitted.iter().enumerate() {
-            let key = super::key_of(&(cascade.anchored.map(f64::to_bits), sun, shadows.map_size));
+            let key = crate::passes::pipeline::key_of(&(cascade.anchored.map(f64::to_bits), sun, shadows.map_size));
             let size = shadows.map_size;
             let regions: Option<Vec<TexelRect>> = match &changes {
                 _ if maps.drawn[k] != Some(key) => None,

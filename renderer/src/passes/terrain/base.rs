@@ -25,7 +25,7 @@ pub struct BaseVertex {
     pub color: [f32; 4],
 }
 
-const _: () = assert!(size_of::<BaseVertex>() == 64, "the layout of passes::VEC4_VERTICES");
+const _: () = assert!(size_of::<BaseVertex>() == 64, "the layout of crate::passes::pipeline::VEC4_VERTICES");
 
 /// The coarse grid of the whole scene under the clipmap: every sample of
 /// tile level 0, uploaded once; each frame draws every 1st, 2nd or 4th of

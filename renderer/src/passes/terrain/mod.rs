@@ -24,10 +24,20 @@ use crate::uniforms::FrameUniform;
 /// The terrain's lit pipelines, the levels' and the base's (`group0`
 /// the terrain's bind group layout), as the pass makes them and their
 /// twins receiving shadows.
-fn lit_pipelines(group0: &wgpu::BindGroupLayout) -> [super::LitPipeline<'_>; 2] {
+fn lit_pipelines(group0: &wgpu::BindGroupLayout) -> [crate::passes::lit::LitPipeline<'_>; 2] {
     [
-        super::LitPipeline { label: "levels", group0, stages: ("vs_level", "fs_level"), buffers: &LEVEL_RECORDS },
-        super::LitPipeline { label: "base", group0, stages: ("vs_base", "fs_base"), buffers: &super::VEC4_VERTICES },
+        crate::passes::lit::LitPipeline {
+            label: "levels",
+            group0,
+            stages: ("vs_level", "fs_level"),
+            buffers: &LEVEL_RECORDS,
+        },
+        crate::passes::lit::LitPipeline {
+            label: "base",
+            group0,
+            stages: ("vs_base", "fs_base"),
+            buffers: &crate::passes::pipeline::VEC4_VERTICES,
+        },
     ]
 }
 
@@ -51,7 +61,7 @@ pub struct TerrainPass {
     /// while the scene casts shadows.
     group0: wgpu::BindGroupLayout,
     source: String,
-    shadowed: Option<super::Receiving>,
+    shadowed: Option<crate::passes::lit::Receiving>,
     /// The levels' and the base's.
     caster: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
     /// Where the scene's samples changed under the levels or the base
@@ -102,10 +112,10 @@ impl TerrainPass {
         }
         // The colour detail is a constant of the shader: a renderer serves one configuration.
         let source = format!("const COLOR_DETAIL: i32 = {};\n{}", config.color_detail, include_str!("terrain.wgsl"));
-        let shader = super::lit_shader(device, "terrain", &source, None);
+        let shader = crate::passes::lit::lit_shader(device, "terrain", &source, None);
         let entry = |binding, visibility, ty| wgpu::BindGroupLayoutEntry { binding, visibility, ty, count: None };
         let both = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let uniform = super::params_binding(None);
+        let uniform = crate::passes::pipeline::params_binding(None);
         let texture = |filterable| wgpu::BindingType::Texture {
             sample_type: wgpu::TextureSampleType::Float { filterable },
             view_dimension: wgpu::TextureViewDimension::D2Array,
@@ -128,7 +138,9 @@ impl TerrainPass {
         });
         let [level_pipeline, base_pipeline] = lit_pipelines(&layout).map(|p| p.build(device, &shader, None));
         let layers = config.levels as u32;
-        let array = |label, side: usize, format| super::sampled_texture(device, label, side as u32, layers, format);
+        let array = |label, side: usize, format| {
+            crate::passes::pipeline::sampled_texture(device, label, side as u32, layers, format)
+        };
         let positions = array("level positions", config.n, wgpu::TextureFormat::Rgba32Float);
         let normals = array("level normals", config.n, wgpu::TextureFormat::Rgba32Float);
         let colors = array("level colours", config.color_detail * config.n, wgpu::TextureFormat::Rgba8Unorm);
@@ -283,14 +295,20 @@ impl TerrainPass {
     /// `lookup` describes (their layout and count), as the frame casts them.
     pub fn receive_shadows(&mut self, device: &wgpu::Device, lookup: Option<(&wgpu::BindGroupLayout, u32)>) {
         let pipelines = lit_pipelines(&self.group0);
-        super::Receiving::update(&mut self.shadowed, device, lookup, ("terrain", &self.source), &pipelines);
+        crate::passes::lit::Receiving::update(
+            &mut self.shadowed,
+            device,
+            lookup,
+            ("terrain", &self.source),
+            &pipelines,
+        );
     }
 
     /// Draws the base, then the levels; with `shadows` (the cascades'
     /// lookup, after `receive_shadows`), receiving them.
     pub fn record(&self, pass: &mut wgpu::RenderPass<'_>, draw: &TerrainDraw, shadows: Option<&wgpu::BindGroup>) {
         let plain = [&self.level_pipeline, &self.base_pipeline];
-        let [levels, base] = super::Receiving::choose(self.shadowed.as_ref(), pass, shadows, plain);
+        let [levels, base] = crate::passes::lit::Receiving::choose(self.shadowed.as_ref(), pass, shadows, plain);
         if let Some(mesh) = &draw.base {
             self.record_mesh_with(pass, base, mesh);
         }
@@ -325,14 +343,21 @@ impl TerrainPass {
         if self.caster.is_none() {
             let (layout, shader) = (&self.layout, &self.shader);
             self.caster = Some((
-                super::caster_pipeline(device, "terrain casters", layout, shader, "vs_level_depth", &LEVEL_RECORDS),
-                super::caster_pipeline(
+                crate::passes::pipeline::caster_pipeline(
+                    device,
+                    "terrain casters",
+                    layout,
+                    shader,
+                    "vs_level_depth",
+                    &LEVEL_RECORDS,
+                ),
+                crate::passes::pipeline::caster_pipeline(
                     device,
                     "terrain base casters",
                     layout,
                     shader,
                     "vs_base",
-                    &super::VEC4_VERTICES,
+                    &crate::passes::pipeline::VEC4_VERTICES,
                 ),
             ));
         }

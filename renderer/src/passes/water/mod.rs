@@ -131,7 +131,8 @@ impl WaterPass {
             over_frame(blend),
             Some((&layout, 0)),
         );
-        let texture = |label, side: u32, format| super::sampled_texture(device, label, side, 1, format);
+        let texture =
+            |label, side: u32, format| crate::passes::pipeline::sampled_texture(device, label, side, 1, format);
         let mask = texture("water mask", MASK_SIZE as u32, wgpu::TextureFormat::R8Unorm);
         let waves = texture("water waves", WAVES, wgpu::TextureFormat::Rgba8Unorm);
         write(gpu, &waves, WAVES, 4, &wave_slopes());
