@@ -381,7 +381,14 @@ async fn many_viewers(channel: &Channel, dem: &std::path::Path, n: usize, edits:
         while seen.iter().any(|s| s.lock().expect("viewer lock").0 < generation) && Instant::now() < deadline {
             tokio::time::sleep(Duration::from_millis(5)).await;
         }
-        out.extend(seen.iter().map(|s| s.lock().expect("viewer lock").1 - started));
+        let arrivals: Vec<f64> = seen.iter().map(|s| s.lock().expect("viewer lock").1 - started).collect();
+        let slowest = arrivals.iter().copied().fold(0.0, f64::max);
+        let state = common::state(channel).await?;
+        let renders = state.counters.unwrap_or_default().stream_frames_rendered;
+        eprintln!(
+            "edit to generation {generation}: slowest of {n} viewers {slowest:.0} ms; hub renders so far {renders}"
+        );
+        out.extend(arrivals);
     }
     stop.store(true, Ordering::Relaxed);
     for t in tasks {

@@ -14,9 +14,12 @@
 //!   rewritten through GDAL once a second, to 2000 m and to 1000 m in
 //!   turn (so the file alternates between two contents).
 //!
-//! Every 10 s a row: reliefd's resident set (VmRSS), the bytes the tile
-//! cache and the raster block cache hold and the resident set less them, frames delivered and tiles requested in the interval, GetTile
-//! p50 and p99 in the interval, the generation and the errors so far.
+//! Every 10 s a row: reliefd's resident set (VmRSS) beside what each of
+//! its caches holds (GetState's `counters.memory`: the tile cache, the
+//! raster blocks, the renderers' passes and targets, the frames held for
+//! the streams) and the resident set less all of them (nobody's), frames
+//! delivered and tiles requested in the interval, GetTile p50 and p99 in
+//! the interval, the generation and the errors so far.
 //! Then totals: p99 of GetTile over the run, errors of every kind (source
 //! errors from GetState and the Watch stream too), the resident set
 //! against the memory cache budget, and the relief_* lines of /metrics
@@ -48,13 +51,10 @@ use tokio_stream::StreamExt;
 use tonic::transport::Channel;
 
 /// What the resident set may hold beyond what the two memory caches hold
-/// (tiles, decoded raster blocks), stated from its parts: the renderer and
-/// its device (lavapipe keeps its buffers and compiled shaders in process
-/// memory: about 280 MB alone), rasters small enough to be held whole (not
-/// in the raster cache's count), GDAL's own block cache (64 MB), the disk
-/// store's write queue (up to about 90 MB), the sources, the frame streams
-/// and the allocator's slack.
-const OVERHEAD_ALLOWED_MB: f64 = 700.0;
+/// (tiles, decoded raster blocks): the 150 MB over the budgets.
+/// What the renderers and the frames hold is counted apart (GetState's
+/// `memory`), inside it.
+const OVERHEAD_ALLOWED_MB: f64 = 150.0;
 
 const SOURCES: [&str; 3] = ["dem", "ortho", "shade"];
 const LEVELS: std::ops::RangeInclusive<u32> = 8..=13;
@@ -338,9 +338,9 @@ async fn run() -> anyhow::Result<()> {
         "memory cache budgets: tiles ([cache] memory_mb) {tile_budget_mb:.0} MB + raster blocks ([cache] raster_mb) {raster_budget_mb:.0} MB = {budget_mb:.0} MB; goal: resident set flat, at most what the caches hold + {OVERHEAD_ALLOWED_MB:.0} MB (so within the budgets + {OVERHEAD_ALLOWED_MB:.0} MB)\n"
     );
     println!(
-        "| t s | RSS MB | tile cache MB | raster cache MB | RSS - caches MB | frames delivered | tiles requested | GetTile p50 ms | GetTile p99 ms | generation | errors so far |"
+        "| t s | RSS MB | tile cache MB | raster cache MB | renderers MB | frames held MB | RSS - tile and raster caches MB | nobody's (RSS - all) MB | frames delivered | tiles requested | GetTile p50 ms | GetTile p99 ms | generation | errors so far |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
 
     let events = edit::Events::follow(channel.clone()).await?;
     let tally = Arc::new(Tally::default());
@@ -357,6 +357,8 @@ async fn run() -> anyhow::Result<()> {
     let mut rss = Vec::new();
     // RSS less what the two caches hold, at each row.
     let mut beyond_caches = Vec::new();
+    // And less what the renderers and the frames hold too: nobody's.
+    let mut nobodys = Vec::new();
     let mut unhealthy_seen: Vec<(String, String)> = Vec::new();
     let (mut frames_before, mut tiles_before) = (0, 0);
     let mut next_row = started;
@@ -381,11 +383,14 @@ async fn run() -> anyhow::Result<()> {
         interval.sort_by(f64::total_cmp);
         let errors = tally.errors() + events.errors().len() as u64;
         let caches = mb(c.cache_bytes) + mb(c.raster_cache_bytes);
+        let part = |prefix: &str| mb(c.memory.iter().filter(|m| m.name.starts_with(prefix)).map(|m| m.bytes).sum());
+        let (renderers, frames_held) = (part("renderer: "), part("frames held"));
         println!(
-            "| {t:.0} | {r:.0} | {:.0} | {:.0} | {:.0} | {} | {} | {:.1} | {:.1} | {} | {errors} |",
+            "| {t:.0} | {r:.0} | {:.0} | {:.0} | {renderers:.0} | {frames_held:.0} | {:.0} | {:.0} | {} | {} | {:.1} | {:.1} | {} | {errors} |",
             mb(c.cache_bytes),
             mb(c.raster_cache_bytes),
             r - caches,
+            r - caches - renderers - frames_held,
             frames - frames_before,
             tiles - tiles_before,
             percentile(&interval, 0.5),
@@ -396,6 +401,7 @@ async fn run() -> anyhow::Result<()> {
         all_latencies.extend(interval);
         rss.push(r);
         beyond_caches.push(r - caches);
+        nobodys.push(r - caches - renderers - frames_held);
         streams = (c.frame_streams, c.frame_views);
         if Instant::now() >= end {
             break;
@@ -472,6 +478,15 @@ async fn run() -> anyhow::Result<()> {
         beyond_caches.last().copied().unwrap_or(f64::NAN)
     );
     println!("| overhead = max (RSS - what the caches hold) MB (allowed {OVERHEAD_ALLOWED_MB:.0}) | {high:.0} |");
+    let settled_nobody = nobodys.get(1).copied().unwrap_or(f64::NAN);
+    println!(
+        "| nobody's (RSS - every cache counted) MB: at 20 s / last; growth | {settled_nobody:.0} / {:.0}; {:+.0} |",
+        nobodys.last().copied().unwrap_or(f64::NAN),
+        nobodys.last().copied().unwrap_or(f64::NAN) - settled_nobody
+    );
+    for m in &c.memory {
+        println!("| held at the end: {} MB | {:.1} |", m.name, mb(m.bytes));
+    }
     println!("| max RSS - both budgets MB | {:+.0} |", max - budget_mb);
     for o in &c.outer_stores {
         println!("| outer store '{}': hits / misses / writes | {} / {} / {} |", o.name, o.hits, o.misses, o.writes);

@@ -146,10 +146,10 @@ impl Renderers {
 
     /// What renderer `key` must refresh to draw `snap`: None when it has
     /// seen it; the whole grid when the dirt log lost generations it has
-    /// not seen, the manifest was edited or the detail's noise changed;
-    /// else the height and colour layers' extents (widened by the
-    /// detail's reach below the data where it is drawn) and the water
-    /// layer's.
+    /// not seen or the manifest was edited; else the height and colour
+    /// layers' extents (widened by the detail's reach below the data where
+    /// it is drawn), the water layer's, and, when the detail's noise was
+    /// fitted anew, every level below the data's.
     fn dirt_for(
         &self,
         scene: &Scene,
@@ -162,9 +162,8 @@ impl Renderers {
             return None;
         }
         let whole = Dirt::everything(snap.grid.extent());
-        let noise_changed = detail.is_some() && self.detail_fit.is_some_and(|f| f.changed_at > seen.generation);
         let regions = scene.dirt_between(seen.generation, snap.generation);
-        let Some(regions) = regions.filter(|_| Arc::ptr_eq(&seen.manifest, &snap.manifest) && !noise_changed) else {
+        let Some(regions) = regions.filter(|_| Arc::ptr_eq(&seen.manifest, &snap.manifest)) else {
             return Some(whole);
         };
         let layer = |name: &str| snap.manifest.layers.get(name);
@@ -172,7 +171,10 @@ impl Renderers {
         // A synthesized sample reads the coarser ones round it: four-point
         // taps two samples out, halving at each finer level.
         let reach = detail.map_or(0.0, |d| 4.0 * snap.grid.sample_step(d.data_level));
-        let mut dirt = Dirt::default();
+        // The noise fitted anew changes every synthesized sample: the levels
+        // below the data's are read again whole, the data's own keep theirs.
+        let noise_changed = self.detail_fit.is_some_and(|f| f.changed_at > seen.generation);
+        let mut dirt = Dirt { finer_than: detail.filter(|_| noise_changed).map(|d| d.data_level), ..Dirt::default() };
         for d in &regions {
             let id = Some(&d.source_id);
             if id == height || id == color {
@@ -216,9 +218,19 @@ pub struct Rendered {
     pub carried_over: bool,
 }
 
+/// What the renderers did and hold, as of the last frame: read by the
+/// scene state without waiting for the renderers' lock (held a whole
+/// frame).
+#[derive(Default)]
+struct Report {
+    work: CacheWork,
+    held: Vec<(&'static str, u64)>,
+}
+
 pub struct Viewer {
     scene: Arc<Scene>,
     renderers: Mutex<Renderers>,
+    report: Mutex<Report>,
     camera: watch::Sender<Camera>,
     permits: Semaphore,
     frames: std::sync::atomic::AtomicU64,
@@ -247,6 +259,7 @@ impl Viewer {
         let camera = watch::Sender::new(default_camera(&scene.snapshot()));
         Arc::new(Self {
             scene: Arc::clone(scene),
+            report: Mutex::new(Report::default()),
             renderers: Mutex::new(Renderers {
                 gpu: None,
                 by_config: HashMap::new(),
@@ -427,6 +440,18 @@ impl Viewer {
             metrics::histogram!("relief_render_pass_seconds", "pass" => *pass).record(ms / 1e3);
         }
         r.work.add(&frame);
+        {
+            let mut held: Vec<(&'static str, u64)> = Vec::new();
+            for seen in r.by_config.values() {
+                for (name, bytes) in seen.renderer.held_bytes() {
+                    match held.iter_mut().find(|(n, _)| *n == name) {
+                        Some((_, b)) => *b += bytes,
+                        None => held.push((name, bytes)),
+                    }
+                }
+            }
+            *self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Report { work: r.work, held };
+        }
         let passes = r.count_passes(&frame);
         self.scene.set_passes(passes.clone());
         self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
@@ -460,9 +485,15 @@ impl Viewer {
             .is_none_or(|regions| regions.iter().any(|d| layers.contains(&&d.source_id)))
     }
 
+    /// What the renderers hold, bytes, by part (each pass, the targets),
+    /// summed over the renderers, as of the last frame.
+    pub fn held_bytes(&self) -> Vec<(&'static str, u64)> {
+        self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner).held.clone()
+    }
+
     /// What the renderers' caches did since start.
     pub fn cache_work(&self) -> CacheWork {
-        self.renderers().work
+        self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner).work
     }
 
     /// What the device is, once a frame has opened it.

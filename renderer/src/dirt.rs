@@ -13,21 +13,29 @@ pub struct Dirt {
     pub terrain: Vec<Extent>,
     /// The water layer: the coverage round the camera.
     pub water: Vec<Extent>,
+    /// What the levels finer than this tile level draw changed everywhere
+    /// (the detail effect's noise, fitted again): those levels are read
+    /// again whole, the coarser ones keep theirs.
+    pub finer_than: Option<u8>,
 }
 
 impl Dirt {
     /// The whole of `extent` changed in every layer.
     pub fn everything(extent: Extent) -> Self {
-        Self { terrain: vec![extent], water: vec![extent] }
+        Self { terrain: vec![extent], water: vec![extent], finer_than: None }
     }
 
     pub fn is_empty(&self) -> bool {
-        self.terrain.is_empty() && self.water.is_empty()
+        self.terrain.is_empty() && self.water.is_empty() && self.finer_than.is_none()
     }
 
     /// This and `other`.
     pub fn extend(&mut self, other: &Self) {
         self.terrain.extend_from_slice(&other.terrain);
         self.water.extend_from_slice(&other.water);
+        self.finer_than = match (self.finer_than, other.finer_than) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
     }
 }

@@ -212,6 +212,21 @@ impl Renderer {
         &self.gpu
     }
 
+    /// What the renderer holds, bytes, by part: each pass built (its
+    /// textures, buffers and the samples it keeps on the CPU), and the
+    /// frame's target. On a GPU the textures and buffers are the device's
+    /// memory; on lavapipe, the process's.
+    pub fn held_bytes(&self) -> Vec<(&'static str, u64)> {
+        let mut out = vec![(passes::TERRAIN, self.terrain.held_bytes())];
+        out.extend(self.buildings.as_ref().map(|p| (passes::BUILDINGS, p.held_bytes())));
+        out.extend(self.instances.as_ref().map(|p| (passes::INSTANCES, p.held_bytes())));
+        out.extend(self.shadows.as_ref().map(|p| (passes::SHADOWS, p.held_bytes())));
+        out.extend(self.water.as_ref().map(|p| (passes::WATER, p.held_bytes())));
+        out.extend(self.atmosphere.as_ref().map(|p| (passes::ATMOSPHERE, p.held_bytes())));
+        out.extend(self.target.as_ref().map(|t| ("target", t.held_bytes())));
+        out
+    }
+
     /// Each pass: built or not, runs, milliseconds in total.
     pub fn counters(&self) -> &PassCounters {
         &self.counters
@@ -221,6 +236,9 @@ impl Renderer {
     /// only where a layer it reads changed (the terrain's samples and the
     /// shadow maps under them, the water's coverage).
     pub fn invalidate(&mut self, source: &dyn TerrainSamples, dirt: &Dirt) {
+        if let Some(level) = dirt.finer_than {
+            self.terrain.invalidate_finer_than(level);
+        }
         for area in &dirt.terrain {
             self.terrain.invalidate(&self.gpu, &self.surface, source, area);
         }

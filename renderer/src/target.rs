@@ -59,6 +59,13 @@ impl Target {
         Self { width, height, color, depth, color_view, depth_view, row, color_buffer, depth_buffer }
     }
 
+    /// What the target holds, bytes: colour and depth, and their read-back
+    /// buffers.
+    pub fn held_bytes(&self) -> u64 {
+        let pass = crate::passes::pipeline::texture_bytes;
+        pass(&self.color) + pass(&self.depth) + self.color_buffer.size() + self.depth_buffer.size()
+    }
+
     /// Whether this target is `width` x `height`.
     pub fn fits(&self, width: u32, height: u32) -> bool {
         self.width == width && self.height == height

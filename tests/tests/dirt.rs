@@ -247,3 +247,90 @@ async fn the_detail_noise_is_fitted_again_only_when_the_heights_it_read_change()
     assert_eq!(fits(&state(&channel).await), 2);
     daemon.stop(&[]).unwrap();
 }
+
+/// The resident set of process `pid`, MB.
+fn rss_mb(pid: u32) -> f64 {
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("VmRSS:"))?.split_whitespace().nth(1)?.parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn twenty_edits_a_second_for_half_a_minute_keep_frames_coming_with_no_backlog_and_flat_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = scene(dir.path(), "shadows = {}\nwater = {}\n");
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let request = pb::StreamFramesRequest { width: SIZE.0, height: SIZE.1, max_fps: 30.0, ..Default::default() };
+    let mut stream = ViewServiceClient::new(channel.clone()).stream_frames(request).await.unwrap().into_inner();
+    next(&mut stream).await;
+    // Each frame: when it came (s from the start) and its generation.
+    let frames = std::sync::Arc::new(std::sync::Mutex::new(Vec::<(f64, u64)>::new()));
+    let started = std::time::Instant::now();
+    let reader = {
+        let frames = std::sync::Arc::clone(&frames);
+        tokio::spawn(async move {
+            while let Some(Ok(f)) = stream.next().await {
+                frames.lock().unwrap().push((started.elapsed().as_secs_f64(), f.generation));
+            }
+        })
+    };
+    let dem = dir.path().join("hill.tif");
+    let (x, y) = pixel(10.2, 45.2);
+    let mut rss = Vec::new();
+    let mut k = 0u32;
+    let mut tick = tokio::time::interval(Duration::from_millis(50));
+    while started.elapsed() < Duration::from_secs(30) {
+        tick.tick().await;
+        let height = if k % 2 == 0 { 1900.0 } else { 1200.0 };
+        let path = dem.clone();
+        tokio::task::spawn_blocking(move || edit::rewrite_window(&path, x, y, 16, 16, |_, _, _| height))
+            .await
+            .unwrap()
+            .unwrap();
+        k += 1;
+        if k % 200 == 0 {
+            rss.push(rss_mb(daemon.pid()));
+        }
+    }
+    // Once the edits stop, the stream catches up with the last generation
+    // and then stays quiet: nothing was queued behind.
+    let last = {
+        let mut scene = SceneServiceClient::new(channel.clone());
+        let mut g = 0;
+        for _ in 0..40 {
+            tokio::time::sleep(Duration::from_millis(250)).await;
+            let now = scene.get_state(pb::GetStateRequest {}).await.unwrap().into_inner().generation;
+            if now == g {
+                break;
+            }
+            g = now;
+        }
+        g
+    };
+    let caught_up = tokio::time::timeout(Duration::from_secs(30), async {
+        while frames.lock().unwrap().last().is_none_or(|(_, g)| *g < last) {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    })
+    .await;
+    assert!(caught_up.is_ok(), "the stream did not reach generation {last} within 30 s of the last edit");
+    let shown = frames.lock().unwrap().len();
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    assert_eq!(frames.lock().unwrap().len(), shown, "frames kept coming after the last generation: a backlog");
+    let got = frames.lock().unwrap().clone();
+    // Frames kept coming throughout: none of the six 5 s spans went without.
+    for span in 0..6 {
+        let (from, to) = (f64::from(span) * 5.0, f64::from(span + 1) * 5.0);
+        assert!(got.iter().any(|(t, _)| (from..to).contains(t)), "no frame from {from} to {to} s: {got:?}");
+    }
+    assert!(got.windows(2).all(|w| w[0].1 <= w[1].1), "generations went back: {got:?}");
+    assert!(last > 10, "only {last} generations from {k} edits");
+    // Memory flat: from 10 s (the caches filled) to 30 s.
+    let (early, late) = (rss[0], *rss.last().unwrap());
+    eprintln!("{k} edits, {last} generations, {} frames; resident set every 10 s: {rss:?} MB", got.len());
+    assert!(late - early < 48.0, "reliefd's resident set grew from {early:.0} to {late:.0} MB over 20 s of edits");
+    reader.abort();
+    daemon.stop(&[]).unwrap();
+}

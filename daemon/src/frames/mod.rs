@@ -134,6 +134,13 @@ impl HubFrame {
             .clone()
     }
 
+    /// What the frame holds, bytes: its colour, depth and encodings.
+    pub fn held_bytes(&self) -> u64 {
+        let encoded: usize =
+            self.encoded.lock().expect("never held across a panic").values().flatten().map(|(b, _)| b.len()).sum();
+        (self.rgba.len() + self.rendered.frame.depth.len() * 4 + encoded) as u64
+    }
+
     pub fn is_encoded(&self, codec: Codec) -> bool {
         self.encoded.lock().expect("never held across a panic").contains_key(&codec)
     }
@@ -250,6 +257,23 @@ impl FrameHub {
         drop(guard);
         self.wake.notify_one();
         Ok(Subscription { slot, frames })
+    }
+
+    /// What the frames the slots hold take, bytes (each frame once).
+    pub fn held_bytes(&self) -> u64 {
+        let guard = self.slots();
+        let mut seen: Vec<*const Rendered> = Vec::new();
+        let mut total = 0;
+        for slot in &guard.0 {
+            if let Some(Ok(frame)) = slot.tx.borrow().as_ref() {
+                let at = Arc::as_ptr(&frame.rendered);
+                if !seen.contains(&at) {
+                    seen.push(at);
+                    total += frame.held_bytes();
+                }
+            }
+        }
+        total
     }
 
     pub fn counters(&self) -> HubCounters {

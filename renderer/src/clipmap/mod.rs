@@ -466,6 +466,15 @@ impl Clipmap {
         Self { config, levels: BTreeMap::new(), active: Vec::new(), refreshed: 0 }
     }
 
+    /// What the levels hold on the CPU, bytes: positions, normals,
+    /// heights and colours of every level kept.
+    pub fn held_bytes(&self) -> u64 {
+        self.levels
+            .values()
+            .map(|l| (l.positions.len() * 16 + l.normals.len() * 16 + l.heights.len() * 4 + l.colors.len() * 4) as u64)
+            .sum()
+    }
+
     pub fn level(&self, tile_level: u8) -> Option<&ClipLevel> {
         self.levels.get(&tile_level)
     }
@@ -576,6 +585,15 @@ impl Clipmap {
     }
 
     /// Re-fetches what the scene rebuilt in `area`, in every kept level.
+    /// Every level finer than tile level `level` is read again whole at the
+    /// next update (what it draws is synthesized there, and the synthesis
+    /// changed); the others keep their samples.
+    pub fn invalidate_finer_than(&mut self, level: u8) {
+        for l in self.levels.values_mut().filter(|l| l.tile_level > level) {
+            l.stale = true;
+        }
+    }
+
     /// Returns the lowest and highest heights the levels held there
     /// before and hold after (None where no level holds any of it).
     pub fn invalidate(&mut self, surface: &Surface, source: &dyn TerrainSamples, area: &Extent) -> Option<(f64, f64)> {

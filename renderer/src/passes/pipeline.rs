@@ -131,6 +131,13 @@ pub fn sampled_texture(
     })
 }
 
+/// What a texture holds, bytes (every layer, one mip level).
+pub fn texture_bytes(texture: &wgpu::Texture) -> u64 {
+    let s = texture.size();
+    let texel = u64::from(texture.format().block_copy_size(None).unwrap_or(4));
+    u64::from(s.width) * u64::from(s.height) * u64::from(s.depth_or_array_layers) * texel
+}
+
 /// A pass's shader: the frame's uniform and lighting (`frame.wgsl`), then
 /// the pass's own source.
 pub fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {

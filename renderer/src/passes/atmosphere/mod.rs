@@ -82,6 +82,8 @@ const SCATTERED_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 /// frame, interpolated.
 pub struct AtmospherePass {
     scatter: Overlay,
+    /// Bytes the scattering's texture holds.
+    scattered_bytes: u64,
     composite: wgpu::RenderPipeline,
     composite_layout: wgpu::BindGroupLayout,
     composite_uniform: wgpu::Buffer,
@@ -91,6 +93,13 @@ pub struct AtmospherePass {
     /// Built to read the shadow cascades (this many): the sun's light is
     /// taken from the air in shadow, so a hidden sun does not glow.
     pub shadowed: Option<u32>,
+}
+
+impl AtmospherePass {
+    /// What the pass holds, bytes: its scattering texture.
+    pub fn held_bytes(&self) -> u64 {
+        self.scattered_bytes
+    }
 }
 
 /// What a frame's atmosphere needs besides its knobs.
@@ -208,7 +217,16 @@ impl AtmospherePass {
             min_filter: wgpu::FilterMode::Linear,
             ..Default::default()
         });
-        Self { scatter, composite, composite_layout, composite_uniform, sampler, scattered: None, shadowed }
+        Self {
+            scatter,
+            scattered_bytes: 0,
+            composite,
+            composite_layout,
+            composite_uniform,
+            sampler,
+            scattered: None,
+            shadowed,
+        }
     }
 
     /// Computes the scattering for this frame into the pass's own texture,
@@ -238,6 +256,7 @@ impl AtmospherePass {
                 usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
                 view_formats: &[],
             });
+            self.scattered_bytes = crate::passes::pipeline::texture_bytes(&texture);
             self.scattered = Some((size, texture.create_view(&wgpu::TextureViewDescriptor::default())));
         }
         let Some((_, scattered)) = &self.scattered else { return Ok(()) };

@@ -176,6 +176,17 @@ impl BuildingsPass {
         }
     }
 
+    /// What the pass holds, bytes: each mesh tile's buffers and buildings.
+    pub fn held_bytes(&self) -> u64 {
+        self.tiles
+            .values()
+            .map(|t| {
+                let corners: usize = t.buildings.iter().map(|b| b.corners.len() * 16).sum();
+                t.vertices.size() + t.indices.size() + (t.buildings.len() * size_of::<Building>() + corners) as u64
+            })
+            .sum()
+    }
+
     /// Chooses and fetches the mesh tiles the clipmap's rings call for,
     /// brings changed ones to the device, and lifts every building shown
     /// onto the drawn terrain (`ground`: its height over a grid point).

@@ -243,6 +243,16 @@ impl InstancesPass {
         }
     }
 
+    /// What the pass holds, bytes: the billboard atlases, the models'
+    /// buffers, and each tile's placed instances.
+    pub fn held_bytes(&self) -> u64 {
+        let atlases =
+            crate::passes::pipeline::texture_bytes(&self.atlas) + crate::passes::pipeline::texture_bytes(&self.normals);
+        let models: u64 = self.models.iter().map(|m| m.vertices.size() + m.indices.size()).sum();
+        let placed: usize = self.tiles.values().map(|t| t.placed.len() * size_of::<sort::Placed>()).sum();
+        atlases + models + placed as u64
+    }
+
     /// Fetches the instance tiles within the last band's reach, brings new
     /// ones (and their models) to the device, and sorts every instance in
     /// reach into models and billboards.

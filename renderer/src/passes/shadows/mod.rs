@@ -296,6 +296,15 @@ impl ShadowsPass {
         }
     }
 
+    /// What the maps hold, bytes.
+    pub fn held_bytes(&self) -> u64 {
+        self.maps.as_ref().map_or(0, |m| {
+            m.layers.len() as u64
+                * u64::from(m.size).pow(2)
+                * u64::from(DEPTH_FORMAT.block_copy_size(None).unwrap_or(4))
+        })
+    }
+
     /// The layout of the cascades' bind group, for passes that read them.
     pub fn lookup_layout(&self) -> &wgpu::BindGroupLayout {
         &self.lookup_layout

@@ -88,6 +88,12 @@ impl Base {
         Some(Self { cols, rows, world, heights, lowest_m, vertices, cell_m: surface.spacing_m(0) })
     }
 
+    /// What the base holds, bytes: its vertex buffer, and each sample's
+    /// world point and height.
+    pub fn held_bytes(&self) -> u64 {
+        self.vertices.size() + (self.world.len() * (size_of::<DVec3>() + size_of::<f32>())) as u64
+    }
+
     /// Fetches again the samples inside `area` (grid units) and writes
     /// only their rows' spans of the vertex buffer. Returns the world
     /// points, before and after, of the cells round each sample whose

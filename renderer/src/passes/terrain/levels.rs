@@ -114,6 +114,12 @@ impl Levels {
         Self { positions, normals, colors, layer_holds: vec![None; layers], index_cache: HashMap::new() }
     }
 
+    /// What the level textures and index buffers hold, bytes.
+    pub fn held_bytes(&self) -> u64 {
+        let textures = [&self.positions, &self.normals, &self.colors].map(crate::passes::pipeline::texture_bytes);
+        textures.iter().sum::<u64>() + self.index_cache.values().map(|c| c.buffer.size()).sum::<u64>()
+    }
+
     /// The index buffer of a level drawn as `draw` says.
     pub fn cells(&self, draw: &LevelDraw) -> &wgpu::Buffer {
         &self.index_cache[&draw.hole].buffer

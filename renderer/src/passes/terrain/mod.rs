@@ -201,6 +201,15 @@ impl TerrainPass {
         &self.clipmap
     }
 
+    /// What the pass holds, bytes: the level textures and index buffers,
+    /// the levels' samples on the CPU, the base.
+    pub fn held_bytes(&self) -> u64 {
+        self.levels.held_bytes()
+            + self.levels_buffer.size()
+            + self.clipmap.held_bytes()
+            + self.base.as_ref().map_or(0, Base::held_bytes)
+    }
+
     /// The height of the terrain as a frame drawing levels `active` from
     /// `pose` draws it over grid point (x, y); None off the levels.
     pub fn drawn_height(&self, surface: &Surface, active: &[u8], pose: &Pose, x: f64, y: f64) -> Option<f64> {
@@ -220,6 +229,14 @@ impl TerrainPass {
             Some(None) => self.base = None,
             _ => {}
         }
+    }
+
+    /// What the levels finer than tile level `level` draw changed
+    /// everywhere (the detail's synthesis): they are read again whole, and
+    /// the terrain is cast anew.
+    pub fn invalidate_finer_than(&mut self, level: u8) {
+        self.clipmap.invalidate_finer_than(level);
+        self.cast_changes = Changes::Everything;
     }
 
     /// Brings the clipmap to the camera and the device up to date; what to

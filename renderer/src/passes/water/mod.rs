@@ -166,6 +166,13 @@ impl WaterPass {
         Self { overlay, mask, textures, window: None, pending: Vec::new(), texels_read: 0 }
     }
 
+    /// What the pass holds, bytes: the coverage texture and window, the
+    /// wave map.
+    pub fn held_bytes(&self) -> u64 {
+        let window = self.window.as_ref().map_or(0, |w| w.texels.len() as u64);
+        crate::passes::pipeline::texture_bytes(&self.mask) + u64::from(WAVES * WAVES * 4) + window
+    }
+
     /// The scene rebuilt the water layer's tiles in `area`: the texels of
     /// the window over it are read again at the next frame.
     pub fn invalidate(&mut self, area: &Extent) {
