@@ -405,10 +405,8 @@ async fn many_viewers(channel: &Channel, dem: &std::path::Path, n: usize, edits:
 async fn bulk_commit(commits: usize) -> anyhow::Result<(Vec<f64>, Vec<(String, f64)>)> {
     let dir = tempfile::tempdir()?;
     let manifest = relief_examples::write_demo_scene(dir.path())?;
-    let (shp, gpkg) = (dir.path().join("town.shp"), dir.path().join("town.gpkg"));
-    let converted =
-        std::process::Command::new("ogr2ogr").args(["-f", "GPKG", "-nln", "town"]).arg(&gpkg).arg(&shp).status()?;
-    anyhow::ensure!(converted.success(), "ogr2ogr could not write {}", gpkg.display());
+    let gpkg = dir.path().join("town.gpkg");
+    relief_examples::write_town(&gpkg, relief_examples::DEMO_TOWN_CENTRE, relief_examples::DEMO_TOWN_BUILDINGS)?;
     let text = std::fs::read_to_string(&manifest)?.replace(
         "id = \"town-footprints\"\nkind = \"shapefile\"\npath = \"town.shp\"",
         "id = \"town-footprints\"\nkind = \"ogr\"\npath = \"town.gpkg\"\nlayer = \"town\"",

@@ -76,7 +76,30 @@ fn raise_open_file_limit() {
     }
 }
 
+/// glibc's malloc as a server that makes and frees large buffers on many
+/// threads wants it: tiles and frames (hundreds of KB each, made and freed
+/// at every edit) always mapped and unmapped, not left in per-thread arenas
+/// whose mmap threshold rises with each free. Untuned, the soak bench's
+/// resident set grew 128 MB in 10 minutes that no cache held; tuned, 17 MB
+/// in 4 (jemalloc and mimalloc as the global allocator kept more). glibc
+/// reads these settings only when a process starts, so reliefd starts
+/// itself again with them, unless its environment already sets any.
+fn tune_malloc() {
+    const TUNED: [(&str, &str); 3] =
+        [("MALLOC_ARENA_MAX", "2"), ("MALLOC_MMAP_THRESHOLD_", "131072"), ("MALLOC_TRIM_THRESHOLD_", "1048576")];
+    if TUNED.iter().any(|(name, _)| std::env::var_os(name).is_some()) || std::env::var_os("GLIBC_TUNABLES").is_some() {
+        return;
+    }
+    let Ok(exe) = std::env::current_exe() else { return };
+    let error = std::os::unix::process::CommandExt::exec(
+        std::process::Command::new(exe).args(std::env::args_os().skip(1)).envs(TUNED),
+    );
+    // Still here: the exec failed; serve with malloc as it is.
+    eprintln!("reliefd: cannot restart with malloc tuned ({error}); going on without");
+}
+
 fn main() -> ExitCode {
+    tune_malloc();
     tracing_subscriber::fmt()
         .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
         .with_writer(std::io::stderr)

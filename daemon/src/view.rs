@@ -466,12 +466,13 @@ impl Viewer {
         })
     }
 
-    /// Whether a frame drawn at generation `since` with `manifest` would
-    /// draw anything differently now: the manifest was edited, or a layer
-    /// the scene draws (height, colour, water, buildings, instances)
-    /// changed since. A generation that changed nothing drawn (a source
-    /// turning to error, one no layer reads) need not be rendered again.
-    pub fn draws_differently(&self, since: u64, manifest: &Arc<Manifest>) -> bool {
+    /// Whether a frame drawn at generation `since` with `manifest` (and
+    /// `overrides`) would draw anything differently now: the manifest was
+    /// edited, or a layer the frame draws (height, colour, buildings,
+    /// instances; water where the frame has the effect) changed since. A
+    /// generation that changed nothing drawn (a source turning to error,
+    /// one no layer reads) need not be rendered again.
+    pub fn draws_differently(&self, since: u64, manifest: &Arc<Manifest>, overrides: &Overrides) -> bool {
         let snap = self.scene.snapshot();
         if !Arc::ptr_eq(manifest, &snap.manifest) {
             return true;
@@ -479,10 +480,12 @@ impl Viewer {
         if since >= snap.generation {
             return false;
         }
-        let layers: Vec<&String> = snap.manifest.layers.values().collect();
+        let water = overrides.effects.unwrap_or(snap.manifest.effect_settings).water.is_some();
+        let drawn: Vec<&String> =
+            snap.manifest.layers.iter().filter(|(name, _)| water || *name != "water").map(|(_, id)| id).collect();
         self.scene
             .dirt_between(since, snap.generation)
-            .is_none_or(|regions| regions.iter().any(|d| layers.contains(&&d.source_id)))
+            .is_none_or(|regions| regions.iter().any(|d| drawn.contains(&&d.source_id)))
     }
 
     /// What the renderers hold, bytes, by part (each pass, the targets),

@@ -389,14 +389,16 @@ pub fn demo_forest_view() -> Viewpoint {
     }
 }
 
-/// Writes `count` building footprints round `centre` as a shapefile (with
-/// GDAL, as a GIS would): rectangles 12 to 30 m a side on a jittered
+/// Writes `count` building footprints round `centre` as a shapefile, or a
+/// GeoPackage (layer `town`) where `path` ends in `.gpkg` (with GDAL, as a
+/// GIS would): rectangles 12 to 30 m a side on a jittered
 /// 60 m lattice, each with a `height` (6 to 24 m) and a `use`
 /// (residential, commercial, industrial or civic). The same every run.
 pub fn write_town(path: &Path, centre: (f64, f64), count: usize) -> anyhow::Result<PathBuf> {
     use gdal::vector::{FieldDefn, Geometry, LayerAccess, LayerOptions, OGRFieldType, OGRwkbGeometryType};
 
-    let driver = gdal::DriverManager::get_driver_by_name("ESRI Shapefile")?;
+    let gpkg = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("gpkg"));
+    let driver = gdal::DriverManager::get_driver_by_name(if gpkg { "GPKG" } else { "ESRI Shapefile" })?;
     let mut ds = driver.create_vector_only(path).with_context(|| format!("cannot create {}", path.display()))?;
     let mut srs = gdal::spatial_ref::SpatialRef::from_epsg(4326)?;
     srs.set_axis_mapping_strategy(gdal::spatial_ref::AxisMappingStrategy::TraditionalGisOrder);

@@ -147,3 +147,55 @@ async fn bad_http_requests_get_a_status_and_a_message_naming_the_field() {
     assert_eq!(camera["latDeg"].as_f64(), Some(45.1));
     daemon.stop(&["a view could not be rendered"]).unwrap();
 }
+
+/// The header and image of a binary frame message: the u32 (little-endian)
+/// length of the JSON header, the header, the image.
+fn ws_frame(bytes: &[u8]) -> (serde_json::Value, Vec<u8>) {
+    let n = u32::from_le_bytes(bytes[..4].try_into().unwrap()) as usize;
+    let header: serde_json::Value = serde_json::from_slice(&bytes[4..4 + n]).unwrap();
+    (header, bytes[4 + n..].to_vec())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn frames_travel_as_binary_websocket_messages_and_a_bad_request_is_refused_before_the_upgrade() {
+    use futures_util::StreamExt as _;
+    use tokio_tungstenite::tungstenite::Message;
+
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let ws = daemon.url().replace("http://", "ws://");
+    let camera = "camera=10.25,45.1,9000,0,-45,0&width=160&height=90&max_fps=20";
+    // At rest (no view dragging), a live stream's frames are lossless PNG.
+    let (mut socket, _) = tokio_tungstenite::connect_async(format!("{ws}/api/frames/ws?{camera}")).await.unwrap();
+    let message = tokio::time::timeout(Duration::from_secs(60), socket.next()).await.unwrap().unwrap().unwrap();
+    let Message::Binary(bytes) = message else { panic!("not a binary frame: {message:?}") };
+    let (header, image) = ws_frame(&bytes);
+    let frame = &header["frame"];
+    assert_eq!((frame["width"].as_u64(), frame["height"].as_u64()), (Some(160), Some(90)));
+    assert_eq!(frame["format"], "IMAGE_FORMAT_PNG");
+    assert!(frame.get("image").is_none(), "the image travels beside the header, not in it");
+    assert!(frame["passes"].as_array().unwrap().iter().any(|p| p["pass"] == "encode png"));
+    assert_eq!(image::load_from_memory(&image).unwrap().to_rgba8().dimensions(), (160, 90));
+    socket.close(None).await.unwrap();
+    // JPEG when asked, at its quality.
+    let url = format!("{ws}/api/frames/ws?{camera}&format=jpeg&jpeg_quality=50");
+    let (mut socket, _) = tokio_tungstenite::connect_async(url).await.unwrap();
+    let message = tokio::time::timeout(Duration::from_secs(60), socket.next()).await.unwrap().unwrap().unwrap();
+    let Message::Binary(bytes) = message else { panic!("not a binary frame: {message:?}") };
+    let (header, image) = ws_frame(&bytes);
+    assert_eq!(header["frame"]["format"], "IMAGE_FORMAT_JPEG");
+    assert!(image.starts_with(&[0xff, 0xd8, 0xff]));
+    assert_eq!(image::load_from_memory(&image).unwrap().to_rgba8().dimensions(), (160, 90));
+    drop(socket);
+    // A bad request: an HTTP error naming the field, no socket.
+    for (query, field) in [("width=99999", "width"), ("format=gif", "format"), ("jpeg_quality=0", "frame_jpeg_quality")]
+    {
+        let url = format!("{ws}/api/frames/ws?{camera}&{query}");
+        let e = tokio_tungstenite::connect_async(url).await.unwrap_err();
+        let tokio_tungstenite::tungstenite::Error::Http(response) = e else { panic!("{query}: {e}") };
+        assert_eq!(response.status(), 400, "{query}");
+        let body = String::from_utf8_lossy(response.body().as_deref().unwrap_or_default()).into_owned();
+        assert!(body.contains(field), "{query}: {body}");
+    }
+    daemon.stop(&[]).unwrap();
+}

@@ -261,6 +261,26 @@ def test_render_answers_raw_rgba_too(shared_client: relief.Client, tmp_path: Pat
         assert img.size == SIZE
 
 
+def test_frames_travel_as_jpeg_at_a_quality_knob(shared_client: relief.Client) -> None:
+    png = shared_client.render(CAMERA, size=SIZE)
+    jpeg = shared_client.render(CAMERA, size=SIZE, format="jpeg")
+    assert jpeg.format is relief.ImageFormat.JPEG and jpeg.image.startswith(b"\xff\xd8\xff")
+    assert "encode jpeg" in jpeg.pass_ms
+    rough = shared_client.render(CAMERA, size=SIZE, format="jpeg", quality=relief.Quality(frame_jpeg_quality=20))
+    assert len(rough.image) < len(jpeg.image) < len(png.image)
+    diff = np.abs(jpeg.to_numpy().astype(int) - png.to_numpy().astype(int))[..., :3]
+    assert diff.mean() < 4.0, "JPEG at the default quality is within a few levels of the lossless frame"
+    with pytest.raises(relief.InvalidArgument, match="frame_jpeg_quality"):
+        shared_client.render(CAMERA, size=SIZE, quality=relief.Quality(frame_jpeg_quality=0))
+    # A stream at rest sends lossless frames however it asked (live).
+    with shared_client.frames(CAMERA, size=SIZE, format="live", max_fps=5, timeout=120) as frames:
+        first = next(frames)
+    assert first.format is relief.ImageFormat.PNG and not first.carried_over
+    state = shared_client.state()
+    assert state.counters.memory["tile cache"] > 0
+    assert any(name.startswith("renderer: ") for name in state.counters.memory)
+
+
 def test_frames_stream_the_current_view(shared_client: relief.Client) -> None:
     with shared_client.frames(CAMERA, size=SIZE, max_fps=5, timeout=120) as frames:
         first = next(frames)

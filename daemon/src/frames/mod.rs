@@ -319,8 +319,9 @@ impl FrameHub {
             // A generation that changed nothing this view draws is shown
             // by its last frame again, not rendered.
             let last = slot.tx.borrow().as_ref().and_then(|p| p.as_ref().ok().cloned());
+            let overrides = &slot.key.overrides;
             if let Some(last) =
-                last.filter(|f| !self.viewer.draws_differently(f.rendered.generation, &f.rendered.manifest))
+                last.filter(|f| !self.viewer.draws_differently(f.rendered.generation, &f.rendered.manifest, overrides))
             {
                 *slot.done_at.lock().expect("never held across a panic") = Some(generation);
                 self.carried.fetch_add(1, std::sync::atomic::Ordering::Relaxed);

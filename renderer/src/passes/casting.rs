@@ -62,9 +62,11 @@ impl Area {
     }
 }
 
-/// Areas past this many are taken as a change of everything: the maps are
-/// drawn whole.
+/// Areas past this many, or points past `MOST_POINTS` in all, are taken
+/// as a change of everything: the maps are drawn whole (and what a caster
+/// keeps between shadow draws stays small however many edits come).
 const MOST_AREAS: usize = 256;
+const MOST_POINTS: usize = 16_384;
 
 /// Where what a caster casts changed since the maps last took it in.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -82,7 +84,12 @@ impl Changes {
         match self {
             Self::Everything => {}
             Self::Nothing => *self = Self::Areas(vec![area]),
-            Self::Areas(areas) if areas.len() >= MOST_AREAS => *self = Self::Everything,
+            Self::Areas(areas)
+                if areas.len() >= MOST_AREAS
+                    || areas.iter().map(|a| a.points.len()).sum::<usize>() + area.points.len() > MOST_POINTS =>
+            {
+                *self = Self::Everything;
+            }
             Self::Areas(areas) => areas.push(area),
         }
     }
@@ -177,6 +184,17 @@ mod tests {
         let mut d = Changes::Nothing;
         d.merge(Changes::Areas(vec![Area::sphere(DVec3::X, 2.0)]));
         assert!(matches!(&d, Changes::Areas(a) if a.len() == 1));
+    }
+
+    #[test]
+    fn areas_past_the_most_points_are_everything() {
+        let surface = Surface::new(TileGrid::geodetic(256).expect("a grid"));
+        let world = Extent { min_x: -180.0, min_y: -90.0, max_x: 180.0, max_y: 90.0 };
+        let mut c = Changes::Nothing;
+        c.add(Area::ground(&surface, &world, (0.0, 1.0)));
+        assert!(matches!(&c, Changes::Areas(a) if a.len() == 1), "one planet's lattice is kept");
+        c.add(Area::ground(&surface, &world, (0.0, 1.0)));
+        assert_eq!(c, Changes::Everything, "two planets' lattices are more points than are kept");
     }
 
     #[test]

@@ -85,6 +85,13 @@ _INSTANCE = {
 _FORMAT_TO_PB: dict[ImageFormat, pb.ImageFormat] = {
     ImageFormat.PNG: pb.IMAGE_FORMAT_PNG,
     ImageFormat.RGBA8: pb.IMAGE_FORMAT_RGBA8,
+    ImageFormat.JPEG: pb.IMAGE_FORMAT_JPEG,
+    ImageFormat.LIVE: pb.IMAGE_FORMAT_UNSPECIFIED,
+}
+
+_FORMAT_FROM_PB = {
+    pb.IMAGE_FORMAT_RGBA8: ImageFormat.RGBA8,
+    pb.IMAGE_FORMAT_JPEG: ImageFormat.JPEG,
 }
 
 # ---------------------------------------------------------------- to relief.v1
@@ -116,7 +123,14 @@ def quality_to_pb(q: Quality | None) -> pb.QualityOverrides | None:
         out.clipmap_levels = q.clipmap_levels
     if q.precision is not None:
         out.precision = q.precision
-    for knob in ("color_detail", "atmosphere_steps", "shadow_cascades", "shadow_map_size", "detail_octaves"):
+    for knob in (
+        "color_detail",
+        "atmosphere_steps",
+        "shadow_cascades",
+        "shadow_map_size",
+        "detail_octaves",
+        "frame_jpeg_quality",
+    ):
         if getattr(q, knob) is not None:
             setattr(out, knob, getattr(q, knob))
     if q.instance_bands_m is not None:
@@ -329,6 +343,8 @@ def scene_state(s: pb.SceneState) -> SceneState:
             frame_streams=c.frame_streams,
             open_views=c.open_views,
             stream_frames_rendered=c.stream_frames_rendered,
+            stream_frames_carried_over=c.stream_frames_carried_over,
+            memory={m.name: m.bytes for m in c.memory},
         ),
         manifest=s.manifest,
         manifest_error=s.manifest_error,
@@ -368,7 +384,7 @@ def event(e: pb.SceneEvent) -> Event | None:
 
 
 def frame(r: pb.RenderResponse) -> Frame:
-    fmt = ImageFormat.RGBA8 if r.format == pb.IMAGE_FORMAT_RGBA8 else ImageFormat.PNG
+    fmt = _FORMAT_FROM_PB.get(r.format, ImageFormat.PNG)
     return Frame(
         generation=r.generation,
         width=r.width,
@@ -388,12 +404,20 @@ def frame(r: pb.RenderResponse) -> Frame:
             terrain_blocks_beyond_horizon=r.drawn.terrain_blocks_beyond_horizon,
             shadow_maps_drawn=r.drawn.shadow_maps_drawn,
             shadow_maps_kept=r.drawn.shadow_maps_kept,
+            shadow_maps_redrawn_in_part=r.drawn.shadow_maps_redrawn_in_part,
+            shadow_regions=r.drawn.shadow_regions,
+            shadow_texels=r.drawn.shadow_texels,
+            water_coverage_texels=r.drawn.water_coverage_texels,
+            level_samples_written=r.drawn.level_samples_written,
+            building_tiles_built=r.drawn.building_tiles_built,
+            instance_tiles_built=r.drawn.instance_tiles_built,
         )
         if r.HasField("drawn")
         else None,
         sun=SunPosition(azimuth_deg=r.sun.azimuth_deg, elevation_deg=r.sun.elevation_deg, source=r.sun.source)
         if r.HasField("sun")
         else None,
+        carried_over=r.carried_over,
     )
 
 

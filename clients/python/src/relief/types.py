@@ -85,13 +85,21 @@ class Quality:
     instance_bands_m: tuple[float, float, float] | None = None
     instance_band_densities: tuple[float, float, float] | None = None
     instance_model_distance_m: float | None = None
+    #: JPEG quality (1 to 100) of frames sent while a view is interactive,
+    #: and of frames asked for as JPEG.
+    frame_jpeg_quality: int | None = None
 
 
 class ImageFormat(str, enum.Enum):
-    """How a frame's pixels travel: PNG, or raw RGBA8 rows."""
+    """How a frame's pixels travel: PNG (lossless), JPEG (lossy, at the
+    scene's frame_jpeg_quality), raw RGBA8 rows, or, for a stream, LIVE:
+    JPEG while its view is interactive, PNG at rest (a frame says which
+    it came as)."""
 
     PNG = "png"
     RGBA8 = "rgba8"
+    JPEG = "jpeg"
+    LIVE = "live"
 
 
 # ---------------------------------------------------------------- scene
@@ -191,6 +199,13 @@ class Counters:
     frame_streams: int
     open_views: int
     stream_frames_rendered: int
+    #: Frames shown again for a later generation that changed nothing their
+    #: view draws, instead of rendered.
+    stream_frames_carried_over: int = 0
+    #: What each of reliefd's caches holds now, bytes, by name ("tile
+    #: cache", "raster blocks", "renderer: terrain", ..., "frames held for
+    #: streams").
+    memory: dict[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -344,6 +359,17 @@ class FrameDrawn:
     #: Blocks inside the view's frustum left out because the planet's
     #: horizon hid them.
     terrain_blocks_beyond_horizon: int = 0
+    #: Shadow maps redrawn only over what changed in their casters (an
+    #: edit), the regions redrawn, and the map texels drawn in all.
+    shadow_maps_redrawn_in_part: int = 0
+    shadow_regions: int = 0
+    shadow_texels: int = 0
+    #: Texels of the water's coverage read, level samples written, and
+    #: building mesh and instance tiles brought to the device this frame.
+    water_coverage_texels: int = 0
+    level_samples_written: int = 0
+    building_tiles_built: int = 0
+    instance_tiles_built: int = 0
 
 
 @dataclass(frozen=True)
@@ -364,8 +390,8 @@ Sun = str | tuple[float, float]
 
 @dataclass(frozen=True, eq=False)
 class Frame:
-    """A rendered view: the image (PNG or raw RGBA8), the generation it
-    shows, the camera it was rendered from and each pass's cost."""
+    """A rendered view: the image (PNG, JPEG or raw RGBA8), the generation
+    it shows, the camera it was rendered from and each pass's cost."""
 
     generation: int
     width: int
@@ -380,6 +406,9 @@ class Frame:
     drawn: FrameDrawn | None = None
     #: The sun it was lit by.
     sun: SunPosition | None = None
+    #: An earlier generation's frame shown again: this generation changed
+    #: nothing the view draws, so it was not rendered again.
+    carried_over: bool = False
 
     def to_numpy(self) -> npt.NDArray[np.uint8]:
         """The pixels, H x W x 4 uint8 (straight RGBA)."""
@@ -406,7 +435,7 @@ class Frame:
 
 
 def decode_png(data: bytes) -> npt.NDArray[np.uint8]:
-    """A PNG's pixels as H x W x 4 uint8."""
+    """A PNG's (or a JPEG's) pixels as H x W x 4 uint8."""
     from PIL import Image
 
     with Image.open(io.BytesIO(data)) as img:
