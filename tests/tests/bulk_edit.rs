@@ -37,7 +37,10 @@ async fn a_commit_moving_a_whole_town_keeps_frames_coming_and_its_first_frame_sh
     let daemon = Reliefd::start(&manifest, &[]).unwrap();
     let channel = daemon.channel().await.unwrap();
     let mut views = ViewServiceClient::new(channel.clone()).max_decoding_message_size(64 << 20);
-    let camera = |k: u32| scenes::camera(TOWN.0 + 1e-6 * f64::from(k), TOWN.1 - 0.02, 1200.0, 0.0, -35.0);
+    // 2 km south of the town and 1 km over it (the hill stands 1,500 m
+    // there), looking north down at it.
+    let above = fixtures::hill(TOWN.0, TOWN.1) + 1000.0;
+    let camera = |k: u32| scenes::camera(TOWN.0 + 1e-6 * f64::from(k), TOWN.1 - 0.02, above, 0.0, -30.0);
     let view = views.open_view(pb::OpenViewRequest { camera: Some(camera(0)), ..Default::default() }).await.unwrap();
     let view_id = view.into_inner().view_id;
     let request = pb::StreamFramesRequest {
@@ -82,6 +85,7 @@ async fn a_commit_moving_a_whole_town_keeps_frames_coming_and_its_first_frame_sh
     let d = shown.drawn.unwrap();
     assert!(d.buildings > 100 && d.building_tiles_built >= 1, "{d:?}");
     let changed = shown.image.chunks(4).zip(before.image.chunks(4)).filter(|(a, b)| a != b).count();
+    eprintln!("{} frames in {:.1} s; the commit's: {d:?}", arrivals.len(), started.elapsed().as_secs_f64());
     assert!(changed > 500, "the moved town does not show: {changed} pixels changed");
     drop(stream);
     daemon.stop(&[]).unwrap();
