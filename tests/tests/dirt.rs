@@ -283,14 +283,14 @@ async fn twenty_edits_a_second_for_half_a_minute_keep_frames_coming_with_no_back
     let mut tick = tokio::time::interval(Duration::from_millis(50));
     while started.elapsed() < Duration::from_secs(30) {
         tick.tick().await;
-        let height = if k % 2 == 0 { 1900.0 } else { 1200.0 };
+        let height = if k.is_multiple_of(2) { 1900.0 } else { 1200.0 };
         let path = dem.clone();
         tokio::task::spawn_blocking(move || edit::rewrite_window(&path, x, y, 16, 16, |_, _, _| height))
             .await
             .unwrap()
             .unwrap();
         k += 1;
-        if k % 200 == 0 {
+        if k.is_multiple_of(200) {
             rss.push(rss_mb(daemon.pid()));
         }
     }

@@ -70,10 +70,9 @@ impl FrameFormat {
     pub fn codec(self, interactive: bool) -> Option<Codec> {
         match self {
             Self::Rgba => None,
-            Self::Png => Some(Codec::Png),
             Self::Jpeg(q) => Some(Codec::Jpeg(q)),
             Self::Live(q) if interactive => Some(Codec::Jpeg(q)),
-            Self::Live(_) => Some(Codec::Png),
+            Self::Png | Self::Live(_) => Some(Codec::Png),
         }
     }
 }
@@ -109,6 +108,7 @@ impl HubFrame {
 
     /// This frame shown for a later `generation` that changed nothing it
     /// draws: the same image and encodings.
+    #[must_use]
     pub fn carried(&self, generation: u64) -> Self {
         Self {
             rendered: Arc::clone(&self.rendered),

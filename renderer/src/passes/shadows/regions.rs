@@ -49,7 +49,7 @@ pub fn texels(cascade: &Cascade, eye: DVec3, area: &Area, size: u32) -> Option<T
     for p in &area.points {
         let q = cascade.clip * (*p - eye).extend(1.0);
         // Columns from the left, rows from the top (NDC y up).
-        let (u, v) = ((q.x + 1.0) / 2.0 * f64::from(size), (1.0 - q.y) / 2.0 * f64::from(size));
+        let (u, v) = (f64::midpoint(q.x, 1.0) * f64::from(size), (1.0 - q.y) / 2.0 * f64::from(size));
         (lo, hi) = ([lo[0].min(u), lo[1].min(v)], [hi[0].max(u), hi[1].max(v)]);
     }
     if !(lo[0].is_finite() && lo[1].is_finite() && hi[0].is_finite() && hi[1].is_finite()) {
