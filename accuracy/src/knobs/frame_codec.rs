@@ -9,7 +9,7 @@ use relief_daemon::manifest::DEFAULT_FRAME_JPEG_QUALITY;
 use relief_daemon::view::SceneTerrain;
 use relief_renderer::{ClipmapConfig, Frame, RenderSettings};
 
-use super::{Context, HD, demo_pose, median};
+use super::{Context, HD, demo_pose, median, rgba_difference};
 use crate::sweep::{Row, Sweep};
 
 /// Encodings timed per setting (the median kept).
@@ -30,7 +30,7 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
     for codec in codecs {
         let (bytes, encode_ms) = timed(codec, frame)?;
         let (decoded, decode_ms) = decode(&bytes)?;
-        let (rms, max) = difference(frame, &decoded);
+        let (rms, max) = rgba_difference(&frame.rgba, &decoded);
         let default = codec == Codec::Jpeg(DEFAULT_FRAME_JPEG_QUALITY);
         rows.push(
             Row::new(codec.name(), encode_ms, rms)
@@ -75,20 +75,6 @@ fn decode(bytes: &[u8]) -> anyhow::Result<(Vec<u8>, f64)> {
     let started = std::time::Instant::now();
     let image = image::load_from_memory(bytes)?.to_rgba8().into_raw();
     Ok((image, started.elapsed().as_secs_f64() * 1e3))
-}
-
-/// RMS and max difference of R, G and B (0-255).
-fn difference(frame: &Frame, decoded: &[u8]) -> (f64, f64) {
-    let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
-    for (p, q) in frame.rgba.chunks(4).zip(decoded.chunks(4)) {
-        for k in 0..3 {
-            let d = f64::from(p[k]) - f64::from(q[k]);
-            sum += d * d;
-            max = max.max(d.abs());
-            n += 1;
-        }
-    }
-    ((sum / n.max(1) as f64).sqrt(), max)
 }
 
 /// Why quality 80, from the rows measured.

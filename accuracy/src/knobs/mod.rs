@@ -121,8 +121,13 @@ pub fn still_frames(
 
 /// RMS and max difference of two frames' R, G and B (0-255), over every pixel.
 pub fn rgb_difference(a: &Frame, b: &Frame) -> (f64, f64) {
+    rgba_difference(&a.rgba, &b.rgba)
+}
+
+/// RMS and max difference of two RGBA8 images' R, G and B (0-255).
+pub fn rgba_difference(a: &[u8], b: &[u8]) -> (f64, f64) {
     let (mut sum, mut max, mut n) = (0.0f64, 0.0f64, 0usize);
-    for (p, q) in a.rgba.chunks(4).zip(b.rgba.chunks(4)) {
+    for (p, q) in a.chunks(4).zip(b.chunks(4)) {
         for k in 0..3 {
             let d = f64::from(p[k]) - f64::from(q[k]);
             sum += d * d;

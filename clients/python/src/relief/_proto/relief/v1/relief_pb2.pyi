@@ -29,6 +29,7 @@ class ImageFormat(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     IMAGE_FORMAT_UNSPECIFIED: _ClassVar[ImageFormat]
     IMAGE_FORMAT_PNG: _ClassVar[ImageFormat]
     IMAGE_FORMAT_RGBA8: _ClassVar[ImageFormat]
+    IMAGE_FORMAT_JPEG: _ClassVar[ImageFormat]
 
 class InstanceKind(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = ()
@@ -49,6 +50,7 @@ PAYLOAD_KIND_MESH: PayloadKind
 IMAGE_FORMAT_UNSPECIFIED: ImageFormat
 IMAGE_FORMAT_PNG: ImageFormat
 IMAGE_FORMAT_RGBA8: ImageFormat
+IMAGE_FORMAT_JPEG: ImageFormat
 INSTANCE_KIND_UNSPECIFIED: InstanceKind
 INSTANCE_KIND_MODEL: InstanceKind
 INSTANCE_KIND_BILLBOARD: InstanceKind
@@ -84,7 +86,7 @@ class GeodeticPoint(_message.Message):
     def __init__(self, lon_deg: _Optional[float] = ..., lat_deg: _Optional[float] = ...) -> None: ...
 
 class QualityOverrides(_message.Message):
-    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m", "shadow_cascades", "shadow_map_size", "detail_octaves", "color_detail")
+    __slots__ = ("resampling", "reprojection_error_px", "clipmap_grid_size", "clipmap_levels", "precision", "atmosphere_steps", "instance_bands_m", "instance_band_densities", "instance_model_distance_m", "shadow_cascades", "shadow_map_size", "detail_octaves", "color_detail", "frame_jpeg_quality")
     RESAMPLING_FIELD_NUMBER: _ClassVar[int]
     REPROJECTION_ERROR_PX_FIELD_NUMBER: _ClassVar[int]
     CLIPMAP_GRID_SIZE_FIELD_NUMBER: _ClassVar[int]
@@ -98,6 +100,7 @@ class QualityOverrides(_message.Message):
     SHADOW_MAP_SIZE_FIELD_NUMBER: _ClassVar[int]
     DETAIL_OCTAVES_FIELD_NUMBER: _ClassVar[int]
     COLOR_DETAIL_FIELD_NUMBER: _ClassVar[int]
+    FRAME_JPEG_QUALITY_FIELD_NUMBER: _ClassVar[int]
     resampling: str
     reprojection_error_px: float
     clipmap_grid_size: int
@@ -111,7 +114,8 @@ class QualityOverrides(_message.Message):
     shadow_map_size: int
     detail_octaves: int
     color_detail: int
-    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ..., shadow_cascades: _Optional[int] = ..., shadow_map_size: _Optional[int] = ..., detail_octaves: _Optional[int] = ..., color_detail: _Optional[int] = ...) -> None: ...
+    frame_jpeg_quality: int
+    def __init__(self, resampling: _Optional[str] = ..., reprojection_error_px: _Optional[float] = ..., clipmap_grid_size: _Optional[int] = ..., clipmap_levels: _Optional[int] = ..., precision: _Optional[str] = ..., atmosphere_steps: _Optional[int] = ..., instance_bands_m: _Optional[_Iterable[float]] = ..., instance_band_densities: _Optional[_Iterable[float]] = ..., instance_model_distance_m: _Optional[float] = ..., shadow_cascades: _Optional[int] = ..., shadow_map_size: _Optional[int] = ..., detail_octaves: _Optional[int] = ..., color_detail: _Optional[int] = ..., frame_jpeg_quality: _Optional[int] = ...) -> None: ...
 
 class GetStateRequest(_message.Message):
     __slots__ = ()
@@ -216,7 +220,7 @@ class EffectState(_message.Message):
     def __init__(self, name: _Optional[str] = ..., sources: _Optional[_Iterable[str]] = ..., ran: _Optional[bool] = ..., last_cost_ms: _Optional[float] = ...) -> None: ...
 
 class Counters(_message.Message):
-    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes")
+    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes", "stream_frames_carried_over", "renderer_caches", "memory")
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     CACHE_HITS_FIELD_NUMBER: _ClassVar[int]
     CACHE_MISSES_FIELD_NUMBER: _ClassVar[int]
@@ -232,6 +236,9 @@ class Counters(_message.Message):
     OUTER_STORES_FIELD_NUMBER: _ClassVar[int]
     RASTER_CACHE_BYTES_FIELD_NUMBER: _ClassVar[int]
     RASTER_CACHE_BUDGET_BYTES_FIELD_NUMBER: _ClassVar[int]
+    STREAM_FRAMES_CARRIED_OVER_FIELD_NUMBER: _ClassVar[int]
+    RENDERER_CACHES_FIELD_NUMBER: _ClassVar[int]
+    MEMORY_FIELD_NUMBER: _ClassVar[int]
     tiles_generated: int
     cache_hits: int
     cache_misses: int
@@ -247,7 +254,42 @@ class Counters(_message.Message):
     outer_stores: _containers.RepeatedCompositeFieldContainer[OuterStore]
     raster_cache_bytes: int
     raster_cache_budget_bytes: int
-    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ...) -> None: ...
+    stream_frames_carried_over: int
+    renderer_caches: CacheWork
+    memory: _containers.RepeatedCompositeFieldContainer[MemoryUse]
+    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ..., stream_frames_carried_over: _Optional[int] = ..., renderer_caches: _Optional[_Union[CacheWork, _Mapping]] = ..., memory: _Optional[_Iterable[_Union[MemoryUse, _Mapping]]] = ...) -> None: ...
+
+class MemoryUse(_message.Message):
+    __slots__ = ("name", "bytes")
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    BYTES_FIELD_NUMBER: _ClassVar[int]
+    name: str
+    bytes: int
+    def __init__(self, name: _Optional[str] = ..., bytes: _Optional[int] = ...) -> None: ...
+
+class CacheWork(_message.Message):
+    __slots__ = ("level_samples_written", "water_coverage_texels", "shadow_maps_drawn", "shadow_maps_redrawn_in_part", "shadow_maps_kept", "shadow_regions", "shadow_texels", "building_tiles_built", "instance_tiles_built", "detail_fits")
+    LEVEL_SAMPLES_WRITTEN_FIELD_NUMBER: _ClassVar[int]
+    WATER_COVERAGE_TEXELS_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_MAPS_DRAWN_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_MAPS_REDRAWN_IN_PART_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_MAPS_KEPT_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_REGIONS_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_TEXELS_FIELD_NUMBER: _ClassVar[int]
+    BUILDING_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
+    INSTANCE_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
+    DETAIL_FITS_FIELD_NUMBER: _ClassVar[int]
+    level_samples_written: int
+    water_coverage_texels: int
+    shadow_maps_drawn: int
+    shadow_maps_redrawn_in_part: int
+    shadow_maps_kept: int
+    shadow_regions: int
+    shadow_texels: int
+    building_tiles_built: int
+    instance_tiles_built: int
+    detail_fits: int
+    def __init__(self, level_samples_written: _Optional[int] = ..., water_coverage_texels: _Optional[int] = ..., shadow_maps_drawn: _Optional[int] = ..., shadow_maps_redrawn_in_part: _Optional[int] = ..., shadow_maps_kept: _Optional[int] = ..., shadow_regions: _Optional[int] = ..., shadow_texels: _Optional[int] = ..., building_tiles_built: _Optional[int] = ..., instance_tiles_built: _Optional[int] = ..., detail_fits: _Optional[int] = ...) -> None: ...
 
 class OuterStore(_message.Message):
     __slots__ = ("name", "hits", "misses", "writes")
@@ -459,7 +501,7 @@ class PassTiming(_message.Message):
     def __init__(self, elapsed_ms: _Optional[float] = ..., **kwargs) -> None: ...
 
 class RenderResponse(_message.Message):
-    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters", "drawn", "sun")
+    __slots__ = ("generation", "width", "height", "format", "image", "passes", "camera", "pass_counters", "drawn", "sun", "carried_over")
     GENERATION_FIELD_NUMBER: _ClassVar[int]
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
@@ -470,6 +512,7 @@ class RenderResponse(_message.Message):
     PASS_COUNTERS_FIELD_NUMBER: _ClassVar[int]
     DRAWN_FIELD_NUMBER: _ClassVar[int]
     SUN_FIELD_NUMBER: _ClassVar[int]
+    CARRIED_OVER_FIELD_NUMBER: _ClassVar[int]
     generation: int
     width: int
     height: int
@@ -480,10 +523,11 @@ class RenderResponse(_message.Message):
     pass_counters: _containers.RepeatedCompositeFieldContainer[PassState]
     drawn: FrameDrawn
     sun: SunPosition
-    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., drawn: _Optional[_Union[FrameDrawn, _Mapping]] = ..., sun: _Optional[_Union[SunPosition, _Mapping]] = ...) -> None: ...
+    carried_over: bool
+    def __init__(self, generation: _Optional[int] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., format: _Optional[_Union[ImageFormat, str]] = ..., image: _Optional[bytes] = ..., passes: _Optional[_Iterable[_Union[PassTiming, _Mapping]]] = ..., camera: _Optional[_Union[Camera, _Mapping]] = ..., pass_counters: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., drawn: _Optional[_Union[FrameDrawn, _Mapping]] = ..., sun: _Optional[_Union[SunPosition, _Mapping]] = ..., carried_over: _Optional[bool] = ...) -> None: ...
 
 class FrameDrawn(_message.Message):
-    __slots__ = ("buildings", "models", "billboards", "terrain_blocks", "terrain_blocks_drawn", "terrain_blocks_beyond_horizon", "shadow_maps_drawn", "shadow_maps_kept")
+    __slots__ = ("buildings", "models", "billboards", "terrain_blocks", "terrain_blocks_drawn", "terrain_blocks_beyond_horizon", "shadow_maps_drawn", "shadow_maps_kept", "shadow_maps_redrawn_in_part", "shadow_regions", "shadow_texels", "water_coverage_texels", "level_samples_written", "building_tiles_built", "instance_tiles_built")
     BUILDINGS_FIELD_NUMBER: _ClassVar[int]
     MODELS_FIELD_NUMBER: _ClassVar[int]
     BILLBOARDS_FIELD_NUMBER: _ClassVar[int]
@@ -492,6 +536,13 @@ class FrameDrawn(_message.Message):
     TERRAIN_BLOCKS_BEYOND_HORIZON_FIELD_NUMBER: _ClassVar[int]
     SHADOW_MAPS_DRAWN_FIELD_NUMBER: _ClassVar[int]
     SHADOW_MAPS_KEPT_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_MAPS_REDRAWN_IN_PART_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_REGIONS_FIELD_NUMBER: _ClassVar[int]
+    SHADOW_TEXELS_FIELD_NUMBER: _ClassVar[int]
+    WATER_COVERAGE_TEXELS_FIELD_NUMBER: _ClassVar[int]
+    LEVEL_SAMPLES_WRITTEN_FIELD_NUMBER: _ClassVar[int]
+    BUILDING_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
+    INSTANCE_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
     buildings: int
     models: int
     billboards: int
@@ -500,7 +551,14 @@ class FrameDrawn(_message.Message):
     terrain_blocks_beyond_horizon: int
     shadow_maps_drawn: int
     shadow_maps_kept: int
-    def __init__(self, buildings: _Optional[int] = ..., models: _Optional[int] = ..., billboards: _Optional[int] = ..., terrain_blocks: _Optional[int] = ..., terrain_blocks_drawn: _Optional[int] = ..., terrain_blocks_beyond_horizon: _Optional[int] = ..., shadow_maps_drawn: _Optional[int] = ..., shadow_maps_kept: _Optional[int] = ...) -> None: ...
+    shadow_maps_redrawn_in_part: int
+    shadow_regions: int
+    shadow_texels: int
+    water_coverage_texels: int
+    level_samples_written: int
+    building_tiles_built: int
+    instance_tiles_built: int
+    def __init__(self, buildings: _Optional[int] = ..., models: _Optional[int] = ..., billboards: _Optional[int] = ..., terrain_blocks: _Optional[int] = ..., terrain_blocks_drawn: _Optional[int] = ..., terrain_blocks_beyond_horizon: _Optional[int] = ..., shadow_maps_drawn: _Optional[int] = ..., shadow_maps_kept: _Optional[int] = ..., shadow_maps_redrawn_in_part: _Optional[int] = ..., shadow_regions: _Optional[int] = ..., shadow_texels: _Optional[int] = ..., water_coverage_texels: _Optional[int] = ..., level_samples_written: _Optional[int] = ..., building_tiles_built: _Optional[int] = ..., instance_tiles_built: _Optional[int] = ...) -> None: ...
 
 class StreamFramesRequest(_message.Message):
     __slots__ = ("width", "height", "format", "max_fps", "quality", "camera", "view_id", "sun")
