@@ -298,6 +298,23 @@ fn default_disk_dir(manifest_dir: &Path) -> PathBuf {
 }
 
 impl Manifest {
+    /// Whether a frame drawn with this manifest and one drawn with `other`
+    /// are drawn alike (the same grid, layers, effects and their knobs,
+    /// quality and sun): a manifest edit elsewhere (a source no layer
+    /// reads, the caches, the watcher) changes no frame, and the sources
+    /// it changed are dirt of their own.
+    pub fn draws_as(&self, other: &Self) -> bool {
+        (self.grid == other.grid)
+            && (self.tile_size == other.tile_size)
+            && (self.layers == other.layers)
+            && (self.effects == other.effects)
+            && (self.effect_settings == other.effect_settings)
+            && (self.quality == other.quality)
+            && (self.clipmap == other.clipmap)
+            && (self.bands == other.bands)
+            && (self.sun == other.sun)
+    }
+
     pub fn load(path: &Path) -> Result<Self, ManifestError> {
         let text =
             std::fs::read_to_string(path).map_err(|source| ManifestError::Read { path: path.to_path_buf(), source })?;

@@ -146,7 +146,8 @@ impl Renderers {
 
     /// What renderer `key` must refresh to draw `snap`: None when it has
     /// seen it; the whole grid when the dirt log lost generations it has
-    /// not seen or the manifest was edited; else the height and colour
+    /// not seen or the manifest was edited in what a frame draws (the
+    /// sources an edit changed are dirt of their own); else the height and colour
     /// layers' extents (widened by the detail's reach below the data where
     /// it is drawn), the water layer's, and, when the detail's noise was
     /// fitted anew, every level below the data's.
@@ -158,12 +159,12 @@ impl Renderers {
         detail: Option<Detail>,
     ) -> Option<Dirt> {
         let seen = self.by_config.get(&key)?;
-        if seen.generation >= snap.generation && Arc::ptr_eq(&seen.manifest, &snap.manifest) {
+        if seen.generation >= snap.generation && seen.manifest.draws_as(&snap.manifest) {
             return None;
         }
         let whole = Dirt::everything(snap.grid.extent());
         let regions = scene.dirt_between(seen.generation, snap.generation);
-        let Some(regions) = regions.filter(|_| Arc::ptr_eq(&seen.manifest, &snap.manifest)) else {
+        let Some(regions) = regions.filter(|_| seen.manifest.draws_as(&snap.manifest)) else {
             return Some(whole);
         };
         let layer = |name: &str| snap.manifest.layers.get(name);
@@ -468,13 +469,14 @@ impl Viewer {
 
     /// Whether a frame drawn at generation `since` with `manifest` (and
     /// `overrides`) would draw anything differently now: the manifest was
-    /// edited, or a layer the frame draws (height, colour, buildings,
-    /// instances; water where the frame has the effect) changed since. A
-    /// generation that changed nothing drawn (a source turning to error,
-    /// one no layer reads) need not be rendered again.
+    /// edited in what frames draw (`Manifest::draws_as`), or a layer the
+    /// frame draws (height, colour, buildings, instances; water where the
+    /// frame has the effect) changed since. A generation that changed
+    /// nothing drawn (a source turning to error, one no layer reads, its
+    /// declaration edited) need not be rendered again.
     pub fn draws_differently(&self, since: u64, manifest: &Arc<Manifest>, overrides: &Overrides) -> bool {
         let snap = self.scene.snapshot();
-        if !Arc::ptr_eq(manifest, &snap.manifest) {
+        if !manifest.draws_as(&snap.manifest) {
             return true;
         }
         if since >= snap.generation {

@@ -167,6 +167,17 @@ async fn a_generation_that_changes_nothing_drawn_renders_no_frame_yet_viewers_se
     assert_eq!(frame.image, first.image);
     assert_eq!(hub_frames(&channel).await, (rendered, carried + 1));
 
+    // The manifest edited where no frame looks: the spare raster read
+    // "nearest". A generation (the spare's tiles change), no render.
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    let edited = text.replace("path = \"spare.tif\"", "path = \"spare.tif\"\nresampling = \"nearest\"");
+    assert_ne!(edited, text);
+    std::fs::write(&manifest, edited).unwrap();
+    let frame = next(&mut stream).await;
+    assert_eq!(frame.generation, first.generation + 2);
+    assert!(frame.carried_over, "a frame was rendered for a manifest edit no layer sees");
+    assert_eq!(hub_frames(&channel).await, (rendered, carried + 2));
+
     // The DEM saved again as it was: nothing drawn changes, nothing renders.
     let dem = dir.path().join("hill.tif");
     let bytes = std::fs::read(&dem).unwrap();
