@@ -155,8 +155,27 @@ async fn state(channel: &Channel) -> anyhow::Result<pb::SceneState> {
     Ok(SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await?.into_inner())
 }
 
-/// Frames per second each of `n` viewers received over `secs` of flight.
-async fn fps(daemon: &Reliefd, n: usize, own_cameras: bool, secs: u64) -> anyhow::Result<(f64, f64, f64, u64)> {
+/// Each pass's milliseconds per run between two states.
+fn pass_ms(before: &pb::SceneState, after: &pb::SceneState) -> Vec<(String, f64)> {
+    after
+        .passes
+        .iter()
+        .filter_map(|p| {
+            let b = before.passes.iter().find(|q| q.name == p.name)?;
+            let runs = p.runs.checked_sub(b.runs).filter(|r| *r > 0)?;
+            Some((p.name.clone(), (p.total_ms - b.total_ms) / runs as f64))
+        })
+        .collect()
+}
+
+/// Frames per second each of `n` viewers received over `secs` of flight,
+/// and each pass's milliseconds per frame then.
+async fn fps(
+    daemon: &Reliefd,
+    n: usize,
+    own_cameras: bool,
+    secs: u64,
+) -> anyhow::Result<(f64, f64, f64, Vec<(String, f64)>)> {
     let channel = daemon.channel().await?;
     let mut view_ids = Vec::new();
     if own_cameras {
@@ -173,14 +192,16 @@ async fn fps(daemon: &Reliefd, n: usize, own_cameras: bool, secs: u64) -> anyhow
     }
     let flying = fly(channel.clone(), view_ids, Arc::clone(&stop));
     tokio::time::sleep(Duration::from_secs(1)).await;
-    let rendered0 = state(&channel).await?.counters.unwrap_or_default().stream_frames_rendered;
+    let state0 = state(&channel).await?;
+    let rendered0 = state0.counters.clone().unwrap_or_default().stream_frames_rendered;
     let counts0: Vec<u64> = viewers.iter().map(|(c, _)| c.load(Ordering::Relaxed)).collect();
     let started = Instant::now();
     tokio::time::sleep(Duration::from_secs(secs)).await;
     let elapsed = started.elapsed().as_secs_f64();
     let counts: Vec<f64> =
         viewers.iter().zip(&counts0).map(|((c, _), c0)| (c.load(Ordering::Relaxed) - c0) as f64 / elapsed).collect();
-    let rendered = state(&channel).await?.counters.unwrap_or_default().stream_frames_rendered - rendered0;
+    let state1 = state(&channel).await?;
+    let rendered = state1.counters.clone().unwrap_or_default().stream_frames_rendered - rendered0;
     stop.store(true, Ordering::Relaxed);
     let _ = flying.await;
     for (_, t) in viewers {
@@ -188,7 +209,7 @@ async fn fps(daemon: &Reliefd, n: usize, own_cameras: bool, secs: u64) -> anyhow
     }
     let mean = counts.iter().sum::<f64>() / counts.len() as f64;
     let min = counts.iter().copied().fold(f64::INFINITY, f64::min);
-    Ok((mean, min, rendered as f64 / elapsed, rendered))
+    Ok((mean, min, rendered as f64 / elapsed, pass_ms(&state0, &state1)))
 }
 
 /// Milliseconds from the start of each edit.
@@ -589,12 +610,13 @@ async fn run() -> anyhow::Result<()> {
     if wanted("RELIEF_BENCH_ONLY", "fps") {
         println!("\n## Frames per second delivered, 640 x 360, camera moving every 33 ms ({secs} s each)\n");
         println!(
-            "| viewers | cameras | fps per viewer (mean) | fps (slowest viewer) | distinct renders/s |\n|---|---|---|---|---|"
+            "| viewers | cameras | fps per viewer (mean) | fps (slowest viewer) | distinct renders/s | ms per frame by pass |\n|---|---|---|---|---|---|"
         );
         for (n, own) in [(1, false), (10, false), (50, false), (10, true)] {
-            let (mean, min, renders, _) = fps(&daemon, n, own, secs).await?;
+            let (mean, min, renders, passes) = fps(&daemon, n, own, secs).await?;
             let cameras = if own { "own camera each" } else { "shared (scene camera)" };
-            println!("| {n} | {cameras} | {mean:.1} | {min:.1} | {renders:.1} |");
+            let passes: Vec<String> = passes.iter().map(|(p, ms)| format!("{p} {ms:.0}")).collect();
+            println!("| {n} | {cameras} | {mean:.1} | {min:.1} | {renders:.1} | {} |", passes.join(", "));
         }
     }
 

@@ -293,11 +293,12 @@ impl InstancesPass {
             keys.iter().filter_map(|k| self.tiles.get(k).map(|t| (*k, t))).unzip();
         let shapes: Vec<sort::Shape> = self.models.iter().map(sort::Shape::of).collect();
         let per_tile = sort::sort(&tiles, at, &shapes);
+        // What a tile casts: which of its instances are models (in the
+        // world, whichever way the camera moved).
         for ((key, tile), sorted) in keys.iter().zip(&tiles).zip(&per_tile) {
-            let models: Vec<&[u8]> = sorted.models.iter().map(|m| bytemuck::cast_slice::<GpuInstance, u8>(m)).collect();
-            let cast =
-                TileCast { key: crate::passes::pipeline::key_of(&models), centre: tile.centre, radius: tile.radius };
-            draw.cast.insert(*key, cast);
+            let content = Arc::as_ptr(&tile.payload) as usize;
+            let cast_key = crate::passes::pipeline::key_of(&(content, &sorted.cast));
+            draw.cast.insert(*key, TileCast { key: cast_key, centre: tile.centre, radius: tile.radius });
         }
         let sorted = per_tile.into_iter().fold(sort::Sorted::default(), sort::Sorted::merge);
         draw.in_view = sorted.in_view;

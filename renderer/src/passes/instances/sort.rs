@@ -54,6 +54,9 @@ impl Shape {
 #[derive(Default)]
 pub struct Sorted {
     pub models: Vec<Vec<GpuInstance>>,
+    /// The tile's instances (their places in it) drawn as models: what it
+    /// casts into the shadow maps.
+    pub cast: Vec<u32>,
     pub billboards: Vec<GpuInstance>,
     pub in_view: usize,
 }
@@ -67,6 +70,7 @@ impl Sorted {
             mine.extend(theirs);
         }
         self.billboards.extend(other.billboards);
+        self.cast.extend(other.cast);
         self.in_view += other.in_view;
         self
     }
@@ -84,24 +88,27 @@ pub fn sort(tiles: &[&PlacedTile], at: &InstancesView<'_>, shapes: &[Shape]) -> 
             if tile.placed.is_empty() || rel.length() - tile.radius > reach || !cull.sees(rel, tile.radius) {
                 return out;
             }
-            for p in &tile.placed {
-                place(p, at, &cull, shapes, reach, &mut out);
+            for (i, p) in tile.placed.iter().enumerate() {
+                if place(p, at, &cull, shapes, reach, &mut out) {
+                    out.cast.push(i as u32);
+                }
             }
             out
         })
         .collect()
 }
 
-fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], reach: f64, out: &mut Sorted) {
+/// Sorts one instance into `out`; true when it is drawn as a model.
+fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], reach: f64, out: &mut Sorted) -> bool {
     let rel = p.world - at.view.eye;
     let d = rel.length();
     if d > reach {
-        return;
+        return false;
     }
     let shape = &shapes[p.slot as usize];
     let centre = rel + (p.up * p.scale * shape.height / 2.0).as_dvec3();
     if !cull.sees(centre, f64::from(p.scale * (shape.radius.max(shape.height / 2.0) + 1.0))) {
-        return;
+        return false;
     }
     out.in_view += 1;
     let (shown, mut model_share) = at.bands.coverage(d, p.random);
@@ -109,7 +116,7 @@ fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], r
         model_share = 0.0;
     }
     if shown <= 0.0 {
-        return;
+        return false;
     }
     let split = (shown * model_share) as f32;
     let r = rel.as_vec3();
@@ -128,4 +135,5 @@ fn place(p: &Placed, at: &InstancesView<'_>, cull: &Frustum, shapes: &[Shape], r
         instance.up[3] = shown as f32;
         out.billboards.push(instance);
     }
+    model_share > 0.0
 }
