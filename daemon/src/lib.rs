@@ -8,6 +8,7 @@
 pub mod backing;
 pub mod camera;
 pub mod codec;
+pub mod echo;
 pub mod content;
 pub mod effects;
 pub mod frames;

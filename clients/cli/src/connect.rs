@@ -35,6 +35,28 @@ impl Options<'_> {
     pub fn is_tls(&self) -> bool {
         self.server.get(..8).is_some_and(|s| s.eq_ignore_ascii_case("https://"))
     }
+
+    /// Whether the address is this machine's (`localhost`, 127.0.0.0/8,
+    /// `::1`): nobody else is on the path to it.
+    pub fn is_loopback(&self) -> bool {
+        let Ok(uri) = self.server.parse::<tonic::transport::Uri>() else { return false };
+        let host = uri.host().unwrap_or_default().trim_start_matches('[').trim_end_matches(']');
+        host.eq_ignore_ascii_case("localhost") || host.parse::<std::net::IpAddr>().is_ok_and(|ip| ip.is_loopback())
+    }
+
+    /// Refuses to send a token in the clear to another machine: over
+    /// plain `http://` anyone on the path reads it (and may then do what
+    /// it lets them), unless `insecure` says to anyway.
+    pub fn check_token_path(&self, token: bool, insecure: bool) -> anyhow::Result<()> {
+        if token && !self.is_tls() && !self.is_loopback() && !insecure {
+            bail!(
+                "refusing to send the token over plain http:// to {}: anyone on the path could read it and use it; \
+                 serve reliefd with TLS (--tls-cert, --tls-key) and use https://, or give --insecure to send it anyway",
+                self.server
+            );
+        }
+        Ok(())
+    }
 }
 
 /// How calls went out, for what a failure says: with a token, over TLS.
@@ -202,6 +224,19 @@ pub fn status_error(status: &tonic::Status, sent: Sent) -> anyhow::Error {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_token_goes_in_the_clear_only_to_this_machine_or_when_told() {
+        let at = |server| Options { server, ca: None, ca_env: None };
+        for server in ["http://127.0.0.1:50051", "http://localhost:1", "http://[::1]:2", "http://127.8.0.1:3"] {
+            assert!(at(server).check_token_path(true, false).is_ok(), "{server}");
+        }
+        let refused = at("http://10.0.0.5:50051").check_token_path(true, false).err().map(|e| e.to_string());
+        assert!(refused.is_some_and(|e| e.contains("refusing to send the token over plain http://")));
+        assert!(at("http://10.0.0.5:50051").check_token_path(true, true).is_ok(), "--insecure");
+        assert!(at("https://relief.example:443").check_token_path(true, false).is_ok(), "TLS");
+        assert!(at("http://10.0.0.5:50051").check_token_path(false, false).is_ok(), "no token");
+    }
 
     #[test]
     fn a_token_goes_as_a_bearer_header_trimmed_and_none_without() -> anyhow::Result<()> {

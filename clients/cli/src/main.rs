@@ -33,6 +33,10 @@ struct Args {
     /// Print JSON for scripts instead of text.
     #[arg(long, global = true)]
     json: bool,
+    /// Send the token over plain http:// to another machine anyway
+    /// (anyone on the path can read it there).
+    #[arg(long, global = true)]
+    insecure: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -182,6 +186,7 @@ async fn run(args: Args) -> anyhow::Result<()> {
         ca: args.ca.as_deref(),
         ca_env: std::env::var_os(connect::CA_ENV).filter(|v| !v.is_empty()).map(PathBuf::from),
     };
+    options.check_token_path(bearer.is_set(), args.insecure)?;
     let channel = connect::channel(&options).await?;
     let sent = connect::Sent { token: bearer.is_set(), tls: options.is_tls() };
     let mut scene = SceneServiceClient::with_interceptor(channel.clone(), bearer.clone());

@@ -224,12 +224,20 @@ def test_addresses_cas_and_tokens_are_read_before_any_call(tmp_path: Path, monke
         _channel.endpoint("https://h:1/api")
 
     secret = "control-0123456789abcdef"
-    with_token = _channel.endpoint("h:1", token=f"  {secret}\n", tls=False)
+    with_token = _channel.endpoint("h:1", token=f"  {secret}\n", tls=False, insecure=True)
     assert with_token.token == secret and secret not in repr(with_token)
     with pytest.raises(ValueError, match="white space"):
-        _channel.endpoint("h:1", token="two words", tls=False)
+        _channel.endpoint("h:1", token="two words", tls=False, insecure=True)
+    # A token goes in plaintext only to this machine, or when told.
+    with pytest.raises(ValueError, match="refusing to send the token over plaintext to h:1"):
+        _channel.endpoint("h:1", token=secret, tls=False)
+    with pytest.raises(ValueError, match="refusing to send the token"):
+        relief.Client("http://10.1.2.3:50051", token=secret)
+    for here in ("127.0.0.1:1", "localhost:1", "[::1]:1", "127.0.8.9:1"):
+        assert _channel.endpoint(here, token=secret).token == secret, here
+    assert _channel.endpoint("h:1", token=secret, tls=True).token == secret
     monkeypatch.setenv("RELIEF_TOKEN", secret)
-    assert _channel.endpoint("h:1", tls=False).token == secret
+    assert _channel.endpoint("h:1", tls=False, insecure=True).token == secret
     assert _channel.endpoint("h:1", token="", tls=False).token is None
     assert os.environ["RELIEF_TOKEN"] == secret
 

@@ -18,6 +18,7 @@ system's CA certificates and, when given, those of a PEM file."""
 from __future__ import annotations
 
 import base64
+import ipaddress
 import json
 from typing import Callable, Optional
 from urllib.parse import urlencode
@@ -64,6 +65,16 @@ def base_url(address: str) -> str:
     return address if "://" in address else f"http://{address}"
 
 
+def is_loopback(host: str) -> bool:
+    """Whether `host` is this machine (localhost, 127.0.0.0/8, ::1)."""
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def error_text(reply: QNetworkReply) -> str:
     """What went wrong with a reply: the daemon's own message (its JSON
     error body names the field) when it answered, else Qt's reason."""
@@ -93,9 +104,11 @@ class Credentials:
     """What every request carries: the bearer token (empty: none) and, for
     https://, the TLS settings with the CA certificates to trust."""
 
-    def __init__(self, token: str = "", ca_file: str = "") -> None:
+    def __init__(self, token: str = "", ca_file: str = "", insecure: bool = False) -> None:
         self.token = token.strip()
         self.ca_file = ca_file.strip()
+        #: Send the token over plain http:// to another machine anyway.
+        self.insecure = insecure
         #: Why the CA file cannot be used ("" when it can, or none is set).
         self.ca_error = ""
         self._ssl: Optional[QSslConfiguration] = None
@@ -106,6 +119,19 @@ class Credentials:
             else:
                 self._ssl = QSslConfiguration.defaultConfiguration()
                 self._ssl.setCaCertificates(self._ssl.caCertificates() + certificates)
+
+    def refusal(self, url: str) -> str:
+        """Why no request may go to `url` with this token ("" when one may):
+        over plain http:// to another machine anyone on the path could read
+        the token and use it."""
+        address = QUrl(url)
+        host = address.host().strip("[]")
+        if not self.token or self.insecure or address.scheme() != "http" or is_loopback(host):
+            return ""
+        return (
+            f"refusing to send the token over plain http:// to {host}: anyone on the path could read it and use it; "
+            "serve reliefd with TLS (--tls-cert, --tls-key) and connect to https://"
+        )
 
     def apply(self, request: QNetworkRequest) -> QNetworkRequest:
         if self.token:
@@ -296,6 +322,10 @@ class DaemonLink(QObject):
         self.refused = 0
         if self._credentials.ca_error:
             self._down(self._credentials.ca_error)
+            return
+        refusal = self._credentials.refusal(base_url(self._address))
+        if refusal:
+            self._down(refusal)
             return
         self._get("/api/state", self._probed, on_error=self._down)
 

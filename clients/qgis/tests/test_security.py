@@ -91,3 +91,13 @@ def test_https_with_the_ca_file(start_plugin: Any, scene: HillScene, tmp_path: P
         dock.ca_file.setText(str(tmp_path / "nope.pem"))
         dock.ca_file.editingFinished.emit()
         wait_until(lambda: "nope.pem" in dock.banner.text(), 20, "the banner names the CA file")
+
+
+def test_a_token_never_goes_in_plaintext_to_another_machine(start_plugin: Any) -> None:
+    # Nothing listens there, and nothing is sent: the banner says why first.
+    plugin = start_plugin("http://10.255.255.1:50051", token="read-0123456789abcdef")
+    dock = plugin.dock
+    wait_until(dock.banner.isVisible, 20, "the banner shows")
+    text = dock.banner.text()
+    assert "refusing to send the token over plain http://" in text and "https://" in text, text
+    assert dock.frames_shown == 0

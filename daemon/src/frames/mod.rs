@@ -21,7 +21,7 @@ use tokio::sync::{Notify, watch};
 use tokio_util::sync::CancellationToken;
 
 pub use stream::{CameraSource, FrameStream, StreamSpec, start};
-pub use views::{OpenView, ViewSettings, Views};
+pub use views::{Holder, OpenView, ViewSettings, Views};
 
 use crate::codec::Codec;
 use crate::scene::Scene;
@@ -31,6 +31,8 @@ use crate::view::{Camera, Overrides, Rendered, ViewError, Viewer};
 pub const MAX_VIEWS: usize = 64;
 /// Frames held for distinct views, in bytes.
 pub const FRAME_MEMORY_BYTES: u64 = 512 * 1024 * 1024;
+/// How often idle views and views no stream shows are let go.
+const SWEEP: std::time::Duration = std::time::Duration::from_secs(10);
 /// Bytes a frame holds per pixel: RGBA, f32 depth, and its PNG at most.
 const BYTES_PER_PIXEL: u64 = 4 + 4 + 1;
 
@@ -217,7 +219,8 @@ impl FrameHub {
             rendered: std::sync::atomic::AtomicU64::new(0),
             carried: std::sync::atomic::AtomicU64::new(0),
         });
-        tokio::spawn(Arc::clone(&hub).schedule(shutdown));
+        tokio::spawn(Arc::clone(&hub).schedule(shutdown.clone()));
+        tokio::spawn(Arc::clone(&hub).sweep(shutdown));
         hub
     }
 
@@ -229,27 +232,29 @@ impl FrameHub {
         self.slots.lock().expect("the hub's lock is never held across a panic")
     }
 
-    /// Joins the distinct view `key`, making it when no stream shows it yet.
-    /// `may_refuse`: a stream that starts may be refused past the limits; a
-    /// stream that moves its camera always gets its new view.
-    pub fn subscribe(&self, key: ViewKey, may_refuse: bool) -> Result<Subscription, ViewError> {
+    /// Joins the distinct view `key`, making it when no stream shows it
+    /// yet, within the limits: at most [`MAX_VIEWS`] distinct views and
+    /// [`FRAME_MEMORY_BYTES`] of their frames. A stream that starts, and one
+    /// whose camera moves (`leaving` the view it showed: not counted when it
+    /// alone showed it), is refused past them.
+    pub fn subscribe(&self, key: ViewKey, leaving: Option<&Subscription>) -> Result<Subscription, ViewError> {
         let mut guard = self.slots();
         let (slots, _) = &mut *guard;
         slots.retain(|s| s.tx.receiver_count() > 0);
         if let Some(slot) = slots.iter().find(|s| s.key == key) {
             return Ok(Subscription { slot: Arc::clone(slot), frames: slot.tx.subscribe() });
         }
-        if may_refuse {
-            let held: u64 = slots.iter().map(|s| s.key.frame_bytes()).sum();
-            if slots.len() >= MAX_VIEWS {
-                return Err(ViewError::TooManyViews(format!("{MAX_VIEWS} distinct views are shown already")));
-            }
-            if held + key.frame_bytes() > FRAME_MEMORY_BYTES {
-                return Err(ViewError::TooManyViews(format!(
-                    "their frames would hold more than {} MiB",
-                    FRAME_MEMORY_BYTES >> 20
-                )));
-            }
+        let freed = |s: &Arc<Slot>| leaving.is_some_and(|l| Arc::ptr_eq(&l.slot, s) && s.tx.receiver_count() == 1);
+        let counted: Vec<&Arc<Slot>> = slots.iter().filter(|s| !freed(s)).collect();
+        let held: u64 = counted.iter().map(|s| s.key.frame_bytes()).sum();
+        if counted.len() >= MAX_VIEWS {
+            return Err(ViewError::TooManyViews(format!("{MAX_VIEWS} distinct views are shown already")));
+        }
+        if held + key.frame_bytes() > FRAME_MEMORY_BYTES {
+            return Err(ViewError::TooManyViews(format!(
+                "their frames would hold more than {} MiB",
+                FRAME_MEMORY_BYTES >> 20
+            )));
         }
         let (tx, frames) = watch::channel(None);
         let slot = Arc::new(Slot { key, tx, done_at: Mutex::new(None), drawing: false.into() });
@@ -301,6 +306,20 @@ impl FrameHub {
         })?;
         *turn = next;
         Some(Arc::clone(&slots[next]))
+    }
+
+    /// Every [`SWEEP`], closes idle views and lets go of views no stream
+    /// shows (with the frames they hold), until `shutdown`.
+    async fn sweep(self: Arc<Self>, shutdown: CancellationToken) {
+        let mut tick = tokio::time::interval(SWEEP);
+        loop {
+            tokio::select! {
+                _ = tick.tick() => {}
+                () = shutdown.cancelled() => return,
+            }
+            self.views.close_idle();
+            self.slots().0.retain(|s| s.tx.receiver_count() > 0);
+        }
     }
 
     /// Renders stale views one at a time, in turn, until `shutdown`.

@@ -96,7 +96,7 @@ impl StreamSpec {
 /// goes, and ends when the receiver is dropped or at `shutdown`.
 pub fn start(hub: &Arc<FrameHub>, spec: StreamSpec, shutdown: CancellationToken) -> Result<FrameStream, ViewError> {
     let mut cameras = Cameras::new(hub, &spec.source);
-    let subscription = hub.subscribe(spec.key(cameras.current()), true)?;
+    let subscription = hub.subscribe(spec.key(cameras.current()), None)?;
     let (tx, rx) = mpsc::channel(1);
     tokio::spawn(run(Arc::clone(hub), spec, cameras, subscription, tx, shutdown));
     Ok(rx)
@@ -115,9 +115,11 @@ async fn previous_changed(previous: &mut Option<Subscription>) -> bool {
     }
 }
 
-/// Moves the stream to the view of its camera now. The view left is kept
-/// while it waits for its first frame: the one being drawn, else the
-/// oldest waiting (it is next in turn).
+/// Moves the stream to the view of its camera now, within the hub's limits
+/// (a camera change that would add a distinct view past them ends the
+/// stream with the reason). The view left is kept while it waits for its
+/// first frame: the one being drawn, else the oldest waiting (it is next
+/// in turn).
 fn follow(
     hub: &FrameHub,
     spec: &StreamSpec,
@@ -129,9 +131,11 @@ fn follow(
     if key == *sub.key() {
         return Ok(());
     }
-    let left = std::mem::replace(sub, hub.subscribe(key, false)?);
-    let keep = left.is_waiting()
-        && (left.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
+    let keep = sub.is_waiting()
+        && (sub.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
+    // The view left counts against the limits only while it is kept.
+    let joined = hub.subscribe(key, (!keep).then_some(&*sub))?;
+    let left = std::mem::replace(sub, joined);
     if keep {
         *previous = Some(left);
     }
@@ -152,7 +156,8 @@ async fn run(
     tx: mpsc::Sender<Result<Arc<HubFrame>, Arc<ViewError>>>,
     shutdown: CancellationToken,
 ) {
-    let interval = Duration::from_secs_f64(1.0 / spec.max_fps);
+    // The calls check max_fps; a rate no Duration holds still never panics.
+    let interval = Duration::try_from_secs_f64(1.0 / spec.max_fps).unwrap_or(Duration::from_secs(60));
     let mut last_sent: Option<(Weak<HubFrame>, Instant)> = None;
     let mut previous: Option<Subscription> = None;
     let is_new = |frame: &Arc<HubFrame>, last: &Option<(Weak<HubFrame>, Instant)>| {

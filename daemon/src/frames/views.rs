@@ -16,6 +16,21 @@ pub const MAX_OPEN_VIEWS: usize = 256;
 /// How long a view lives with no stream showing it and no call touching it.
 pub const IDLE_CLOSE: Duration = Duration::from_secs(60);
 
+/// Who opened a view, so only they may steer it: a digest of the token a
+/// call showed (never the token itself), or anyone where no tokens are
+/// asked for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Holder(u64);
+
+impl Holder {
+    /// Every caller of a daemon that asks for no token.
+    pub const ANYONE: Self = Self(0);
+
+    pub fn of(token: &str) -> Self {
+        Self(xxhash_rust::xxh3::xxh3_64(token.as_bytes()) | 1)
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewSettings {
     /// The view's own camera (kept while it follows the scene camera).
@@ -27,6 +42,8 @@ pub struct ViewSettings {
 
 pub struct OpenView {
     pub id: String,
+    /// Who opened it: only they (or a control token) may steer it.
+    pub owner: Holder,
     settings: watch::Sender<ViewSettings>,
     /// The last frame a stream showed of this view: what gestures and
     /// picks refer to.
@@ -82,8 +99,8 @@ impl Views {
         self.open.lock().expect("never held across a panic")
     }
 
-    /// Opens a view; closes idle ones first.
-    pub fn open(&self, settings: ViewSettings) -> Result<Arc<OpenView>, ViewError> {
+    /// Opens a view for `owner`; closes idle ones first.
+    pub fn open(&self, settings: ViewSettings, owner: Holder) -> Result<Arc<OpenView>, ViewError> {
         let mut open = self.open_views();
         open.retain(|_, v| !v.idle());
         if open.len() >= MAX_OPEN_VIEWS {
@@ -97,6 +114,7 @@ impl Views {
         };
         let view = Arc::new(OpenView {
             id: id.clone(),
+            owner,
             settings: watch::Sender::new(settings),
             last_frame: Mutex::new(None),
             touched: Mutex::new(Instant::now()),
@@ -105,11 +123,17 @@ impl Views {
         Ok(view)
     }
 
+    /// Closes the views idle for [`IDLE_CLOSE`] (the sweep's, each ten
+    /// seconds: not only when another view opens).
+    pub fn close_idle(&self) {
+        self.open_views().retain(|_, v| !v.idle());
+    }
+
     pub fn get(&self, id: &str) -> Result<Arc<OpenView>, ViewError> {
         let mut open = self.open_views();
         // Idle views go here too, with the frame each holds.
         open.retain(|_, v| !v.idle());
-        let view = open.get(id).cloned().ok_or_else(|| ViewError::UnknownView(id.to_owned()))?;
+        let view = open.get(id).cloned().ok_or_else(|| ViewError::UnknownView(crate::echo::echoed(id)))?;
         drop(open);
         view.touch();
         Ok(view)

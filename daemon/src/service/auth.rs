@@ -16,6 +16,7 @@ use axum::response::{IntoResponse, Response};
 use tonic::Status;
 
 use super::http::HttpError;
+pub use crate::frames::Holder;
 
 /// What a caller may do.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -155,11 +156,18 @@ fn is_grpc(request: &Request) -> bool {
 pub async fn check(State(access): State<Access>, mut request: Request, next: Next) -> Response {
     if is_public(&request) {
         request.extensions_mut().insert(Scope::Read);
+        request.extensions_mut().insert(Holder::ANYONE);
         return next.run(request).await;
     }
-    match access.scope_of(bearer(&request).as_deref()) {
+    let token = bearer(&request);
+    match access.scope_of(token.as_deref()) {
         Ok(scope) => {
+            let holder = match (&access, token) {
+                (Access::Tokens(_), Some(token)) => Holder::of(&token),
+                _ => Holder::ANYONE,
+            };
             request.extensions_mut().insert(scope);
+            request.extensions_mut().insert(holder);
             next.run(request).await
         }
         Err(why) => {

@@ -11,7 +11,7 @@ use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status};
 
 use super::Calls;
-use super::auth::Scope;
+use super::auth::{Holder, Scope};
 use super::view::Frames;
 
 /// The calls behind the three relief.v1 services.
@@ -23,6 +23,11 @@ type Answer<T> = Result<Response<T>, Status>;
 /// The scope the token check gave the call (read, when none is there).
 fn scope<T>(r: &Request<T>) -> Scope {
     r.extensions().get::<Scope>().copied().unwrap_or(Scope::Read)
+}
+
+/// Whose token the call showed (anyone, when none is there).
+fn holder<T>(r: &Request<T>) -> Holder {
+    r.extensions().get::<Holder>().copied().unwrap_or(Holder::ANYONE)
 }
 
 #[tonic::async_trait]
@@ -82,15 +87,16 @@ impl ViewService for Grpc {
     }
 
     async fn open_view(&self, r: Request<pb::OpenViewRequest>) -> Answer<pb::ViewState> {
-        self.0.view.open_view(r.get_ref()).map(Response::new)
+        self.0.view.open_view(holder(&r), r.get_ref()).map(Response::new)
     }
 
     async fn update_view(&self, r: Request<pb::UpdateViewRequest>) -> Answer<pb::ViewState> {
-        self.0.view.update_view(r.get_ref()).map(Response::new)
+        self.0.view.update_view(scope(&r), holder(&r), r.get_ref()).map(Response::new)
     }
 
     async fn navigate(&self, r: Request<pb::NavigateRequest>) -> Answer<pb::Camera> {
-        self.0.view.navigate(scope(&r), r.into_inner()).await.map(Response::new)
+        let (scope, holder) = (scope(&r), holder(&r));
+        self.0.view.navigate(scope, holder, r.into_inner()).await.map(Response::new)
     }
 
     async fn pick(&self, r: Request<pb::PickRequest>) -> Answer<pb::PickResponse> {

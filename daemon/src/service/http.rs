@@ -25,7 +25,7 @@ use tonic::{Code, Status};
 use tower::ServiceExt as _;
 
 use super::Calls;
-use super::auth::Scope;
+use super::auth::{Holder, Scope};
 
 type Shared = State<Arc<Calls>>;
 
@@ -329,28 +329,40 @@ pub fn ws_frame(mut frame: pb::RenderResponse) -> Bytes {
     Bytes::from(out)
 }
 
-async fn open_view(State(c): Shared, bytes: Bytes) -> Reply<pb::ViewState> {
-    reply(c.view.open_view(&body(&bytes, "OpenViewRequest")?))
+async fn open_view(State(c): Shared, Extension(holder): Extension<Holder>, bytes: Bytes) -> Reply<pb::ViewState> {
+    reply(c.view.open_view(holder, &body(&bytes, "OpenViewRequest")?))
 }
 
-async fn update_view(State(c): Shared, Path(id): Path<String>, bytes: Bytes) -> Reply<pb::ViewState> {
+async fn update_view(
+    State(c): Shared,
+    Extension(scope): Extension<Scope>,
+    Extension(holder): Extension<Holder>,
+    Path(id): Path<String>,
+    bytes: Bytes,
+) -> Reply<pb::ViewState> {
     let request = pb::UpdateViewRequest { view_id: id, ..body(&bytes, "UpdateViewRequest")? };
-    reply(c.view.update_view(&request))
+    reply(c.view.update_view(scope, holder, &request))
 }
 
 async fn navigate_view(
     State(c): Shared,
     Extension(scope): Extension<Scope>,
+    Extension(holder): Extension<Holder>,
     Path(id): Path<String>,
     bytes: Bytes,
 ) -> Reply<pb::Camera> {
     let request = pb::NavigateRequest { view_id: id, ..body(&bytes, "NavigateRequest")? };
-    reply(c.view.navigate(scope, request).await)
+    reply(c.view.navigate(scope, holder, request).await)
 }
 
-async fn navigate_scene(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::Camera> {
+async fn navigate_scene(
+    State(c): Shared,
+    Extension(scope): Extension<Scope>,
+    Extension(holder): Extension<Holder>,
+    bytes: Bytes,
+) -> Reply<pb::Camera> {
     let request = pb::NavigateRequest { view_id: String::new(), ..body(&bytes, "NavigateRequest")? };
-    reply(c.view.navigate(scope, request).await)
+    reply(c.view.navigate(scope, holder, request).await)
 }
 
 async fn pick(State(c): Shared, Path(id): Path<String>, Query(q): Params) -> Reply<pb::PickResponse> {
@@ -439,7 +451,7 @@ async fn asset(uri: Uri) -> Response {
 }
 
 fn not_found(method: &Method, uri: &Uri) -> Response {
-    HttpError(Status::not_found(format!("no route {method} {}; GET /api lists the calls", uri.path()))).into_response()
+    HttpError(Status::not_found(format!("no route {method} {}; GET /api lists the calls", crate::echo::echoed(uri.path())))).into_response()
 }
 
 /// The HTTP routes over `calls`; what none of them takes goes to `grpc`

@@ -107,7 +107,7 @@ impl SceneCalls {
         let ids = r.source_ids;
         let snap = self.scene.snapshot();
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {
-            return Err(Status::not_found(format!("no source has id '{unknown}'")));
+            return Err(Status::not_found(format!("no source has id '{}'", crate::echo::echoed(unknown))));
         }
         let scene = Arc::clone(&self.scene);
         tokio::task::spawn_blocking(move || {

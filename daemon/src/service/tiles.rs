@@ -30,7 +30,7 @@ impl TileCalls {
         let snap = self.scene.snapshot();
         let index = snap
             .index_of(&r.source_id)
-            .ok_or_else(|| Status::not_found(format!("no source has id '{}'", r.source_id)))?;
+            .ok_or_else(|| Status::not_found(format!("no source has id '{}'", crate::echo::echoed(&r.source_id))))?;
         let quality = convert::quality(snap.manifest.quality, r.quality.as_ref())?;
         let store = Arc::clone(&self.scene.store);
         let job_snap = Arc::clone(&snap);
@@ -102,7 +102,7 @@ impl TileCalls {
         } else {
             r.source_id
         };
-        let index = snap.index_of(&id).ok_or_else(|| Status::not_found(format!("no source has id '{id}'")))?;
+        let index = snap.index_of(&id).ok_or_else(|| Status::not_found(format!("no source has id '{}'", crate::echo::echoed(&id))))?;
         let Some(source) = snap.slots[index].source.clone() else {
             return Err(Status::failed_precondition(format!(
                 "source '{id}' has no data to serve: {}",

@@ -21,13 +21,15 @@ use crate::effects::EffectSettings;
 use crate::frames::{CameraSource, FrameFormat, FrameHub, HubFrame, OpenView, StreamSpec, ViewSettings};
 use crate::navigate::{Gesture, navigate, pick};
 use crate::scene::Scene;
-use crate::service::auth::Scope;
+use crate::service::auth::{Holder, Scope};
 use crate::service::convert;
 use crate::service::status::{from_view_error as status, invalid_field};
 use crate::view::{MAX_IMAGE_SIDE, Overrides, Viewer};
 
 /// Fastest StreamFrames rate a viewer may ask for.
 const MAX_FPS: f64 = 60.0;
+/// Slowest: a frame a minute at most between frames.
+const MIN_FPS: f64 = 1.0 / 60.0;
 
 /// A stream of frames as a transport sends it.
 pub type Frames = Pin<Box<dyn Stream<Item = Result<RenderResponse, Status>> + Send>>;
@@ -255,8 +257,8 @@ impl ViewCalls {
             r.sun.as_ref(),
         )?;
         let fps = if r.max_fps == 0.0 { 10.0 } else { r.max_fps };
-        if !(fps.is_finite() && fps > 0.0 && fps <= MAX_FPS) {
-            return Err(invalid_field("max_fps", format!("{fps} is not more than 0 and at most {MAX_FPS}")));
+        if !(fps.is_finite() && (MIN_FPS..=MAX_FPS).contains(&fps)) {
+            return Err(invalid_field("max_fps", format!("{fps} is not from 1/60 (a frame a minute) to {MAX_FPS}")));
         }
         let source = if !r.view_id.is_empty() {
             CameraSource::View(self.hub.views.get(&r.view_id).map_err(|e| status(&e))?)
@@ -282,19 +284,22 @@ impl ViewCalls {
         })))
     }
 
-    pub fn open_view(&self, r: &OpenViewRequest) -> Result<ViewState, Status> {
+    /// A view of the caller's own: only a call with the same token (or a
+    /// control token) may steer it.
+    pub fn open_view(&self, holder: Holder, r: &OpenViewRequest) -> Result<ViewState, Status> {
         let scene_camera = self.viewer().camera();
         let camera = match &r.camera {
             Some(c) => checked_camera(&self.scene.snapshot(), c)?,
             None => scene_camera,
         };
         let settings = ViewSettings { camera, follow_scene_camera: r.follow_scene_camera, interactive: false };
-        let view = self.hub.views.open(settings).map_err(|e| status(&e))?;
+        let view = self.hub.views.open(settings, holder).map_err(|e| status(&e))?;
         Ok(view_state(&view, scene_camera))
     }
 
-    pub fn update_view(&self, r: &UpdateViewRequest) -> Result<ViewState, Status> {
+    pub fn update_view(&self, scope: Scope, holder: Holder, r: &UpdateViewRequest) -> Result<ViewState, Status> {
         let view = self.hub.views.get(&r.view_id).map_err(|e| status(&e))?;
+        may_steer(&view, scope, holder)?;
         let camera = r.camera.as_ref().map(|c| checked_camera(&self.scene.snapshot(), c)).transpose()?;
         view.update(|s| {
             if let Some(c) = camera {
@@ -311,13 +316,11 @@ impl ViewCalls {
     }
 
     /// Moves the view's camera, or the scene camera (with no view, or a
-    /// view that follows it), by a gesture.
-    /// A gesture on a view of the caller's own (read scope), or on the
-    /// scene's camera, which every viewer follows (control scope).
-    pub async fn navigate(&self, scope: Scope, r: NavigateRequest) -> Result<Camera, Status> {
-        if r.view_id.is_empty() {
-            scope.require_control("move the scene camera")?;
-        }
+    /// view that follows it), by a gesture: on a view of the caller's own
+    /// (read scope, the token that opened it), or on the scene's camera,
+    /// which every viewer follows (control scope), whichever way the call
+    /// names it.
+    pub async fn navigate(&self, scope: Scope, holder: Holder, r: NavigateRequest) -> Result<Camera, Status> {
         let gesture = match r.gesture {
             Some(navigate_request::Gesture::Orbit(o)) => {
                 Gesture::Orbit { heading_deg: o.heading_deg, pitch_deg: o.pitch_deg }
@@ -334,7 +337,17 @@ impl ViewCalls {
         };
         let view =
             (!r.view_id.is_empty()).then(|| self.hub.views.get(&r.view_id)).transpose().map_err(|e| status(&e))?;
+        if let Some(v) = &view {
+            may_steer(v, scope, holder)?;
+        }
         let follows = view.as_ref().is_none_or(|v| v.settings().follow_scene_camera);
+        if follows {
+            scope.require_control(if view.is_some() {
+                "move the scene camera, which this view follows,"
+            } else {
+                "move the scene camera"
+            })?;
+        }
         let camera = match &view {
             Some(v) if !follows => v.settings().camera,
             _ => self.viewer().camera(),
@@ -379,6 +392,18 @@ impl ViewCalls {
             generation: p.generation,
         }))
     }
+}
+
+/// `Ok` when the caller may steer `view`: it opened it (the same token),
+/// or it holds a control token.
+fn may_steer(view: &OpenView, scope: Scope, holder: Holder) -> Result<(), Status> {
+    if view.owner == holder || scope == Scope::Control {
+        return Ok(());
+    }
+    Err(Status::permission_denied(format!(
+        "view '{}' was opened with another token: only that token (or a control token) may steer it",
+        view.id
+    )))
 }
 
 /// The scene's effect settings with a request's quality knobs over them,

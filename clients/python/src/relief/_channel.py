@@ -4,6 +4,7 @@ checks."""
 
 from __future__ import annotations
 
+import ipaddress
 import math
 import os
 from dataclasses import dataclass
@@ -98,12 +99,26 @@ def check_token(token: str) -> str:
     return token
 
 
+def is_loopback(target_: str) -> bool:
+    """Whether "HOST:PORT" is this machine's (localhost, 127.0.0.0/8, ::1):
+    nobody else is on the path to it."""
+    host = target_.rsplit(":", 1)[0] if target_.count(":") == 1 or target_.startswith("[") else target_
+    host = host.strip("[]")
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
 def endpoint(
     address: str | None,
     *,
     token: str | None = None,
     ca: str | os.PathLike[str] | bytes | None = None,
     tls: bool | None = None,
+    insecure: bool = False,
 ) -> Endpoint:
     """How to reach reliefd at `address` (see `target`).
 
@@ -114,7 +129,9 @@ def endpoint(
     path; TLS without one trusts the system's certificates.
 
     `token` is sent as `authorization: Bearer TOKEN` on every call; None
-    reads RELIEF_TOKEN, "" sends none."""
+    reads RELIEF_TOKEN, "" sends none. A token never goes in plaintext to
+    another machine (anyone on the path could read and use it): that is
+    refused unless `insecure` is True."""
     where, said = target(address)
     if said is not None and tls is not None and said != tls:
         raise ValueError(f"address {address!r} says {'TLS' if said else 'plaintext'} but tls={tls} was asked")
@@ -129,6 +146,11 @@ def endpoint(
     if token is None:
         token = os.environ.get(TOKEN_ENV, "")
     token = check_token(token) if token.strip() else None
+    if token is not None and not secure and not insecure and not is_loopback(where):
+        raise ValueError(
+            f"refusing to send the token over plaintext to {where}: anyone on the path could read it and use it; "
+            "serve reliefd with TLS (--tls-cert, --tls-key) and use https://, or pass insecure=True to send it anyway"
+        )
     return Endpoint(where, secure, read_ca(ca) if ca is not None else None, token)
 
 
@@ -162,8 +184,9 @@ class Connection(Generic[ChannelT]):
         token: str | None = None,
         ca: str | os.PathLike[str] | bytes | None = None,
         tls: bool | None = None,
+        insecure: bool = False,
     ) -> None:
-        self.endpoint = endpoint(address, token=token, ca=ca, tls=tls)
+        self.endpoint = endpoint(address, token=token, ca=ca, tls=tls, insecure=insecure)
         self.address = self.endpoint.target
         self.timeout = timeout
         self._channel = self._open(self.endpoint)

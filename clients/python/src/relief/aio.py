@@ -326,6 +326,7 @@ def connect(
     tls: bool | None = None,
     timeout: float = _channel.DEFAULT_TIMEOUT_S,
     connect_timeout: float = 10.0,
+    insecure: bool = False,
 ) -> Connecting:
     """An asyncio client connected to reliefd at `address`:
     `async with relief.aio.connect(addr) as client:` or
@@ -334,5 +335,7 @@ def connect(
     `authorization: Bearer` on every call; `ca` (RELIEF_CA when None) or an
     https:// address means TLS."""
     # Checked now: a bad address, CA or token fails at the call, not at await.
-    _channel.endpoint(address, token=token, ca=ca, tls=tls)
-    return Connecting(lambda: AsyncClient(address, timeout=timeout, token=token, ca=ca, tls=tls), connect_timeout)
+    _channel.endpoint(address, token=token, ca=ca, tls=tls, insecure=insecure)
+    return Connecting(
+        lambda: AsyncClient(address, timeout=timeout, token=token, ca=ca, tls=tls, insecure=insecure), connect_timeout
+    )

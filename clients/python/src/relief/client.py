@@ -336,6 +336,7 @@ def connect(
     tls: bool | None = None,
     timeout: float = _channel.DEFAULT_TIMEOUT_S,
     connect_timeout: float = 10.0,
+    insecure: bool = False,
 ) -> Client:
     """A client connected to reliefd at `address` ("HOST:PORT", or
     "https://HOST:PORT" for TLS; RELIEF_SERVER or 127.0.0.1:50051 when None).
@@ -344,14 +345,15 @@ def connect(
     RELIEF_TOKEN when None ("" sends none). `ca`: the CA certificate to
     trust (a PEM file's path, or PEM bytes), which means TLS; read from the
     file RELIEF_CA names when None. `tls`: True for TLS with the system's
-    certificates, False for plaintext whatever RELIEF_CA says.
+    certificates, False for plaintext whatever RELIEF_CA says. A token is
+    never sent in plaintext to another machine unless `insecure` is True.
 
     `timeout` is the default deadline of each call; Unavailable when reliefd
     is not reachable within `connect_timeout` (with TLS, also when its
     certificate is not one the CA signed). A missing or wrong token is
     Unauthenticated at the first call; a read token steering the scene is
     PermissionDenied."""
-    client = Client(address, timeout=timeout, token=token, ca=ca, tls=tls)
+    client = Client(address, timeout=timeout, token=token, ca=ca, tls=tls, insecure=insecure)
     try:
         client.wait_ready(connect_timeout)
     except BaseException:
