@@ -59,6 +59,15 @@
   /** The bearer token from the page's address: `#token=` or `?access_token=`. */
   const token = (param(location.hash.replace(/^#/, ""), "token") || param(location.search.replace(/^\?/, ""), "access_token")).trim();
 
+  // The token leaves the address at once: it is not kept in the history,
+  // shown over a shoulder, or copied with the link.
+  if (token) {
+    const without = (text, name) => text.split("&").filter((pair) => pair && !pair.startsWith(`${name}=`)).join("&");
+    const search = without(location.search.replace(/^\?/, ""), "access_token");
+    const hash = without(location.hash.replace(/^#/, ""), "token");
+    history.replaceState(history.state, "", `${location.pathname}${search ? `?${search}` : ""}${hash ? `#${hash}` : ""}`);
+  }
+
   /** A parameter of `a=1&b=2`, percent-decoded; "+" stays "+" (tokens hold it). */
   function param(text, name) {
     for (const pair of text.split("&")) {
@@ -250,9 +259,11 @@
   /** A JSON request to reliefd; rejects with an ApiError. */
   async function api(method, path, body) {
     const init = { method, headers: authorized({ accept: "application/json" }) };
-    if (body !== undefined) {
+    // reliefd takes bodies as JSON only (a page of another site cannot send
+    // that without its leave): a call without one sends {}.
+    if (method !== "GET") {
       init.headers["content-type"] = "application/json";
-      init.body = JSON.stringify(body);
+      init.body = JSON.stringify(body ?? {});
     }
     let response;
     try {

@@ -10,7 +10,6 @@
 //! until a source's is ready its tiles simply skip the outer stores.
 
 use std::collections::HashSet;
-use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Condvar, Mutex, OnceLock, Weak};
@@ -152,7 +151,7 @@ pub fn file_digest(path: &Path) -> std::io::Result<u128> {
 }
 
 fn hash_file(path: &Path) -> std::io::Result<u128> {
-    let mut file = File::open(path)?;
+    let mut file = relief_source::regular::open_regular(path)?;
     let meta = file.metadata()?;
     let mut h = Xxh3::new();
     h.update(&meta.len().to_le_bytes());
@@ -295,6 +294,7 @@ fn run(shared: &Shared, store: &Weak<TileStore>) {
 
 #[cfg(test)]
 mod tests {
+    use std::fs::File;
     use std::time::{Duration, SystemTime};
 
     use super::*;

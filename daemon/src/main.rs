@@ -24,40 +24,53 @@ struct Args {
     command: Command,
 }
 
+/// What `reliefd serve` is told.
+#[derive(clap::Args)]
+struct Serve {
+    /// The scene manifest (TOML).
+    manifest: PathBuf,
+    /// Address to bind; port 0 picks a free one.
+    #[arg(long, default_value = "127.0.0.1:50051")]
+    listen: SocketAddr,
+    /// Start even if some sources fail to load (they show as failed).
+    #[arg(long)]
+    keep_going: bool,
+    /// Tile worker threads (default: one per core).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Bearer tokens callers must send, one `read|control TOKEN` per
+    /// line (read: state, tiles, renders, frames; control: also the
+    /// scene camera, reloads, source parameters).
+    #[arg(long)]
+    token_file: Option<PathBuf>,
+    /// TLS certificate chain (PEM), with --tls-key.
+    #[arg(long, requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// TLS private key (PEM), with --tls-cert.
+    #[arg(long, requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+    /// Serve an address other machines reach without tokens or TLS.
+    #[arg(long)]
+    insecure: bool,
+    /// A host name reliefd is reached by besides its address (its page
+    /// and HTTP calls answer only their own hosts where no token is
+    /// asked for); repeat for more.
+    #[arg(long, value_name = "NAME")]
+    allow_host: Vec<String>,
+    /// An origin (`https://maps.example.org`) whose pages may call
+    /// reliefd's HTTP API from a browser; repeat for more.
+    #[arg(long, value_name = "ORIGIN")]
+    allow_origin: Vec<String>,
+    /// Serve Prometheus metrics at http://ADDR/metrics (a loopback
+    /// address; port 0 picks a free one).
+    #[arg(long)]
+    metrics_listen: Option<SocketAddr>,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Serve a scene over gRPC and HTTP (the browser viewer at http://ADDR/).
-    Serve {
-        /// The scene manifest (TOML).
-        manifest: PathBuf,
-        /// Address to bind; port 0 picks a free one.
-        #[arg(long, default_value = "127.0.0.1:50051")]
-        listen: SocketAddr,
-        /// Start even if some sources fail to load (they show as failed).
-        #[arg(long)]
-        keep_going: bool,
-        /// Tile worker threads (default: one per core).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Bearer tokens callers must send, one `read|control TOKEN` per
-        /// line (read: state, tiles, renders, frames; control: also the
-        /// scene camera, reloads, source parameters).
-        #[arg(long)]
-        token_file: Option<PathBuf>,
-        /// TLS certificate chain (PEM), with --tls-key.
-        #[arg(long, requires = "tls_key")]
-        tls_cert: Option<PathBuf>,
-        /// TLS private key (PEM), with --tls-cert.
-        #[arg(long, requires = "tls_cert")]
-        tls_key: Option<PathBuf>,
-        /// Serve an address other machines reach without tokens or TLS.
-        #[arg(long)]
-        insecure: bool,
-        /// Serve Prometheus metrics at http://ADDR/metrics (a loopback
-        /// address; port 0 picks a free one).
-        #[arg(long)]
-        metrics_listen: Option<SocketAddr>,
-    },
+    Serve(Box<Serve>),
     /// Load a scene, report every problem, and exit.
     Check { manifest: PathBuf },
 }
@@ -151,18 +164,28 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
             }
             Ok(ExitCode::SUCCESS)
         }
-        Command::Serve {
-            manifest,
-            listen,
-            keep_going,
-            threads: asked,
-            token_file,
-            tls_cert,
-            tls_key,
-            insecure,
-            metrics_listen,
-        } => {
-            let options = GuardOptions { token_file, tls_cert, tls_key, insecure };
+        Command::Serve(asked_for) => {
+            let Serve {
+                manifest,
+                listen,
+                keep_going,
+                threads: asked,
+                token_file,
+                tls_cert,
+                tls_key,
+                insecure,
+                metrics_listen,
+                allow_host,
+                allow_origin,
+            } = *asked_for;
+            let options = GuardOptions {
+                token_file,
+                tls_cert,
+                tls_key,
+                insecure,
+                allow_hosts: allow_host,
+                allow_origins: allow_origin,
+            };
             // Refused before the scene loads: a bind that would be unsafe fails at once.
             let guard = Guard::for_listen(listen, &options)?;
             if let Some(m) = metrics_listen {
@@ -179,7 +202,11 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 .thread_name("relief-rt")
                 .build()
                 .context("cannot start the async runtime")?;
-            runtime.block_on(serve(Arc::new(scene), listen, guard, metrics_listen))?;
+            let served = runtime.block_on(serve(Arc::new(scene), listen, guard, metrics_listen));
+            // A blocking task still stuck (a read that never returns) must
+            // not keep the process: the runtime waits at most a second.
+            runtime.shutdown_timeout(Duration::from_secs(1));
+            served?;
             Ok(ExitCode::SUCCESS)
         }
     }

@@ -9,6 +9,8 @@ use gltf::Document;
 use gltf::buffer::Source;
 use gltf::json;
 
+use relief_source::regular::open_regular;
+
 use crate::accessor::Buffers;
 use crate::{MAX_FILE_BYTES, Model, ModelError, flatten, glb, uri};
 
@@ -49,7 +51,7 @@ pub fn from_slice(name: &str, bytes: &[u8]) -> Result<Model, ModelError> {
 /// size is checked before reading and again while reading, in case the
 /// file grows in between.
 fn read_limited(path: &Path) -> std::io::Result<Result<Vec<u8>, u64>> {
-    let file = std::fs::File::open(path)?;
+    let file = open_regular(path)?;
     let size = file.metadata()?.len();
     if size > MAX_FILE_BYTES {
         return Ok(Err(size));

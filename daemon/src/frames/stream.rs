@@ -131,8 +131,8 @@ fn follow(
     if key == *sub.key() {
         return Ok(());
     }
-    let keep = sub.is_waiting()
-        && (sub.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
+    let keep =
+        sub.is_waiting() && (sub.is_drawing() || previous.as_ref().is_none_or(|p| !p.is_drawing() && !p.is_waiting()));
     // The view left counts against the limits only while it is kept.
     let joined = hub.subscribe(key, (!keep).then_some(&*sub))?;
     let left = std::mem::replace(sub, joined);

@@ -72,7 +72,7 @@ impl Access {
     /// `control`), `#` comments and blank lines skipped.
     pub fn from_file(path: &Path) -> Result<Self, TokenFileError> {
         let fail = |message: String| TokenFileError { message, path: path.to_path_buf() };
-        let text = std::fs::read_to_string(path).map_err(|e| fail(e.to_string()))?;
+        let text = relief_source::regular::read_regular_to_string(path).map_err(|e| fail(e.to_string()))?;
         let mut tokens = HashMap::new();
         for (n, line) in text.lines().enumerate() {
             let line = line.trim();
@@ -119,20 +119,30 @@ fn same_bytes(a: &[u8], b: &[u8]) -> bool {
     a.len() == b.len() && a.iter().zip(b).fold(0u8, |acc, (x, y)| acc | (x ^ y)) == 0
 }
 
-/// The bearer token of a request: the `authorization` header, or an
-/// `access_token` query parameter (a browser's EventSource and image
-/// requests cannot set headers).
-fn bearer(request: &Request) -> Option<String> {
+/// The GET calls that take their token as an `access_token` query
+/// parameter (a browser's EventSource, WebSocket and image requests cannot
+/// set headers): streams and images, which only read.
+const QUERY_TOKEN_PATHS: [&str; 4] = ["/api/events", "/api/frames", "/api/frames/ws", "/api/render"];
+
+/// The bearer token of a request, and whether it came in the query: the
+/// `authorization` header, or an `access_token` query parameter of a GET
+/// stream or image (`QUERY_TOKEN_PATHS`; a token there reads only).
+fn bearer(request: &Request) -> Option<(String, bool)> {
     if let Some(value) = request.headers().get(header::AUTHORIZATION) {
         let text = value.to_str().ok()?;
         let (kind, token) = text.split_once(' ')?;
-        return kind.eq_ignore_ascii_case("bearer").then(|| token.trim().to_owned());
+        return kind.eq_ignore_ascii_case("bearer").then(|| (token.trim().to_owned(), false));
     }
-    request.uri().query()?.split('&').find_map(|pair| {
+    let streams = request.method() == axum::http::Method::GET && QUERY_TOKEN_PATHS.contains(&request.uri().path());
+    if !streams {
+        return None;
+    }
+    let token = request.uri().query()?.split('&').find_map(|pair| {
         let (name, value) = pair.split_once('=')?;
         // Percent-decoded, `+` kept: a token may hold any character.
         (name == "access_token").then(|| percent_encoding::percent_decode_str(value).decode_utf8_lossy().into_owned())
-    })
+    })?;
+    Some((token, true))
 }
 
 /// What needs no token: the viewer's page (it holds no scene data) and
@@ -159,9 +169,11 @@ pub async fn check(State(access): State<Access>, mut request: Request, next: Nex
         request.extensions_mut().insert(Holder::ANYONE);
         return next.run(request).await;
     }
-    let token = bearer(&request);
+    let (token, in_query) = bearer(&request).unzip();
     match access.scope_of(token.as_deref()) {
         Ok(scope) => {
+            // A token in a URL ends up in logs and histories: it reads only.
+            let scope = if in_query == Some(true) { scope.min(Scope::Read) } else { scope };
             let holder = match (&access, token) {
                 (Access::Tokens(_), Some(token)) => Holder::of(&token),
                 _ => Holder::ANYONE,

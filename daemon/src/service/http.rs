@@ -280,11 +280,24 @@ async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse,
 /// Frames on a WebSocket, each one binary message (`ws_frame`); the
 /// stream is checked before the upgrade, so a bad request is an HTTP
 /// error. Ends with a text message `{"error": ...}` when the view fails.
-async fn frames_ws(State(c): Shared, Query(q): Params, ws: WebSocketUpgrade) -> Result<Response, HttpError> {
+async fn frames_ws(
+    State(c): Shared,
+    hold: Option<Extension<super::connections::Hold>>,
+    Query(q): Params,
+    ws: WebSocketUpgrade,
+) -> Result<Response, HttpError> {
     let request = frames_request(&q, true)?;
     let frames = c.view.stream_frames(&request)?;
-    Ok(ws.on_upgrade(move |socket| send_frames(socket, frames)))
+    // The socket keeps its connection's place among the connections.
+    Ok(ws.on_upgrade(move |socket| async move {
+        let _hold = hold;
+        send_frames(socket, frames).await;
+    }))
 }
+
+/// How long a frame may take to leave on a WebSocket before the socket is
+/// closed (a viewer that stopped reading).
+const WS_SEND: std::time::Duration = std::time::Duration::from_secs(30);
 
 async fn send_frames(
     mut socket: WebSocket,
@@ -294,7 +307,8 @@ async fn send_frames(
         tokio::select! {
             item = frames.next() => match item {
                 Some(Ok(frame)) => {
-                    if socket.send(Message::Binary(ws_frame(frame))).await.is_err() {
+                    let sent = tokio::time::timeout(WS_SEND, socket.send(Message::Binary(ws_frame(frame)))).await;
+                    if !matches!(sent, Ok(Ok(()))) {
                         return;
                     }
                 }
@@ -451,7 +465,11 @@ async fn asset(uri: Uri) -> Response {
 }
 
 fn not_found(method: &Method, uri: &Uri) -> Response {
-    HttpError(Status::not_found(format!("no route {method} {}; GET /api lists the calls", crate::echo::echoed(uri.path())))).into_response()
+    HttpError(Status::not_found(format!(
+        "no route {method} {}; GET /api lists the calls",
+        crate::echo::echoed(uri.path())
+    )))
+    .into_response()
 }
 
 /// The HTTP routes over `calls`; what none of them takes goes to `grpc`

@@ -5,11 +5,13 @@
 //! relief's own types and back, `status` turns errors into statuses.
 
 pub mod auth;
+pub mod connections;
 mod convert;
 mod grpc;
 mod http;
 pub mod metrics;
 mod scene;
+pub mod site;
 mod status;
 mod tiles;
 pub mod tls;
@@ -20,9 +22,8 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use hyper_util::rt::{TokioExecutor, TokioIo};
+use hyper_util::rt::{TokioExecutor, TokioIo, TokioTimer};
 use hyper_util::server::conn::auto;
-use hyper_util::server::graceful::GracefulShutdown;
 use hyper_util::service::TowerToHyperService;
 use relief_proto::v1::scene_service_server::SceneServiceServer;
 use relief_proto::v1::tile_service_server::TileServiceServer;
@@ -30,8 +31,10 @@ use relief_proto::v1::view_service_server::ViewServiceServer;
 use tokio::net::{TcpListener, TcpStream};
 use tokio_rustls::TlsAcceptor;
 use tokio_util::sync::CancellationToken;
+use tokio_util::task::TaskTracker;
 
 use self::auth::Access;
+use self::connections::{Activity, Connections, Held, Hold, Limits};
 
 use crate::frames::FrameHub;
 use crate::scene::Scene;
@@ -50,6 +53,8 @@ const HANDSHAKE: Duration = Duration::from_secs(10);
 pub struct Guard {
     pub access: Access,
     pub tls: Option<TlsAcceptor>,
+    /// The hosts and origins browsers may reach it from.
+    pub site: site::Site,
 }
 
 /// How the command line asks the port to be guarded.
@@ -60,12 +65,16 @@ pub struct GuardOptions {
     pub tls_key: Option<PathBuf>,
     /// Serve a non-loopback address without a token or TLS anyway.
     pub insecure: bool,
+    /// Host names served besides the daemon's own address (`--allow-host`).
+    pub allow_hosts: Vec<String>,
+    /// Origins whose pages may call (`--allow-origin`).
+    pub allow_origins: Vec<String>,
 }
 
 impl Guard {
     /// No tokens and no TLS: for loopback, where only this machine's users reach.
     pub fn open() -> Self {
-        Self { access: Access::Open, tls: None }
+        Self { access: Access::Open, tls: None, site: site::Site::default() }
     }
 
     /// The guard for serving `listen`: tokens and TLS as asked. An address
@@ -82,8 +91,9 @@ impl Guard {
             None => Access::Open,
         };
         if !listen.ip().is_loopback() {
+            let open = matches!(access, Access::Open);
             let mut missing = Vec::new();
-            if matches!(access, Access::Open) {
+            if open {
                 missing.push("a token file (--token-file)");
             }
             if tls.is_none() {
@@ -96,10 +106,33 @@ impl Guard {
                     "refusing to serve {listen} without {missing}: anyone who reaches it could read the scene, \
                      move its camera and reload it; give them, or --insecure to serve it open anyway"
                 );
-                tracing::warn!(%listen, "serving to the network without {missing} (--insecure): anyone who reaches it may read the scene, move its camera and reload it");
+                let what = match (open, tls.is_some()) {
+                    (true, true) => {
+                        "anyone who reaches it may read the scene, move its camera and reload it; TLS \
+                                     only keeps others on the path from reading what it sends"
+                    }
+                    (false, false) => {
+                        "the token file still decides who may read and who may steer, but tokens \
+                                       and everything sent travel in clear text: anyone on the path can read them \
+                                       and then use a token as its holder would"
+                    }
+                    _ => {
+                        "anyone who reaches it may read the scene, move its camera and reload it, and anyone on \
+                          the path can read everything sent"
+                    }
+                };
+                tracing::warn!(%listen, "serving to the network without {missing} (--insecure): {what}");
             }
         }
-        Ok(Self { access, tls })
+        // Where no token is asked for, only the daemon's own hosts are
+        // served (a rebound name reaches it with no token to stop it).
+        let site = site::Site {
+            listen: Some(listen),
+            check_host: matches!(access, Access::Open),
+            hosts: options.allow_hosts.clone(),
+            origins: options.allow_origins.clone(),
+        };
+        Ok(Self { access, tls, site })
     }
 }
 
@@ -129,7 +162,7 @@ impl Calls {
 
 /// gRPC (relief.v1, health, reflection) and HTTP on one router, every
 /// call through the token check.
-async fn router(calls: &Arc<Calls>, access: Access) -> anyhow::Result<axum::Router> {
+async fn router(calls: &Arc<Calls>, access: Access, site: site::Site) -> anyhow::Result<axum::Router> {
     let (health, health_service) = tonic_health::server::health_reporter();
     let grpc = grpc::Grpc(Arc::clone(calls));
     health.set_serving::<SceneServiceServer<grpc::Grpc>>().await;
@@ -146,7 +179,35 @@ async fn router(calls: &Arc<Calls>, access: Access) -> anyhow::Result<axum::Rout
         .add_service(ViewServiceServer::new(grpc))
         .prepare();
     Ok(http::router(Arc::clone(calls), routes.into_axum_router())
-        .layer(axum::middleware::from_fn_with_state(access, auth::check)))
+        .layer(axum::middleware::from_fn_with_state(access, auth::check))
+        .layer(axum::middleware::from_fn_with_state(Arc::new(site), site::check))
+        .layer(axum::middleware::from_fn_with_state(
+            Arc::new(tokio::sync::Semaphore::new(HEALTH_WATCHES)),
+            health_watches,
+        )))
+}
+
+/// gRPC health Watch streams open at once: a health check needs no token,
+/// so its streams are capped apart.
+const HEALTH_WATCHES: usize = 64;
+
+/// Holds each health Watch stream to one of [`HEALTH_WATCHES`] places;
+/// past them, RESOURCE_EXHAUSTED.
+async fn health_watches(
+    axum::extract::State(open): axum::extract::State<Arc<tokio::sync::Semaphore>>,
+    request: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> axum::response::Response {
+    if request.uri().path() != "/grpc.health.v1.Health/Watch" {
+        return next.run(request).await;
+    }
+    let Ok(place) = open.try_acquire_owned() else {
+        let status = tonic::Status::resource_exhausted(format!(
+            "{HEALTH_WATCHES} health Watch streams are open already; use Check, or close one"
+        ));
+        return status.into_http::<axum::body::Body>();
+    };
+    next.run(request).await.map(|body| Held::body(body, place))
 }
 
 /// Serves gRPC and HTTP on `listener` until `shutdown` is cancelled: each
@@ -169,11 +230,22 @@ pub async fn serve(
             }
         });
     }
-    let service = TowerToHyperService::new(router(&calls, guard.access).await?);
+    let router = router(&calls, guard.access, guard.site).await?;
+    let connections = Connections::new(Limits::DEFAULT);
+    let limits = connections.limits();
     let mut builder = auto::Builder::new(TokioExecutor::new());
-    // Wide HTTP/2 windows: a height tile (264 kB) goes out in one flight.
-    builder.http2().initial_stream_window_size(WINDOW_BYTES).initial_connection_window_size(2 * WINDOW_BYTES);
-    let graceful = GracefulShutdown::new();
+    // A request's headers in time (slowloris); HTTP/2 pings that must be
+    // answered; wide HTTP/2 windows: a height tile (264 kB) goes out in one
+    // flight.
+    builder.http1().timer(TokioTimer::new()).header_read_timeout(limits.header_read);
+    builder
+        .http2()
+        .timer(TokioTimer::new())
+        .keep_alive_interval(limits.ping)
+        .keep_alive_timeout(limits.ping)
+        .initial_stream_window_size(WINDOW_BYTES)
+        .initial_connection_window_size(2 * WINDOW_BYTES);
+    let tasks = TaskTracker::new();
     loop {
         let (stream, peer) = tokio::select! {
             accepted = listener.accept() => match accepted {
@@ -187,22 +259,25 @@ pub async fn serve(
             },
             () = shutdown.cancelled() => break,
         };
+        let admitted = match connections.admit(peer.ip()) {
+            Ok(a) => a,
+            Err(why) => {
+                tracing::debug!(%peer, "refused a connection: {why}");
+                continue;
+            }
+        };
         // No Nagle: a reply's frames must not wait for the peer's delayed ACK.
         let _ = stream.set_nodelay(true);
-        let (builder, service, watcher, tls) =
-            (builder.clone(), service.clone(), graceful.watcher(), guard.tls.clone());
-        tokio::spawn(async move {
+        let (builder, router, tls, shutdown) = (builder.clone(), router.clone(), guard.tls.clone(), shutdown.clone());
+        tasks.spawn(async move {
+            let hold = Hold::new(Arc::new(admitted));
+            let activity = Activity::new();
+            let service = tracked(router, Arc::clone(&activity), hold);
             let ended = match tls {
-                None => {
-                    watcher
-                        .watch(builder.serve_connection_with_upgrades(TokioIo::new(stream), service).into_owned())
-                        .await
-                }
+                None => serve_one(&builder, TokioIo::new(stream), service, &activity, limits, &shutdown).await,
                 Some(tls) => {
                     let Some(stream) = handshake(&tls, stream, peer).await else { return };
-                    watcher
-                        .watch(builder.serve_connection_with_upgrades(TokioIo::new(stream), service).into_owned())
-                        .await
+                    serve_one(&builder, TokioIo::new(stream), service, &activity, limits, &shutdown).await
                 }
             };
             if let Err(e) = ended {
@@ -210,10 +285,78 @@ pub async fn serve(
             }
         });
     }
-    if tokio::time::timeout(DRAIN, graceful.shutdown()).await.is_err() {
+    tasks.close();
+    if tokio::time::timeout(DRAIN, tasks.wait()).await.is_err() {
         tracing::debug!("connections still open after {DRAIN:?}; closing them");
     }
     Ok(())
+}
+
+/// The router as one connection's service: each request, and its
+/// response's body (a stream's whole life), counted as under way, and
+/// holding the connection's place (`hold`) among the connections.
+fn tracked(
+    router: axum::Router,
+    activity: Arc<Activity>,
+    hold: Hold,
+) -> TowerToHyperService<
+    impl tower::Service<
+        hyper::Request<hyper::body::Incoming>,
+        Response = axum::response::Response,
+        Error = std::convert::Infallible,
+        Future = impl Send,
+    > + Clone
+    + Send,
+> {
+    TowerToHyperService::new(tower::service_fn(move |mut request: hyper::Request<hyper::body::Incoming>| {
+        let (mut router, under_way) = (router.clone(), activity.begin());
+        request.extensions_mut().insert(hold.clone());
+        async move {
+            let response = tower::Service::call(&mut router, request).await?;
+            Ok(response.map(|body| Held::body(body, under_way)))
+        }
+    }))
+}
+
+/// Serves one connection until it ends: closed (gracefully) when it
+/// makes no request in time, stays idle too long, or reliefd stops.
+async fn serve_one<I, S>(
+    builder: &auto::Builder<TokioExecutor>,
+    io: I,
+    service: S,
+    activity: &Activity,
+    limits: Limits,
+    shutdown: &CancellationToken,
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>>
+where
+    I: hyper::rt::Read + hyper::rt::Write + Unpin + Send + 'static,
+    S: hyper::service::Service<hyper::Request<hyper::body::Incoming>, Response = axum::response::Response>
+        + Clone
+        + Send
+        + 'static,
+    S::Future: Send + 'static,
+    S::Error: Into<Box<dyn std::error::Error + Send + Sync>>,
+{
+    let connection = builder.serve_connection_with_upgrades(io, service);
+    tokio::pin!(connection);
+    let overdue = async {
+        loop {
+            tokio::time::sleep(Duration::from_millis(500)).await;
+            if let Some(why) = activity.overdue(&limits) {
+                return why;
+            }
+        }
+    };
+    tokio::select! {
+        ended = connection.as_mut() => return ended,
+        why = overdue => tracing::debug!("closing a connection: {why}"),
+        () = shutdown.cancelled() => {}
+    }
+    connection.as_mut().graceful_shutdown();
+    match tokio::time::timeout(DRAIN, connection).await {
+        Ok(ended) => ended,
+        Err(_) => Ok(()),
+    }
 }
 
 /// The TLS handshake of a new connection; `None` (logged) when the client

@@ -27,11 +27,24 @@ pub struct SceneCalls {
     scene: Arc<Scene>,
     hub: Arc<FrameHub>,
     shutdown: CancellationToken,
+    reloads: Reloads,
+}
+
+/// Reloads one at a time, and coalesced: a call that waited while another
+/// reload of the same sources started and finished takes that one's
+/// outcome, so a flood of calls costs a few reads, never a thread each.
+#[derive(Default)]
+struct Reloads {
+    /// Held while a reload runs (waiting holds no thread).
+    running: tokio::sync::Mutex<()>,
+    /// Reloads started, and the sources of the last one (none: all).
+    started: std::sync::atomic::AtomicU64,
+    last: std::sync::Mutex<Vec<String>>,
 }
 
 impl SceneCalls {
     pub fn new(scene: Arc<Scene>, hub: Arc<FrameHub>, shutdown: CancellationToken) -> Self {
-        Self { scene, hub, shutdown }
+        Self { scene, hub, shutdown, reloads: Reloads::default() }
     }
 
     pub fn state(&self) -> SceneState {
@@ -109,13 +122,20 @@ impl SceneCalls {
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {
             return Err(Status::not_found(format!("no source has id '{}'", crate::echo::echoed(unknown))));
         }
-        let scene = Arc::clone(&self.scene);
-        tokio::task::spawn_blocking(move || {
+        let arrived = self.reloads.started.load(std::sync::atomic::Ordering::Acquire);
+        let _turn = self.reloads.running.lock().await;
+        // One of the same sources started after this call came and is done.
+        let covered = self.reloads.started.load(std::sync::atomic::Ordering::Acquire) > arrived
+            && *self.reloads.last.lock().expect("never held across a panic") == ids;
+        if !covered {
+            self.reloads.started.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
+            ids.clone_into(&mut self.reloads.last.lock().expect("never held across a panic"));
             let only = (!ids.is_empty()).then_some(ids);
-            scene.refresh(only.as_deref(), "reload requested", true)
-        })
-        .await
-        .map_err(|_| Status::internal("reload task failed"))?;
+            let scene = Arc::clone(&self.scene);
+            tokio::task::spawn_blocking(move || scene.refresh(only.as_deref(), "reload requested", true))
+                .await
+                .map_err(|_| Status::internal("reload task failed"))?;
+        }
         Ok(self.state())
     }
 }

@@ -102,7 +102,9 @@ impl TileCalls {
         } else {
             r.source_id
         };
-        let index = snap.index_of(&id).ok_or_else(|| Status::not_found(format!("no source has id '{}'", crate::echo::echoed(&id))))?;
+        let index = snap
+            .index_of(&id)
+            .ok_or_else(|| Status::not_found(format!("no source has id '{}'", crate::echo::echoed(&id))))?;
         let Some(source) = snap.slots[index].source.clone() else {
             return Err(Status::failed_precondition(format!(
                 "source '{id}' has no data to serve: {}",

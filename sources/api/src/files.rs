@@ -79,7 +79,8 @@ pub fn member(path: &Path) -> Member {
 pub fn is_sqlite(path: &Path) -> bool {
     use std::io::Read;
     let mut header = [0u8; 16];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut header)).is_ok() && &header == b"SQLite format 3\0"
+    crate::regular::open_regular(path).and_then(|mut f| f.read_exact(&mut header)).is_ok()
+        && &header == b"SQLite format 3\0"
 }
 
 /// Every file in the dataset of `primary` that exists now (the primary

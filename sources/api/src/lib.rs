@@ -16,6 +16,7 @@ pub mod geodesy;
 mod grid;
 mod payload;
 mod quality;
+pub mod regular;
 mod source;
 mod vector;
 

@@ -32,7 +32,7 @@ pub(crate) fn text(path: &Path, limits: &Limits) -> Result<String, SourceError> 
     let io = |source| SourceError::Io { what: "kml", path: path.to_path_buf(), source };
     let is_kmz = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("kmz"));
     let bytes = if is_kmz {
-        let file = std::fs::File::open(path).map_err(io)?;
+        let file = relief_source::regular::open_regular(path).map_err(io)?;
         let mut zip = zip::ZipArchive::new(file)
             .map_err(|e| format(format!("not a KMZ (zip) archive: {}", unzip_error(&e)), path))?;
         if zip.len() > limits.max_entries {
@@ -82,7 +82,7 @@ pub(crate) fn text(path: &Path, limits: &Limits) -> Result<String, SourceError> 
         if len > limits.max_kml_bytes {
             return Err(format(format!("KML is {len} bytes, more than the limit of {}", limits.max_kml_bytes), path));
         }
-        std::fs::read(path).map_err(io)?
+        relief_source::regular::read_regular(path).map_err(io)?
     };
     let text = String::from_utf8(bytes).map_err(|_| format("KML is not UTF-8 text", path))?;
     // Entity declarations are how billion-laughs documents expand; KML has

@@ -52,6 +52,12 @@ fn which(layer: Option<&str>) -> String {
 }
 
 fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
+    // GDAL opens it, and the side files it looks for, itself: a pipe in
+    // their place would block it for good. A folder is a dataset too.
+    relief_source::regular::check_for_gdal(path, true).map_err(|e| SourceError::Format {
+        path: path.to_path_buf(),
+        message: format!("cannot open{}: {e}", which(layer)),
+    })?;
     let options = DatasetOptions {
         open_flags: GdalOpenFlags::GDAL_OF_VECTOR
             | GdalOpenFlags::GDAL_OF_READONLY

@@ -33,7 +33,7 @@ impl Dataset {
     /// `<stem>_packed.*` file beside it, EDITORS.md) is a writer at work,
     /// not a shapefile without one: that read is `Changing`, to be tried again.
     pub(crate) fn beside(shp: &Path) -> Result<Self, SourceError> {
-        let bytes = std::fs::read(shp).map_err(|source| SourceError::Io {
+        let bytes = relief_source::regular::read_regular(shp).map_err(|source| SourceError::Io {
             what: "shapefile",
             path: shp.to_path_buf(),
             source,
@@ -61,7 +61,7 @@ fn sidecar(shp: &Path, ext: &str, what: &'static str) -> Result<Option<Part>, So
         if tried.contains(&path) {
             continue;
         }
-        match std::fs::read(&path) {
+        match relief_source::regular::read_regular(&path) {
             Ok(bytes) => return Ok(Some(Part { path, bytes })),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => tried.push(path),
             Err(source) => return Err(SourceError::Io { what, path, source }),

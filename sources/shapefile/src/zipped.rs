@@ -42,7 +42,7 @@ fn format(message: impl Into<String>, zip: &Path) -> SourceError {
 /// of a zip). Several and no `layer` is an error listing them: showing
 /// one of them while the user meant another would be worse.
 pub(crate) fn open(zip: &Path, layer: Option<&str>, limits: &Limits) -> Result<Dataset, SourceError> {
-    let file = std::fs::File::open(zip).map_err(|source| SourceError::Io {
+    let file = relief_source::regular::open_regular(zip).map_err(|source| SourceError::Io {
         what: "zipped shapefile",
         path: zip.to_path_buf(),
         source,

@@ -249,7 +249,7 @@ fn image_level(file: &Path, image: &tiff::Image, hash_bytes: bool) -> Result<Lev
     let planes = image.offsets.len() / blocks;
     image.check_within(file)?;
     let handle = if hash_bytes {
-        Some(std::fs::File::open(file).map_err(|source| SourceError::Io {
+        Some(relief_source::regular::open_regular(file).map_err(|source| SourceError::Io {
             what: "raster",
             path: file.into(),
             source,

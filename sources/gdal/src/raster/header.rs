@@ -359,6 +359,10 @@ fn level_infos(
 /// Opens a raster read-only, with GDAL's own words when it cannot.
 pub(crate) fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
     use gdal::{DatasetOptions, GdalOpenFlags};
+    // GDAL opens it, and the side files it looks for, itself: a pipe in
+    // their place would block it for good.
+    relief_source::regular::check_for_gdal(path, false)
+        .map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
     let options = DatasetOptions {
         open_flags: GdalOpenFlags::GDAL_OF_RASTER
             | GdalOpenFlags::GDAL_OF_READONLY

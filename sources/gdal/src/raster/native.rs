@@ -146,7 +146,7 @@ impl Native {
             return None;
         }
         let stamp = FileStamp::of(path)?;
-        let file = File::open(path).ok()?;
+        let file = relief_source::regular::open_regular(path).ok()?;
         let images = tiff::images(path)?;
         let gdal_type = gdal_band.band_type();
         // Masks aside, the base image first, then its overviews.

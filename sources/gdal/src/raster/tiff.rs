@@ -117,7 +117,7 @@ pub(crate) fn images(path: &Path) -> Option<Arc<[Image]>> {
 
 /// Every image of the TIFF at `path`, read from its directories.
 fn read(path: &Path) -> Option<Vec<Image>> {
-    let file = File::open(path).ok()?;
+    let file = relief_source::regular::open_regular(path).ok()?;
     let mut head = [0u8; 16];
     file.read_exact_at(&mut head[..8], 0).ok()?;
     let little = match &head[..2] {

@@ -186,7 +186,7 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
 /// should open.
 fn parse(path: &Path) -> Result<Members, SourceError> {
     let plain = Members { open_path: path.to_path_buf(), ..Members::default() };
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = relief_source::regular::read_regular_to_string(path) else {
         return Ok(plain);
     };
     let folder = path.parent().unwrap_or(Path::new("."));
