@@ -249,6 +249,7 @@ pub fn build(
     registry: &Registry,
     previous: Option<&SceneSnapshot>,
 ) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
+    relief_source_gdal::guard::set_roots(&manifest.roots);
     let generation = previous.map_or(1, |p| p.generation + 1);
     let same_grid =
         previous.is_some_and(|p| p.manifest.grid == manifest.grid && p.manifest.tile_size == manifest.tile_size);

@@ -9,7 +9,6 @@ pub mod backing;
 pub mod camera;
 pub mod codec;
 pub mod content;
-pub mod echo;
 pub mod effects;
 pub mod frames;
 pub mod graph;

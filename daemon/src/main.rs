@@ -9,7 +9,7 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use relief_daemon::scene::Scene;
-use relief_daemon::service::{Guard, GuardOptions};
+use relief_daemon::service::{Guard, GuardOptions, Limits};
 use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
@@ -61,6 +61,12 @@ struct Serve {
     /// reliefd's HTTP API from a browser; repeat for more.
     #[arg(long, value_name = "ORIGIN")]
     allow_origin: Vec<String>,
+    /// Connections open at once, in all (more are closed at once).
+    #[arg(long, default_value_t = Limits::DEFAULT.global, value_name = "N")]
+    max_connections: usize,
+    /// Connections open at once from one address other than loopback.
+    #[arg(long, default_value_t = Limits::DEFAULT.per_address, value_name = "N")]
+    max_connections_per_address: usize,
     /// Serve Prometheus metrics at http://ADDR/metrics (a loopback
     /// address; port 0 picks a free one).
     #[arg(long)]
@@ -177,6 +183,8 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 metrics_listen,
                 allow_host,
                 allow_origin,
+                max_connections,
+                max_connections_per_address,
             } = *asked_for;
             let options = GuardOptions {
                 token_file,
@@ -185,6 +193,7 @@ fn run(args: Args) -> anyhow::Result<ExitCode> {
                 insecure,
                 allow_hosts: allow_host,
                 allow_origins: allow_origin,
+                limits: Limits { global: max_connections, per_address: max_connections_per_address, ..Limits::DEFAULT },
             };
             // Refused before the scene loads: a bind that would be unsafe fails at once.
             let guard = Guard::for_listen(listen, &options)?;

@@ -130,6 +130,10 @@ struct RawScene {
     grid: RawGrid,
     #[serde(default)]
     tile_size: Option<u32>,
+    /// Folders (relative to the manifest's) that files named by scene
+    /// files may lie under, besides their own folder and the manifest's.
+    #[serde(default)]
+    roots: Vec<String>,
 }
 
 fn default_grid() -> RawGrid {
@@ -264,6 +268,9 @@ pub struct Manifest {
     /// Where the sun is (`[sun]`): what lighting follows.
     pub sun: Sun,
     pub cache_budget_bytes: u64,
+    /// The folders files named by scene files (a VRT's members) may lie
+    /// under besides their own: the manifest's, then `[scene] roots`.
+    pub roots: Vec<PathBuf>,
     /// The budget of decoded raster blocks (`[cache] raster_mb`), for the
     /// process: the first scene loaded sets it.
     pub raster_budget_bytes: u64,
@@ -330,6 +337,15 @@ impl Manifest {
         let field =
             |field: &str, message: String| ManifestError::Field { path: path.clone(), field: field.into(), message };
         let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+
+        let mut roots = vec![base.clone()];
+        for (n, given) in raw.scene.roots.iter().enumerate() {
+            let root = base.join(given);
+            if !root.is_dir() {
+                return Err(field(&format!("scene.roots[{n}]"), format!("{} is not a folder", root.display())));
+            }
+            roots.push(root);
+        }
 
         let grid = match raw.scene.grid {
             RawGrid::Named(name) if name == "geodetic" => GridSpec::Geodetic,
@@ -566,6 +582,7 @@ impl Manifest {
         Ok(Self {
             path,
             name: raw.scene.name,
+            roots,
             grid,
             tile_size,
             sources,
@@ -592,6 +609,9 @@ impl Manifest {
 /// `[...]`, as in `tiles/*.tif`) is every file it matches, sorted, and
 /// must match at least one.
 fn expand(base: &Path, given: &str) -> Result<Vec<PathBuf>, String> {
+    if let Some(why) = relief_source_gdal::guard::refusal(given) {
+        return Err(format!("'{}' is not a scene file: {why}", relief_source::echo::echoed(given)));
+    }
     if !given.contains(['*', '?', '[']) {
         return Ok(vec![base.join(given)]);
     }

@@ -166,7 +166,7 @@ pub fn navigate(
             let slot = snap
                 .index_of(id)
                 .map(|i| &snap.slots[i])
-                .ok_or_else(|| ViewError::UnknownSource(crate::echo::echoed(id)))?;
+                .ok_or_else(|| ViewError::UnknownSource(relief_source::echo::echoed(id)))?;
             let extent = slot.source.as_ref().and_then(|src| src.info().extent).ok_or_else(|| {
                 bad("fly_to_source", format!("source '{id}' has no extent to fly to (it has no data loaded)"))
             })?;

@@ -28,8 +28,8 @@ pub struct Reliefd {
 }
 
 impl Reliefd {
-    /// Starts `reliefd serve MANIFEST --listen 127.0.0.1:0` and waits for
-    /// its `listening on ADDR` line. With RELIEF_DAEMON_WRAP set, reliefd
+    /// Starts `reliefd serve MANIFEST --listen 127.0.0.1:0` (unless `extra`
+    /// names another `--listen`) and waits for its `listening on ADDR` line. With RELIEF_DAEMON_WRAP set, reliefd
     /// runs under that command (words split on whitespace), for a profiler:
     /// `env LD_PRELOAD=... VAR=...` keeps reliefd's own process id, which
     /// `pid` and the benches' resident sets read.
@@ -39,7 +39,7 @@ impl Reliefd {
             .env("XDG_CACHE_HOME", cache.path())
             .arg("serve")
             .arg(manifest)
-            .args(["--listen", "127.0.0.1:0"])
+            .args(if extra.contains(&"--listen") { &[][..] } else { &["--listen", "127.0.0.1:0"][..] })
             .args(extra)
             .env("RUST_LOG", std::env::var("RELIEF_TEST_LOG").unwrap_or_else(|_| "info".into()))
             .stdout(Stdio::piped())

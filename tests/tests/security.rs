@@ -173,6 +173,58 @@ async fn tls_clients_with_the_ca_are_served_and_plaintext_is_refused() -> anyhow
     Ok(())
 }
 
+/// Finding 5 of issue 36 over TLS: a client that completes the handshake
+/// and then sends nothing, or its headers a byte a second, is closed
+/// within the 10 s deadline.
+#[test]
+fn a_slowloris_connection_over_tls_is_closed_within_the_header_timeout() -> anyhow::Result<()> {
+    use rustls::pki_types::pem::PemObject;
+    use std::io::{Read, Write};
+    let dir = tempfile::tempdir()?;
+    let (daemon, port, ca) = tls_daemon(dir.path())?;
+    let mut roots = rustls::RootCertStore::empty();
+    roots.add(rustls::pki_types::CertificateDer::from_pem_slice(ca.as_bytes())?)?;
+    let config = std::sync::Arc::new(
+        rustls::ClientConfig::builder_with_provider(std::sync::Arc::new(rustls::crypto::ring::default_provider()))
+            .with_safe_default_protocol_versions()?
+            .with_root_certificates(roots)
+            .with_no_client_auth(),
+    );
+    let drip = |bytes: &'static [u8]| -> anyhow::Result<Option<f64>> {
+        let name = rustls::pki_types::ServerName::try_from("localhost")?;
+        let tcp = std::net::TcpStream::connect(format!("127.0.0.1:{port}"))?;
+        tcp.set_read_timeout(Some(Duration::from_secs(1)))?;
+        let mut tls = rustls::StreamOwned::new(rustls::ClientConnection::new(config.clone(), name)?, tcp);
+        while tls.conn.is_handshaking() {
+            tls.conn.complete_io(&mut tls.sock)?;
+        }
+        let start = std::time::Instant::now();
+        let mut buffer = [0u8; 4096];
+        for n in 0..20 {
+            if n < bytes.len() && tls.write_all(&bytes[n..=n]).and_then(|()| tls.flush()).is_err() {
+                return Ok(Some(start.elapsed().as_secs_f64()));
+            }
+            match tls.read(&mut buffer) {
+                Ok(0) => return Ok(Some(start.elapsed().as_secs_f64())),
+                Ok(_) => {}
+                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {}
+                Err(_) => return Ok(Some(start.elapsed().as_secs_f64())),
+            }
+        }
+        Ok(None)
+    };
+    let silent = std::thread::scope(|s| {
+        let silent = s.spawn(|| drip(b""));
+        let dripping = drip(b"GET /api/state HTTP/1.1\r\nHost: localhost\r\nX-Slow: aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa");
+        (silent.join(), dripping)
+    });
+    let (silent, dripping) = (silent.0.map_err(|_| anyhow::anyhow!("the silent client panicked"))??, silent.1?);
+    assert!(dripping.is_some_and(|s| s < 13.0), "a byte a second kept it open: {dripping:?}");
+    assert!(silent.is_some_and(|s| s < 13.0), "silence after the handshake kept it open: {silent:?}");
+    daemon.stop(&[])?;
+    Ok(())
+}
+
 /// `reliefd serve MANIFEST --listen ADDR ...` until it prints its address
 /// (then stopped) or exits: (exit code if it exited, all it wrote).
 fn serve_once(manifest: &Path, listen: &str, extra: &[&str]) -> anyhow::Result<(Option<i32>, String)> {

@@ -133,7 +133,7 @@ impl Views {
         let mut open = self.open_views();
         // Idle views go here too, with the frame each holds.
         open.retain(|_, v| !v.idle());
-        let view = open.get(id).cloned().ok_or_else(|| ViewError::UnknownView(crate::echo::echoed(id)))?;
+        let view = open.get(id).cloned().ok_or_else(|| ViewError::UnknownView(relief_source::echo::echoed(id)))?;
         drop(open);
         view.touch();
         Ok(view)

@@ -42,6 +42,12 @@ impl Limits {
     };
 }
 
+impl Default for Limits {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 /// The connections open now, in all and by address.
 pub struct Connections {
     limits: Limits,

@@ -467,7 +467,7 @@ async fn asset(uri: Uri) -> Response {
 fn not_found(method: &Method, uri: &Uri) -> Response {
     HttpError(Status::not_found(format!(
         "no route {method} {}; GET /api lists the calls",
-        crate::echo::echoed(uri.path())
+        relief_source::echo::echoed(uri.path())
     )))
     .into_response()
 }

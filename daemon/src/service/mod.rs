@@ -34,7 +34,8 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 use self::auth::Access;
-use self::connections::{Activity, Connections, Held, Hold, Limits};
+pub use self::connections::Limits;
+use self::connections::{Activity, Connections, Held, Hold};
 
 use crate::frames::FrameHub;
 use crate::scene::Scene;
@@ -55,6 +56,8 @@ pub struct Guard {
     pub tls: Option<TlsAcceptor>,
     /// The hosts and origins browsers may reach it from.
     pub site: site::Site,
+    /// How many connections, and for how long.
+    pub limits: Limits,
 }
 
 /// How the command line asks the port to be guarded.
@@ -69,12 +72,14 @@ pub struct GuardOptions {
     pub allow_hosts: Vec<String>,
     /// Origins whose pages may call (`--allow-origin`).
     pub allow_origins: Vec<String>,
+    /// Connections at once, in all and from one address (`--max-connections`).
+    pub limits: Limits,
 }
 
 impl Guard {
     /// No tokens and no TLS: for loopback, where only this machine's users reach.
     pub fn open() -> Self {
-        Self { access: Access::Open, tls: None, site: site::Site::default() }
+        Self { access: Access::Open, tls: None, site: site::Site::default(), limits: Limits::DEFAULT }
     }
 
     /// The guard for serving `listen`: tokens and TLS as asked. An address
@@ -132,7 +137,11 @@ impl Guard {
             hosts: options.allow_hosts.clone(),
             origins: options.allow_origins.clone(),
         };
-        Ok(Self { access, tls, site })
+        anyhow::ensure!(
+            options.limits.global > 0 && options.limits.per_address > 0,
+            "--max-connections and --max-connections-per-address must be at least 1"
+        );
+        Ok(Self { access, tls, site, limits: options.limits })
     }
 }
 
@@ -231,7 +240,7 @@ pub async fn serve(
         });
     }
     let router = router(&calls, guard.access, guard.site).await?;
-    let connections = Connections::new(Limits::DEFAULT);
+    let connections = Connections::new(guard.limits);
     let limits = connections.limits();
     let mut builder = auto::Builder::new(TokioExecutor::new());
     // A request's headers in time (slowloris); HTTP/2 pings that must be

@@ -120,7 +120,7 @@ impl SceneCalls {
         let ids = r.source_ids;
         let snap = self.scene.snapshot();
         if let Some(unknown) = ids.iter().find(|id| snap.index_of(id).is_none()) {
-            return Err(Status::not_found(format!("no source has id '{}'", crate::echo::echoed(unknown))));
+            return Err(Status::not_found(format!("no source has id '{}'", relief_source::echo::echoed(unknown))));
         }
         let arrived = self.reloads.started.load(std::sync::atomic::Ordering::Acquire);
         let _turn = self.reloads.running.lock().await;

@@ -112,7 +112,7 @@ pub async fn check(State(site): State<Arc<Site>>, request: Request, next: Next) 
         return refused(Status::permission_denied(format!(
             "host '{}' is not this reliefd's (listening on {}): a page reached it under another name; \
              give reliefd --allow-host NAME to serve that name",
-            crate::echo::echoed(host),
+            relief_source::echo::echoed(host),
             site.listen.map_or_else(String::new, |l| l.to_string())
         )));
     }
@@ -122,8 +122,8 @@ pub async fn check(State(site): State<Arc<Site>>, request: Request, next: Next) 
     {
         return refused(Status::permission_denied(format!(
             "a page from {} may not call this reliefd; give reliefd --allow-origin {} to let it",
-            crate::echo::echoed(origin),
-            crate::echo::echoed(origin)
+            relief_source::echo::echoed(origin),
+            relief_source::echo::echoed(origin)
         )));
     }
     if matches!(*request.method(), Method::POST | Method::PUT | Method::PATCH) {

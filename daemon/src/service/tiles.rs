@@ -28,9 +28,9 @@ impl TileCalls {
     pub async fn tile(&self, r: GetTileRequest) -> Result<GetTileResponse, Status> {
         let key = convert::tile_key(r.key.as_ref())?;
         let snap = self.scene.snapshot();
-        let index = snap
-            .index_of(&r.source_id)
-            .ok_or_else(|| Status::not_found(format!("no source has id '{}'", crate::echo::echoed(&r.source_id))))?;
+        let index = snap.index_of(&r.source_id).ok_or_else(|| {
+            Status::not_found(format!("no source has id '{}'", relief_source::echo::echoed(&r.source_id)))
+        })?;
         let quality = convert::quality(snap.manifest.quality, r.quality.as_ref())?;
         let store = Arc::clone(&self.scene.store);
         let job_snap = Arc::clone(&snap);
@@ -104,7 +104,7 @@ impl TileCalls {
         };
         let index = snap
             .index_of(&id)
-            .ok_or_else(|| Status::not_found(format!("no source has id '{}'", crate::echo::echoed(&id))))?;
+            .ok_or_else(|| Status::not_found(format!("no source has id '{}'", relief_source::echo::echoed(&id))))?;
         let Some(source) = snap.slots[index].source.clone() else {
             return Err(Status::failed_precondition(format!(
                 "source '{id}' has no data to serve: {}",

@@ -9,6 +9,7 @@
 
 mod crs;
 mod dirty;
+pub mod echo;
 mod error;
 mod features;
 pub mod files;

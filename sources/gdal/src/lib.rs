@@ -29,6 +29,7 @@
 //!    a mosaic the first listed raster with data at a point wins.
 
 mod crs;
+pub mod guard;
 mod raster;
 mod resample;
 mod source;
@@ -38,7 +39,7 @@ pub use raster::{
     ChangeDetection, DEFAULT_BLOCK_BUDGET, RasterKind, Residency, VerticalUnits, block_budget, cached_bytes,
     set_block_budget,
 };
-pub use source::{GdalSource, KIND};
+pub use source::{GdalSource, KIND, configure_gdal};
 
 /// GDAL's message for a failed call on `path`, without GDAL's own copy of
 /// the path (an error puts it last, once); `unrecognised` when GDAL gave

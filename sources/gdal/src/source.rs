@@ -35,9 +35,10 @@ const OPTIONS: &[&str] = &[
 /// Sets GDAL up for relief, once: its block cache and directory listing
 /// (below), and its own messages routed to tracing instead of stderr
 /// (every failure that matters comes back as an error value anyway).
-pub(crate) fn configure_gdal() {
+pub fn configure_gdal() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
+        crate::guard::configure();
         // Reads of uncompressed GeoTIFFs skip GDAL's block cache: relief
         // keeps the decoded blocks itself.
         let _unknown_option_is_harmless = gdal::config::set_config_option("GTIFF_DIRECT_IO", "YES");

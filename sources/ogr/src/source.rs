@@ -58,6 +58,11 @@ fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
         path: path.to_path_buf(),
         message: format!("cannot open{}: {e}", which(layer)),
     })?;
+    relief_source_gdal::configure_gdal();
+    relief_source_gdal::guard::check_dataset(path).map_err(|e| SourceError::Format {
+        path: path.to_path_buf(),
+        message: format!("cannot open{}: {e}", which(layer)),
+    })?;
     let options = DatasetOptions {
         open_flags: GdalOpenFlags::GDAL_OF_VECTOR
             | GdalOpenFlags::GDAL_OF_READONLY

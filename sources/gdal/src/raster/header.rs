@@ -41,6 +41,8 @@ impl Raster {
     /// levels. A VRT that names missing files is opened without them.
     pub(super) fn header(path: &Path, options: &ReadOptions) -> Result<Header, SourceError> {
         crate::source::configure_gdal();
+        // Checked before relief reads a member itself, as GDAL's opens are.
+        crate::guard::check_dataset(path).map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
         let fingerprint = Fingerprint::of(path, "raster")?;
         let members = vrt::members(path)?;
         let ds = open_dataset_named(&members.open_path, path)?;
@@ -361,8 +363,12 @@ pub(crate) fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
     use gdal::{DatasetOptions, GdalOpenFlags};
     // GDAL opens it, and the side files it looks for, itself: a pipe in
     // their place would block it for good.
-    relief_source::regular::check_for_gdal(path, false)
-        .map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
+    // (relief's own VRTs in GDAL's memory were written from checked files.)
+    if !path.starts_with(crate::guard::OWN_MEMORY_FILES) {
+        relief_source::regular::check_for_gdal(path, false)
+            .map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
+        crate::guard::check_dataset(path).map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
+    }
     let options = DatasetOptions {
         open_flags: GdalOpenFlags::GDAL_OF_RASTER
             | GdalOpenFlags::GDAL_OF_READONLY

@@ -334,7 +334,12 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
         let names: Vec<String> = missing.iter().map(|p| p.display().to_string()).collect();
         return Err(format_err(format!("none of the VRT's files is there (missing: {})", names.join(", ")), path));
     }
-    let copy = PathBuf::from(format!("/vsimem/relief/{}-{}.vrt", std::process::id(), super::blocks::new_uid()));
+    let copy = PathBuf::from(format!(
+        "{}/{}-{}.vrt",
+        crate::guard::OWN_MEMORY_FILES,
+        std::process::id(),
+        super::blocks::new_uid()
+    ));
     gdal::vsi::create_mem_file(&copy, writer.into_inner())
         .map_err(|e| format_err(format!("cannot write the VRT without its missing files: {e}"), path))?;
     Ok(Members { files, missing, holes, open_path: copy, sources, own_overviews, hides_nodata })

@@ -170,7 +170,12 @@ pub(crate) fn from_gcps(
     }
     let plan = Bands::plan(ds, kind, options, path)?;
     let xml = plan.vrt(&frame, &crs_wkt, source, &gcps, order);
-    let name = PathBuf::from(format!("/vsimem/relief/{}-{}-warped.vrt", std::process::id(), super::blocks::new_uid()));
+    let name = PathBuf::from(format!(
+        "{}/{}-{}-warped.vrt",
+        crate::guard::OWN_MEMORY_FILES,
+        std::process::id(),
+        super::blocks::new_uid()
+    ));
     let file = MemFile::create(name, xml.into_bytes())
         .map_err(|e| format_err(format!("cannot write the raster's warp: {e}"), path))?;
     // Lengths in the CRS's units, to about a thousandth of a pixel.

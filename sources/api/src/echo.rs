@@ -1,4 +1,4 @@
-//! What an error message says back of what a caller sent: at most
+//! What an error message says back of what a caller or a file sent: at most
 //! [`MOST_CHARS`] characters of it, so a megabyte id is not answered with
 //! a megabyte message.
 
