@@ -25,6 +25,12 @@
 //! against the memory cache budget, and the relief_* lines of /metrics
 //! for reloads and rebuilt tiles.
 //!
+//! With RELIEF_BENCH_SLOW and RELIEF_BENCH_IDLE (200 and 2000 for issue
+//! 36's run; none by default), the second half of the run adds that many
+//! slowloris connections (headers a byte a second) and idle ones (nothing
+//! sent), each opened again when reliefd closes it, and the totals print
+//! the viewers' frame rate and the resident set without them and with.
+//!
 //! `cargo bench -p relief-daemon --bench soak`; RELIEF_BENCH_SOAK_SECS
 //! (default 600), RELIEF_BENCH_VIEWERS (default 50),
 //! RELIEF_BENCH_TILES_PER_SEC (default 20), RELIEF_BENCH_CACHE (lines for
@@ -33,6 +39,8 @@
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
 
+#[path = "soak/abuse.rs"]
+mod abuse;
 mod common;
 
 use std::path::{Path, PathBuf};
@@ -293,6 +301,10 @@ async fn run() -> anyhow::Result<()> {
     let secs = env_u64("RELIEF_BENCH_SOAK_SECS", 600);
     let viewers = env_u64("RELIEF_BENCH_VIEWERS", 50) as usize;
     let per_sec = env_u64("RELIEF_BENCH_TILES_PER_SEC", 20);
+    let (slow, idle) = (env_u64("RELIEF_BENCH_SLOW", 0) as usize, env_u64("RELIEF_BENCH_IDLE", 0) as usize);
+    if slow + idle > 0 {
+        raise_open_file_limit();
+    }
 
     let dir = tempfile::tempdir()?;
     let manifest = relief_examples::write_demo_scene(dir.path())?;
@@ -338,6 +350,12 @@ async fn run() -> anyhow::Result<()> {
         LEVELS.end(),
         SOURCES.join(", ")
     );
+    if slow + idle > 0 {
+        println!(
+            "abuse: from {} s on, {slow} slowloris connections (headers a byte a second) and {idle} idle ones (nothing sent), each opened again when reliefd closes it",
+            secs / 2
+        );
+    }
     if !cache_lines.is_empty() {
         println!("[cache] added to the manifest: {}", cache_lines.replace('\n', "; "));
     }
@@ -345,9 +363,9 @@ async fn run() -> anyhow::Result<()> {
         "memory cache budgets: tiles ([cache] memory_mb) {tile_budget_mb:.0} MB + raster blocks ([cache] raster_mb) {raster_budget_mb:.0} MB = {budget_mb:.0} MB; goals: the resident set within the budgets + {OVER_BUDGETS_MB:.0} MB, and what no cache holds (RSS - every cache counted) flat\n"
     );
     println!(
-        "| t s | RSS MB | tile cache MB | raster cache MB | renderers MB | frames held MB | RSS - tile and raster caches MB | nobody's (RSS - all) MB | frames delivered | tiles requested | GetTile p50 ms | GetTile p99 ms | generation | errors so far |"
+        "| t s | RSS MB | tile cache MB | raster cache MB | renderers MB | frames held MB | RSS - tile and raster caches MB | nobody's (RSS - all) MB | frames delivered | tiles requested | GetTile p50 ms | GetTile p99 ms | generation | errors so far | abusive connections open |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
 
     let events = edit::Events::follow(channel.clone()).await?;
     let tally = Arc::new(Tally::default());
@@ -371,7 +389,13 @@ async fn run() -> anyhow::Result<()> {
     let mut next_row = started;
     // Frame streams and the distinct views they show, at the last row.
     let mut streams: (u64, u64);
+    // The abusive connections, once started; each row's (abused through
+    // its interval, viewers' frames a second, RSS, nobody's).
+    let abuse_at = (slow + idle > 0).then(|| started + Duration::from_secs(secs / 2));
+    let mut abuse: Option<Arc<abuse::Abuse>> = None;
+    let mut phases: Vec<(bool, f64, f64, f64)> = Vec::new();
     loop {
+        let abused = abuse.is_some();
         next_row += Duration::from_secs(10);
         let end = started + Duration::from_secs(secs);
         tokio::time::sleep_until(next_row.min(end).into()).await;
@@ -393,7 +417,7 @@ async fn run() -> anyhow::Result<()> {
         let part = |prefix: &str| mb(c.memory.iter().filter(|m| m.name.starts_with(prefix)).map(|m| m.bytes).sum());
         let (renderers, frames_held) = (part("renderer: "), part("frames held"));
         println!(
-            "| {t:.0} | {r:.0} | {:.0} | {:.0} | {renderers:.0} | {frames_held:.0} | {:.0} | {:.0} | {} | {} | {:.1} | {:.1} | {} | {errors} |",
+            "| {t:.0} | {r:.0} | {:.0} | {:.0} | {renderers:.0} | {frames_held:.0} | {:.0} | {:.0} | {} | {} | {:.1} | {:.1} | {} | {errors} | {} |",
             mb(c.cache_bytes),
             mb(c.raster_cache_bytes),
             r - caches,
@@ -403,7 +427,11 @@ async fn run() -> anyhow::Result<()> {
             percentile(&interval, 0.5),
             percentile(&interval, 0.99),
             s.generation,
+            abuse.as_ref().map_or(0, |a| a.open.load(Ordering::Relaxed)),
         );
+        let interval_s = t - phases.len() as f64 * 10.0;
+        let each = (frames - frames_before) as f64 / interval_s.max(1.0) / viewers.max(1) as f64;
+        phases.push((abused, each, r, r - caches - renderers - frames_held));
         (frames_before, tiles_before) = (frames, tiles);
         all_latencies.extend(interval);
         rss.push(r);
@@ -412,6 +440,11 @@ async fn run() -> anyhow::Result<()> {
         streams = (c.frame_streams, c.frame_views);
         if Instant::now() >= end {
             break;
+        }
+        if abuse.is_none() && abuse_at.is_some_and(|at| Instant::now() >= at) {
+            let (started_abuse, abusers) = abuse::Abuse::start(&daemon.addr, slow, idle, &stop);
+            abuse = Some(started_abuse);
+            tasks.extend(abusers);
         }
     }
     let elapsed = started.elapsed().as_secs_f64();
@@ -436,6 +469,28 @@ async fn run() -> anyhow::Result<()> {
     // Growth from the second row (20 s) on, when the caches have filled.
     let settled = rss.get(1).copied().unwrap_or(f64::NAN);
 
+    if let Some(a) = &abuse {
+        println!("\n## Viewers without and with the abusive connections\n");
+        println!(
+            "| phase | rows | viewers' frames a second (each) | RSS MB mean / max | nobody's (RSS - every cache) MB mean |\n|---|---|---|---|---|"
+        );
+        // The first row (the caches filling) is left out of the first phase.
+        for (label, with) in [("without", false), ("with", true)] {
+            let rows: Vec<&(bool, f64, f64, f64)> = phases.iter().skip(1).filter(|p| p.0 == with).collect();
+            let n = rows.len().max(1) as f64;
+            let fps = rows.iter().map(|p| p.1).sum::<f64>() / n;
+            let rss_mean = rows.iter().map(|p| p.2).sum::<f64>() / n;
+            let rss_max = rows.iter().map(|p| p.2).fold(0.0f64, f64::max);
+            let nobodys_mean = rows.iter().map(|p| p.3).sum::<f64>() / n;
+            println!("| {label} | {} | {fps:.2} | {rss_mean:.0} / {rss_max:.0} | {nobodys_mean:.0} |", rows.len());
+        }
+        println!(
+            "\nabusive connections: {} opened, {} closed by reliefd, the longest held {:.1} s",
+            a.opened.load(Ordering::Relaxed),
+            a.closed.load(Ordering::Relaxed),
+            a.longest_ms.load(Ordering::Relaxed) as f64 / 1000.0
+        );
+    }
     println!("\n## Totals over {elapsed:.0} s\n");
     println!("| what | value |\n|---|---|");
     println!(
@@ -532,6 +587,15 @@ async fn run() -> anyhow::Result<()> {
     // Its warnings are reported above; stop checks the clean exit.
     tokio::task::spawn_blocking(move || daemon.stop(&[" WARN ", " ERROR "])).await??;
     Ok(())
+}
+
+/// Thousands of sockets need more than the usual 1024 descriptors.
+fn raise_open_file_limit() {
+    use rustix::process::{Resource, Rlimit, getrlimit, setrlimit};
+    let limit = getrlimit(Resource::Nofile);
+    if let Some(maximum) = limit.maximum {
+        let _ = setrlimit(Resource::Nofile, Rlimit { current: Some(maximum), maximum: Some(maximum) });
+    }
 }
 
 fn main() -> anyhow::Result<()> {
