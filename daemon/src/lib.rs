@@ -5,6 +5,7 @@
 //! relief-proto at the gRPC edge only (`service`). Frames are drawn by
 //! relief-renderer; `view` feeds it the scene's tiles and owns the camera.
 
+pub mod addressing;
 pub mod backing;
 pub mod camera;
 pub mod codec;
@@ -22,6 +23,7 @@ pub mod service;
 pub mod sun;
 #[cfg(test)]
 mod testing;
+pub mod tile;
 pub mod tiles;
 pub mod view;
 pub mod watcher;

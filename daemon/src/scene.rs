@@ -11,10 +11,10 @@ use std::time::Instant;
 use relief_source::{DirtySet, Extent, Quality, Refresh, TileKey};
 use tokio::sync::{broadcast, watch};
 
+use crate::addressing::ContentKeys;
 use crate::backing::disk::DiskTiles;
 use crate::backing::redis::RedisTiles;
 use crate::backing::{Backing, Backings};
-use crate::content::ContentKeys;
 use crate::graph::{self, LoadError, SceneSnapshot};
 use crate::manifest::Manifest;
 use crate::registry::Registry;

@@ -12,13 +12,7 @@ use relief_source::{GenerateContext, InputTiles, Payload, Quality, SourceError, 
 
 use crate::backing::Backings;
 use crate::graph::SceneSnapshot;
-
-/// A generated tile and the hash of its content.
-#[derive(Debug)]
-pub struct Tile {
-    pub payload: Arc<Payload>,
-    pub content_hash: u64,
-}
+pub use crate::tile::Tile;
 
 #[derive(Debug, Clone, thiserror::Error)]
 #[non_exhaustive]

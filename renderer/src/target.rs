@@ -62,8 +62,7 @@ impl Target {
     /// What the target holds, bytes: colour and depth, and their read-back
     /// buffers.
     pub fn held_bytes(&self) -> u64 {
-        let pass = crate::passes::pipeline::texture_bytes;
-        pass(&self.color) + pass(&self.depth) + self.color_buffer.size() + self.depth_buffer.size()
+        texture_bytes(&self.color) + texture_bytes(&self.depth) + self.color_buffer.size() + self.depth_buffer.size()
     }
 
     /// Whether this target is `width` x `height`.
@@ -228,4 +227,11 @@ pub fn wait(gpu: &Gpu) -> Result<(), RenderError> {
         .poll(wgpu::PollType::Wait { submission_index: None, timeout: None })
         .map(|_| ())
         .map_err(|e| RenderError::Device(e.to_string()))
+}
+
+/// What a texture holds, bytes (every layer, one mip level).
+pub fn texture_bytes(texture: &wgpu::Texture) -> u64 {
+    let s = texture.size();
+    let texel = u64::from(texture.format().block_copy_size(None).unwrap_or(4));
+    u64::from(s.width) * u64::from(s.height) * u64::from(s.depth_or_array_layers) * texel
 }

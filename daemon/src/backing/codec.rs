@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use relief_source::Payload;
 
-use crate::tiles::Tile;
+use crate::tile::Tile;
 
 const MAGIC: &[u8; 8] = b"RLFTILE1";
 const HEADER: usize = 8 + 16 + 8;

@@ -11,7 +11,7 @@ pub mod redis;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::tiles::Tile;
+use crate::tile::Tile;
 
 /// Bytes by content address.
 pub trait Backing: Send + Sync + std::fmt::Debug {

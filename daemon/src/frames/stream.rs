@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 use tokio::sync::{mpsc, watch};
 use tokio_util::sync::CancellationToken;
 
-use super::{FrameFormat, FrameHub, HubFrame, OpenView, Subscription, ViewKey, ViewSettings};
+use super::frame::{FrameFormat, HubFrame, Published, ViewKey};
+use super::hub::{FrameHub, Subscription};
+use super::views::{OpenView, ViewSettings};
 use crate::view::{Camera, Overrides, ViewError};
 
 /// Whose camera a stream shows.
@@ -103,7 +105,7 @@ pub fn start(hub: &Arc<FrameHub>, spec: StreamSpec, shutdown: CancellationToken)
 }
 
 /// The newest thing a subscription holds: its view's frame, or why it failed.
-fn newest(sub: &mut Subscription) -> super::Published {
+fn newest(sub: &mut Subscription) -> Published {
     sub.frames.borrow_and_update().clone()
 }
 

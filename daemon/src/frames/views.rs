@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use tokio::sync::watch;
 
-use super::HubFrame;
+use super::frame::HubFrame;
 use crate::view::{Camera, ViewError};
 
 /// Views open at once.

@@ -34,6 +34,6 @@ impl MeshTiles for SceneBuildings<'_> {
     }
 
     fn meshes(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>> {
-        super::layer_tiles(self.store, self.snap, &self.quality, self.index, keys)
+        super::layer::layer_tiles(self.store, self.snap, &self.quality, self.index, keys)
     }
 }

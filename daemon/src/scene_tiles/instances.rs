@@ -101,7 +101,7 @@ impl InstanceTiles for SceneInstances<'_> {
     }
 
     fn instances(&self, keys: &[TileKey]) -> Vec<Option<Arc<Payload>>> {
-        super::layer_tiles(self.store, self.snap, &self.quality, self.index, keys)
+        super::layer::layer_tiles(self.store, self.snap, &self.quality, self.index, keys)
     }
 
     /// The source's own file of that name first, then a stock model.

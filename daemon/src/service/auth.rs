@@ -15,7 +15,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use tonic::Status;
 
-use super::http::HttpError;
+use super::status::HttpError;
 pub use crate::frames::Holder;
 
 /// What a caller may do.

@@ -10,8 +10,8 @@ use relief_proto::v1::view_service_server::ViewService;
 use tokio_stream::wrappers::ReceiverStream;
 use tonic::{Request, Response, Status};
 
-use super::Calls;
 use super::auth::{Holder, Scope};
+use super::calls::Calls;
 use super::view::Frames;
 
 /// The calls behind the three relief.v1 services.

@@ -13,7 +13,7 @@ use axum::Router;
 use axum::body::Bytes;
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Extension, Path, Query, State};
-use axum::http::{HeaderValue, Method, StatusCode, Uri, header};
+use axum::http::{HeaderValue, Method, Uri, header};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, patch, post};
@@ -21,59 +21,15 @@ use relief_proto::v1 as pb;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use tokio_stream::{Stream, StreamExt};
-use tonic::{Code, Status};
+use tonic::Status;
 use tower::ServiceExt as _;
 
-use super::Calls;
 use super::auth::{Holder, Scope};
+use super::calls::Calls;
+pub use super::status::HttpError;
+use super::status::error_body;
 
 type Shared = State<Arc<Calls>>;
-
-/// A call's failure as HTTP: the status that matches its gRPC code, and
-/// `{"code": "INVALID_ARGUMENT", "message": "..."}`.
-pub struct HttpError(Status);
-
-impl From<Status> for HttpError {
-    fn from(s: Status) -> Self {
-        Self(s)
-    }
-}
-
-fn http_status(code: Code) -> StatusCode {
-    match code {
-        Code::Ok => StatusCode::OK,
-        Code::InvalidArgument | Code::FailedPrecondition | Code::OutOfRange => StatusCode::BAD_REQUEST,
-        Code::NotFound => StatusCode::NOT_FOUND,
-        Code::AlreadyExists | Code::Aborted => StatusCode::CONFLICT,
-        Code::PermissionDenied => StatusCode::FORBIDDEN,
-        Code::Unauthenticated => StatusCode::UNAUTHORIZED,
-        Code::ResourceExhausted => StatusCode::TOO_MANY_REQUESTS,
-        Code::Unimplemented => StatusCode::NOT_IMPLEMENTED,
-        Code::Unavailable => StatusCode::SERVICE_UNAVAILABLE,
-        Code::DeadlineExceeded => StatusCode::GATEWAY_TIMEOUT,
-        Code::Cancelled => StatusCode::from_u16(499).unwrap_or(StatusCode::BAD_REQUEST),
-        Code::Unknown | Code::Internal | Code::DataLoss => StatusCode::INTERNAL_SERVER_ERROR,
-    }
-}
-
-fn error_body(s: &Status) -> serde_json::Value {
-    let code = format!("{:?}", s.code());
-    // "InvalidArgument" -> "INVALID_ARGUMENT", as gRPC names its codes.
-    let mut name = String::new();
-    for (i, c) in code.chars().enumerate() {
-        if c.is_uppercase() && i > 0 {
-            name.push('_');
-        }
-        name.push(c.to_ascii_uppercase());
-    }
-    serde_json::json!({ "code": name, "message": s.message() })
-}
-
-impl IntoResponse for HttpError {
-    fn into_response(self) -> Response {
-        (http_status(self.0.code()), axum::Json(error_body(&self.0))).into_response()
-    }
-}
 
 type Reply<T> = Result<axum::Json<T>, HttpError>;
 

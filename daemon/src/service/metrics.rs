@@ -18,7 +18,8 @@ use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
 use tokio::net::TcpListener;
 use tokio_util::sync::CancellationToken;
 
-use super::Calls;
+use crate::frames::FrameHub;
+use crate::scene::Scene;
 
 /// Bucket bounds for every `*_seconds` histogram: 1 ms to 30 s.
 const SECONDS_BUCKETS: &[f64] = &[0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 2.5, 5.0, 10.0, 30.0];
@@ -64,8 +65,8 @@ fn describe() {
 }
 
 /// What a scrape reads from the daemon's own totals.
-fn collect(calls: &Calls) {
-    let store = &calls.origin.store;
+fn collect(scene: &Scene, hub: &FrameHub) {
+    let store = &scene.store;
     let stats = store.counters();
     metrics::counter!("relief_tile_cache_hits_total").absolute(stats.hits);
     metrics::counter!("relief_tile_cache_misses_total").absolute(stats.misses);
@@ -75,11 +76,11 @@ fn collect(calls: &Calls) {
     for (source, n) in store.generated() {
         metrics::counter!("relief_tiles_generated_total", "source" => source).absolute(n);
     }
-    metrics::gauge!("relief_streams_active", "kind" => "frames").set(calls.hub.counters().streams as f64);
+    metrics::gauge!("relief_streams_active", "kind" => "frames").set(hub.counters().streams as f64);
 }
 
-async fn page(State(calls): State<Arc<Calls>>) -> impl IntoResponse {
-    collect(&calls);
+async fn page(State((scene, hub)): State<(Arc<Scene>, Arc<FrameHub>)>) -> impl IntoResponse {
+    collect(&scene, &hub);
     let text = handle().map_or_else(
         |e| format!("# {e:#}\n"),
         |h| {
@@ -92,9 +93,14 @@ async fn page(State(calls): State<Arc<Calls>>) -> impl IntoResponse {
 
 /// Serves `/metrics` on `listener` until `shutdown`. The address must be
 /// loopback: the page names sources and files.
-pub async fn serve(listener: TcpListener, calls: Arc<Calls>, shutdown: CancellationToken) -> anyhow::Result<()> {
+pub async fn serve(
+    listener: TcpListener,
+    scene: Arc<Scene>,
+    hub: Arc<FrameHub>,
+    shutdown: CancellationToken,
+) -> anyhow::Result<()> {
     handle()?;
-    let router = Router::new().route("/metrics", get(page)).with_state(calls);
+    let router = Router::new().route("/metrics", get(page)).with_state((scene, hub));
     axum::serve(listener, router)
         .with_graceful_shutdown(async move { shutdown.cancelled().await })
         .await

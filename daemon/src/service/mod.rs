@@ -5,6 +5,7 @@
 //! relief's own types and back, `status` turns errors into statuses.
 
 pub mod auth;
+mod calls;
 pub mod connections;
 mod convert;
 mod grpc;
@@ -34,12 +35,11 @@ use tokio_util::sync::CancellationToken;
 use tokio_util::task::TaskTracker;
 
 use self::auth::Access;
+use self::calls::Calls;
 pub use self::connections::Limits;
 use self::connections::{Activity, Connections, Held, Hold};
 
-use crate::frames::FrameHub;
 use crate::scene::Scene;
-use crate::view::Viewer;
 
 /// HTTP/2 flow-control window per stream.
 pub const WINDOW_BYTES: u32 = 8 * 1024 * 1024;
@@ -145,30 +145,6 @@ impl Guard {
     }
 }
 
-/// Every call, once, for both transports.
-pub struct Calls {
-    pub scene: scene::SceneCalls,
-    pub tiles: tiles::TileCalls,
-    pub view: view::ViewCalls,
-    /// The scene and frame hub the calls serve, for the metrics page.
-    origin: Arc<Scene>,
-    hub: Arc<FrameHub>,
-}
-
-impl Calls {
-    pub fn new(scene: &Arc<Scene>, shutdown: &CancellationToken) -> Arc<Self> {
-        let viewer = Viewer::new(scene);
-        let hub = FrameHub::start(scene, &viewer, shutdown.clone());
-        Arc::new(Self {
-            scene: scene::SceneCalls::new(Arc::clone(scene), Arc::clone(&hub), shutdown.clone()),
-            tiles: tiles::TileCalls::new(Arc::clone(scene)),
-            view: view::ViewCalls::new(Arc::clone(scene), Arc::clone(&hub), shutdown.clone()),
-            origin: Arc::clone(scene),
-            hub,
-        })
-    }
-}
-
 /// gRPC (relief.v1, health, reflection) and HTTP on one router, every
 /// call through the token check.
 async fn router(calls: &Arc<Calls>, access: Access, site: site::Site) -> anyhow::Result<axum::Router> {
@@ -232,9 +208,9 @@ pub async fn serve(
 ) -> anyhow::Result<()> {
     let calls = Calls::new(&scene, &shutdown);
     if let Some(metrics) = metrics {
-        let (calls, shutdown) = (Arc::clone(&calls), shutdown.clone());
+        let (scene, hub, shutdown) = (Arc::clone(&scene), Arc::clone(&calls.hub), shutdown.clone());
         tokio::spawn(async move {
-            if let Err(e) = metrics::serve(metrics, calls, shutdown).await {
+            if let Err(e) = metrics::serve(metrics, scene, hub, shutdown).await {
                 tracing::error!("{e:#}");
             }
         });

@@ -21,7 +21,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use tonic::Status;
 
-use super::http::HttpError;
+use super::status::HttpError;
 
 /// The hosts and origins a daemon answers browsers from.
 #[derive(Debug, Clone, Default)]

@@ -3,6 +3,7 @@
 //! their depth-only twins, sampled textures, a pass's shader over the
 //! frame's prelude, and the digest passes key kept work by.
 
+pub use crate::target::texture_bytes;
 use crate::target::{COLOR_FORMAT, DEPTH_FORMAT};
 
 /// How a pass binds its small buffers (the frame's, its own parameters):
@@ -129,13 +130,6 @@ pub fn sampled_texture(
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     })
-}
-
-/// What a texture holds, bytes (every layer, one mip level).
-pub fn texture_bytes(texture: &wgpu::Texture) -> u64 {
-    let s = texture.size();
-    let texel = u64::from(texture.format().block_copy_size(None).unwrap_or(4));
-    u64::from(s.width) * u64::from(s.height) * u64::from(s.depth_or_array_layers) * texel
 }
 
 /// A pass's shader: the frame's uniform and lighting (`frame.wgsl`), then
