@@ -153,7 +153,8 @@ fn is_public(request: &Request) -> bool {
         || (request.method() == axum::http::Method::GET && relief_web::asset(path).is_some())
 }
 
-fn is_grpc(request: &Request) -> bool {
+/// A gRPC call (its content type), which browsers cannot make.
+pub fn is_grpc(request: &Request) -> bool {
     request
         .headers()
         .get(header::CONTENT_TYPE)

@@ -21,6 +21,7 @@ use axum::middleware::Next;
 use axum::response::{IntoResponse, Response};
 use tonic::Status;
 
+use super::auth::is_grpc;
 use super::status::HttpError;
 
 /// The hosts and origins a daemon answers browsers from.
@@ -78,14 +79,6 @@ fn split_port(host: &str) -> (&str, Option<&str>) {
         Some((name, port)) if !name.contains(':') => (name, Some(port)),
         _ => (host, None),
     }
-}
-
-fn is_grpc(request: &Request) -> bool {
-    request
-        .headers()
-        .get(header::CONTENT_TYPE)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.starts_with("application/grpc"))
 }
 
 fn refused(status: Status) -> Response {
