@@ -161,7 +161,7 @@ fn profile(
     // top of lighting.
     let named = std::env::var("RELIEF_BENCH_PROFILE_EFFECTS").unwrap_or_default();
     let on = |name: &str| named.split(',').any(|n| n.trim() == name);
-    let declared = &snap.manifest.effect_settings;
+    let declared = relief_daemon::picture::Picture::of(&snap.manifest).effect_settings;
     let settings = RenderSettings {
         atmosphere: declared.atmosphere.filter(|_| on("atmosphere")),
         fog: declared.fog.filter(|_| on("fog")),
@@ -316,10 +316,18 @@ fn effects(
     snap: &relief_daemon::graph::SceneSnapshot,
     terrain: &SceneTerrain<'_>,
 ) -> anyhow::Result<()> {
-    let fog = snap.manifest.effect_settings.fog.context("the demo declares fog")?;
-    let atmosphere = snap.manifest.effect_settings.atmosphere.context("the demo declares an atmosphere")?;
-    let shadows = snap.manifest.effect_settings.shadows.context("the demo declares shadows")?;
-    let water = snap.manifest.effect_settings.water.context("the demo declares water")?;
+    let fog =
+        relief_daemon::picture::Picture::of(&snap.manifest).effect_settings.fog.context("the demo declares fog")?;
+    let atmosphere = relief_daemon::picture::Picture::of(&snap.manifest)
+        .effect_settings
+        .atmosphere
+        .context("the demo declares an atmosphere")?;
+    let shadows = relief_daemon::picture::Picture::of(&snap.manifest)
+        .effect_settings
+        .shadows
+        .context("the demo declares shadows")?;
+    let water =
+        relief_daemon::picture::Picture::of(&snap.manifest).effect_settings.water.context("the demo declares water")?;
     // Frame and effect passes' medians and the last frame.
     let still = |settings: RenderSettings, at: &Pose| -> anyhow::Result<(f64, f64, Frame)> {
         let runs = still_frames(gpu, snap, terrain, &settings, at)?;

@@ -90,7 +90,7 @@ pub fn ground_height(snap: &SceneSnapshot, lon_deg: f64, lat_deg: f64) -> Option
 /// 35 degrees down. The manifest's `[camera]` fields win where `manifest`
 /// is set.
 pub fn framing(snap: &SceneSnapshot, extent: Extent, manifest: bool) -> Camera {
-    let raw = if manifest { snap.manifest.camera } else { crate::manifest::RawCamera::default() };
+    let raw = if manifest { snap.manifest.picture.camera } else { crate::manifest::RawCamera::default() };
     let (mut lon, mut lat) = (f64::midpoint(extent.min_x, extent.max_x), f64::midpoint(extent.min_y, extent.max_y));
     let metres = |d: f64| d * if snap.grid.is_geodetic() { 111_320.0 } else { 1.0 };
     let size_m = metres(extent.height()).clamp(100.0, 2.0e7);

@@ -15,6 +15,7 @@ pub mod frames;
 pub mod graph;
 pub mod manifest;
 pub mod navigate;
+pub mod picture;
 mod priority;
 pub mod registry;
 pub mod scene;

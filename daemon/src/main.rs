@@ -141,7 +141,7 @@ fn threads(asked: Option<usize>) -> usize {
 
 /// Loads the scene, printing each error on its own line.
 fn load(manifest: &std::path::Path, keep_going: bool, threads: usize) -> Option<Scene> {
-    match Scene::load(manifest, keep_going, threads) {
+    match Scene::load_checked(manifest, keep_going, threads, relief_daemon::picture::check) {
         Ok((scene, warnings)) => {
             for w in warnings {
                 tracing::warn!("{w}");

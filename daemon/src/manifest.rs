@@ -5,12 +5,8 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use relief_renderer::{ClipmapConfig, InstanceBands};
 use relief_source::{OptionValue, PayloadKind, Quality, SourceSpec};
 use serde::Deserialize;
-
-use crate::effects::EffectSettings;
-use crate::sun::Sun;
 
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -27,20 +23,6 @@ pub enum ManifestError {
     Field { path: PathBuf, field: String, message: String },
     #[error("invalid manifest: source '{source_id}', field '{field}': {message}: {}", path.display())]
     Source { path: PathBuf, source_id: String, field: String, message: String },
-}
-
-/// Default of `[quality] interactive_scale`: half of each side (a quarter of
-/// the pixels) while the user drags.
-pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
-
-/// Default of `[quality] frame_jpeg_quality`: the JPEG quality of frames
-/// sent while the camera moves (`make accuracy` shows its error against
-/// bytes and encode time).
-pub const DEFAULT_FRAME_JPEG_QUALITY: u8 = 80;
-
-/// Checks a JPEG quality knob: 1 to 100.
-pub fn jpeg_quality(q: u32) -> Result<u8, String> {
-    u8::try_from(q).ok().filter(|q| (1..=100).contains(q)).ok_or_else(|| format!("{q} is not from 1 to 100"))
 }
 
 /// The effects a scene may declare, and the layers each one reads.
@@ -95,17 +77,17 @@ struct RawManifest {
     watch: RawWatch,
     camera: Option<RawCamera>,
     #[serde(default)]
-    sun: RawSun,
+    sun: SunSection,
 }
 
-/// `[sun]`: a date-time, or a fixed azimuth and elevation.
-#[derive(Debug, Default, Deserialize)]
+/// `[sun]`: a date-time, or a fixed azimuth and elevation, as written.
+#[derive(Debug, Default, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct RawSun {
+pub struct SunSection {
     /// RFC 3339 with its offset, quoted or as a TOML date-time.
-    time: Option<toml::Value>,
-    azimuth_deg: Option<f64>,
-    elevation_deg: Option<f64>,
+    pub time: Option<toml::Value>,
+    pub azimuth_deg: Option<f64>,
+    pub elevation_deg: Option<f64>,
 }
 
 /// The camera a scene opens with; fields left out are chosen from the
@@ -187,6 +169,37 @@ struct RawQuality {
     detail_octaves: Option<u32>,
 }
 
+/// The `[quality]` knobs of the picture (the renderer's), as written.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct PictureKnobs {
+    pub clipmap_grid_size: Option<usize>,
+    pub clipmap_levels: Option<usize>,
+    pub color_detail: Option<usize>,
+    pub interactive_scale: Option<f64>,
+    pub frame_jpeg_quality: Option<u32>,
+    pub instance_bands_m: Option<Vec<f64>>,
+    pub instance_band_densities: Option<Vec<f64>>,
+    pub instance_model_distance_m: Option<f64>,
+    pub atmosphere_steps: Option<u32>,
+    pub atmosphere_downsample: Option<u32>,
+    pub shadow_cascades: Option<u32>,
+    pub shadow_map_size: Option<u32>,
+    pub detail_octaves: Option<u32>,
+}
+
+/// What the manifest says of the picture, as written: the declared
+/// effects' options, the picture's `[quality]` knobs, `[camera]` and
+/// `[sun]`. The manifest checks the effects' names and the layers they
+/// read; what draws the picture checks the rest (the daemon's
+/// `picture.rs`, through the check a scene is loaded with).
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct PictureSection {
+    pub effects: BTreeMap<String, toml::Table>,
+    pub knobs: PictureKnobs,
+    pub camera: RawCamera,
+    pub sun: SunSection,
+}
+
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCache {
@@ -250,23 +263,10 @@ pub struct Manifest {
     pub sources: Vec<SourceSpec>,
     pub layers: BTreeMap<String, String>,
     pub effects: Vec<String>,
-    /// The declared effects' options.
-    pub effect_settings: EffectSettings,
+    /// The tiles' quality knobs.
     pub quality: Quality,
-    /// The renderer's accuracy knobs: samples per clipmap level side and
-    /// how many levels.
-    pub clipmap: ClipmapConfig,
-    /// The fraction of each side a view is rendered at while its user
-    /// drags (full size again once the camera rests).
-    pub interactive_scale: f64,
-    /// The JPEG quality of frames sent while a view is interactive.
-    pub frame_jpeg_quality: u8,
-    /// The instances layer's distance bands and where models give way to
-    /// billboards.
-    pub bands: InstanceBands,
-    pub camera: RawCamera,
-    /// Where the sun is (`[sun]`): what lighting follows.
-    pub sun: Sun,
+    /// The picture's sections, as written.
+    pub picture: PictureSection,
     pub cache_budget_bytes: u64,
     /// The folders files named by scene files (a VRT's members) may lie
     /// under besides their own: the manifest's, then `[scene] roots`.
@@ -315,11 +315,8 @@ impl Manifest {
             && (self.tile_size == other.tile_size)
             && (self.layers == other.layers)
             && (self.effects == other.effects)
-            && (self.effect_settings == other.effect_settings)
             && (self.quality == other.quality)
-            && (self.clipmap == other.clipmap)
-            && (self.bands == other.bands)
-            && (self.sun == other.sun)
+            && (self.picture == other.picture)
     }
 
     pub fn load(path: &Path) -> Result<Self, ManifestError> {
@@ -443,8 +440,7 @@ impl Manifest {
             }
         }
         let mut effects = Vec::new();
-        let mut effect_settings = EffectSettings::default();
-        for (name, params) in raw.effects {
+        for name in raw.effects.keys() {
             let Some((_, needs)) = EFFECTS.iter().find(|(e, _)| *e == name) else {
                 let known: Vec<&str> = EFFECTS.iter().map(|(e, _)| *e).collect();
                 let why = if EFFECTS_NOT_YET.contains(&name.as_str()) { "not drawn yet" } else { "unknown effect" };
@@ -453,10 +449,7 @@ impl Manifest {
             if let Some(missing) = needs.iter().find(|l| !raw.layers.contains_key(**l)) {
                 return Err(field(&format!("effects.{name}"), format!("needs a '{missing}' layer in [layers]")));
             }
-            effect_settings
-                .add(&name, &params)
-                .map_err(|(option, message)| field(&format!("effects.{name}.{option}"), message))?;
-            effects.push(name);
+            effects.push(name.clone());
         }
 
         if effects.iter().any(|e| e == "shadows") && !effects.iter().any(|e| e == "lighting") {
@@ -464,18 +457,6 @@ impl Manifest {
                 "effects.shadows",
                 "shadows take away the lighting's sunlight: declare lighting too".into(),
             ));
-        }
-        for (name, value) in [
-            ("atmosphere_steps", raw.quality.atmosphere_steps),
-            ("atmosphere_downsample", raw.quality.atmosphere_downsample),
-            ("shadow_cascades", raw.quality.shadow_cascades),
-            ("shadow_map_size", raw.quality.shadow_map_size),
-            ("detail_octaves", raw.quality.detail_octaves),
-        ] {
-            let Some(value) = value else { continue };
-            effect_settings
-                .set_quality(name, value)
-                .map_err(|(knob, message)| field(&format!("quality.{knob}"), message))?;
         }
         let mut quality = Quality::default();
         if let Some(r) = raw.quality.resampling {
@@ -487,40 +468,6 @@ impl Manifest {
             }
             quality.reprojection_error_px = e;
         }
-        let defaults = ClipmapConfig::default();
-        let clipmap = ClipmapConfig {
-            n: raw.quality.clipmap_grid_size.unwrap_or(defaults.n),
-            levels: raw.quality.clipmap_levels.unwrap_or(defaults.levels),
-            color_detail: raw.quality.color_detail.unwrap_or(defaults.color_detail),
-        };
-        let knob = if [1, 2, 4].contains(&clipmap.color_detail) { "clipmap_grid_size" } else { "color_detail" };
-        clipmap.validate().map_err(|e| field(&format!("quality.{knob}"), e))?;
-        let three = |name: &str, values: &Option<Vec<f64>>| -> Result<Option<[f64; 3]>, ManifestError> {
-            match values.as_deref() {
-                None => Ok(None),
-                Some(&[a, b, c]) => Ok(Some([a, b, c])),
-                Some(v) => {
-                    Err(field(&format!("quality.{name}"), format!("{} values: give one per band (three)", v.len())))
-                }
-            }
-        };
-        let defaults = InstanceBands::default();
-        let bands = InstanceBands {
-            edges_m: three("instance_bands_m", &raw.quality.instance_bands_m)?.unwrap_or(defaults.edges_m),
-            densities: three("instance_band_densities", &raw.quality.instance_band_densities)?
-                .unwrap_or(defaults.densities),
-            model_distance_m: raw.quality.instance_model_distance_m.unwrap_or(defaults.model_distance_m),
-        };
-        bands.validate().map_err(|(name, message)| field(&format!("quality.{name}"), message))?;
-        let interactive_scale = raw.quality.interactive_scale.unwrap_or(DEFAULT_INTERACTIVE_SCALE);
-        if !(interactive_scale.is_finite() && (0.1..=1.0).contains(&interactive_scale)) {
-            return Err(field("quality.interactive_scale", format!("{interactive_scale} is not from 0.1 to 1")));
-        }
-        let frame_jpeg_quality = raw
-            .quality
-            .frame_jpeg_quality
-            .map_or(Ok(DEFAULT_FRAME_JPEG_QUALITY), jpeg_quality)
-            .map_err(|message| field("quality.frame_jpeg_quality", message))?;
         let tile_size = raw.scene.tile_size.unwrap_or(relief_source::TileGrid::DEFAULT_TILE_SIZE);
         if !(16..=4096).contains(&tile_size) || !tile_size.is_power_of_two() {
             return Err(field("scene.tile_size", format!("{tile_size} is not a power of two from 16 to 4096")));
@@ -543,21 +490,6 @@ impl Manifest {
             && !(url.starts_with("redis://") || url.starts_with("unix://") || url.starts_with("rediss://"))
         {
             return Err(field("cache.redis", format!("'{url}' is not a redis://HOST:PORT or unix:///PATH address")));
-        }
-        let time = match &raw.sun.time {
-            None => None,
-            Some(toml::Value::String(t)) => Some(t.clone()),
-            Some(toml::Value::Datetime(t)) => Some(t.to_string()),
-            Some(other) => return Err(field("sun.time", format!("{other} is not a date-time"))),
-        };
-        let sun = Sun::parse(time.as_deref(), raw.sun.azimuth_deg, raw.sun.elevation_deg)
-            .map_err(|(name, message)| field(&format!("sun.{name}"), message))?;
-        let sunlit = effects.iter().any(|e| SUNLIT.contains(&e.as_str()));
-        if (time.is_some() || raw.sun.azimuth_deg.is_some() || raw.sun.elevation_deg.is_some()) && !sunlit {
-            return Err(field(
-                "sun",
-                format!("no declared effect follows the sun (declare one of {})", SUNLIT.join(", ")),
-            ));
         }
         let defaults = WatchSettings::default();
         let watch = WatchSettings {
@@ -588,14 +520,27 @@ impl Manifest {
             sources,
             layers: raw.layers,
             effects,
-            effect_settings,
             quality,
-            clipmap,
-            interactive_scale,
-            frame_jpeg_quality,
-            bands,
-            camera: raw.camera.unwrap_or_default(),
-            sun,
+            picture: PictureSection {
+                effects: raw.effects,
+                knobs: PictureKnobs {
+                    clipmap_grid_size: raw.quality.clipmap_grid_size,
+                    clipmap_levels: raw.quality.clipmap_levels,
+                    color_detail: raw.quality.color_detail,
+                    interactive_scale: raw.quality.interactive_scale,
+                    frame_jpeg_quality: raw.quality.frame_jpeg_quality,
+                    instance_bands_m: raw.quality.instance_bands_m,
+                    instance_band_densities: raw.quality.instance_band_densities,
+                    instance_model_distance_m: raw.quality.instance_model_distance_m,
+                    atmosphere_steps: raw.quality.atmosphere_steps,
+                    atmosphere_downsample: raw.quality.atmosphere_downsample,
+                    shadow_cascades: raw.quality.shadow_cascades,
+                    shadow_map_size: raw.quality.shadow_map_size,
+                    detail_octaves: raw.quality.detail_octaves,
+                },
+                camera: raw.camera.unwrap_or_default(),
+                sun: raw.sun,
+            },
             cache_budget_bytes: memory_mb * 1024 * 1024,
             raster_budget_bytes: raster_mb * 1024 * 1024,
             disk,
@@ -664,34 +609,6 @@ mod tests {
         assert_eq!(m.sources[0].paths, vec![PathBuf::from("/scenes/alps/N43E007.hgt")]);
         assert_eq!(m.effects, vec!["lighting".to_string()]);
         assert_eq!(m.layers["color"], "ortho");
-    }
-
-    #[test]
-    fn fog_takes_its_options_in_range_and_nothing_else() {
-        let scene = |fog: &str| {
-            parse(&format!(
-                "[scene]\nname='a'\n[[source]]\nid='d'\nkind='gdal'\npath='d.tif'\n[layers]\nheight='d'\n[effects]\nfog = {fog}\n"
-            ))
-        };
-        assert_eq!(scene("{}").unwrap().effect_settings.fog, Some(relief_renderer::Fog::DEFAULT));
-        let fog = scene("{ density = 0.001, falloff_m = 300, base_m = 200, color = '#ff8000' }")
-            .unwrap()
-            .effect_settings
-            .fog
-            .unwrap();
-        assert_eq!((fog.density_per_m, fog.falloff_m, fog.base_m), (0.001, 300.0, 200.0));
-        assert_eq!(fog.color, [1.0, 128.0 / 255.0, 0.0]);
-        for (bad, message) in [
-            ("{ density = -1 }", "effects.fog.density"),
-            ("{ density = 'thick' }", "effects.fog.density"),
-            ("{ falloff_m = 0 }", "effects.fog.falloff_m"),
-            ("{ color = 'grey' }", "effects.fog.color"),
-            ("{ visibility_m = 500 }", "effects.fog.visibility_m"),
-        ] {
-            let e = scene(bad).unwrap_err().to_string();
-            assert!(e.contains(message), "{bad}: {e}");
-        }
-        assert!(parse("[scene]\nname='a'\n").unwrap().effect_settings.fog.is_none());
     }
 
     #[test]
@@ -772,12 +689,6 @@ mod tests {
                 "field 'effects.sparkle': unknown effect (drawn: lighting, atmosphere, fog, shadows, water, detail)",
             ),
             ("[scene]\nname='a'\n[effects]\nfog={}\n", "field 'effects.fog': needs a 'height' layer"),
-            // An effect's option it would ignore is refused too.
-            (
-                "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nheight='t'\n[effects]\nlighting={ sun = 'noon' }\n",
-                "field 'effects.lighting.sun'",
-            ),
-            ("[scene]\nname='a'\n[sun]\ntime = 2026-06-21T15:00:00\n", "field 'sun.time'"),
             ("[scene]\nname='a'\n[sun]\nhour = 15\n", "unknown field `hour`"),
             (
                 "[scene]\nname='a'\n[[source]]\nid='t'\nkind='gdal'\npath='t.tif'\n[layers]\nvegetation='t'\n",

@@ -2,7 +2,7 @@
 //! (and manifest edits) into new generations, the rebuild of the cached
 //! tiles a change touched, and the events that tell viewers about it.
 
-use std::collections::{BTreeMap, HashMap, HashSet, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, RwLock};
@@ -79,16 +79,14 @@ pub struct Scene {
     current: RwLock<Arc<SceneSnapshot>>,
     manifest_path: PathBuf,
     manifest_error: RwLock<Option<String>>,
+    /// What else a manifest must pass, read at load and read again.
+    check: ManifestCheck,
     registry: Registry,
     pub store: Arc<TileStore>,
     generation: watch::Sender<u64>,
     events: broadcast::Sender<SceneEvent>,
     refresh_lock: Mutex<()>,
     reads_retried: AtomicU64,
-    /// Effects the last frame computed, and what its pass cost (ms).
-    effects_ran: RwLock<BTreeMap<String, f64>>,
-    /// The renderer's passes as of the last frame.
-    passes: RwLock<Vec<relief_renderer::PassStats>>,
     /// Works out each new version's content address in the background.
     content: ContentKeys,
     /// The last [`DIRT_LOG`] generations' dirty extents by source, oldest
@@ -104,6 +102,11 @@ const DIRT_LOG: usize = 64;
 /// told it lagged (it then gets a fresh snapshot).
 const EVENT_BACKLOG: usize = 256;
 
+/// A check of a manifest beyond its own (the picture it asks for, which
+/// what draws it knows): a manifest that fails it is refused at load and
+/// when read again, as any other error in it.
+pub type ManifestCheck = fn(&Manifest) -> Result<(), crate::manifest::ManifestError>;
+
 impl Scene {
     /// Loads the manifest and opens every source. With `keep_going`, sources
     /// that fail to open are served as failed (their errors are returned
@@ -113,7 +116,19 @@ impl Scene {
         keep_going: bool,
         threads: usize,
     ) -> Result<(Self, Vec<LoadError>), Vec<LoadError>> {
-        let manifest = Manifest::load(manifest_path).map_err(|e| vec![LoadError::from(e)])?;
+        Self::load_checked(manifest_path, keep_going, threads, |_| Ok(()))
+    }
+
+    /// `load`, the manifest also held to `check`, then and whenever it is
+    /// read again.
+    pub fn load_checked(
+        manifest_path: &std::path::Path,
+        keep_going: bool,
+        threads: usize,
+        check: ManifestCheck,
+    ) -> Result<(Self, Vec<LoadError>), Vec<LoadError>> {
+        let manifest =
+            Manifest::load(manifest_path).and_then(|m| check(&m).map(|()| m)).map_err(|e| vec![LoadError::from(e)])?;
         let budget = manifest.cache_budget_bytes;
         relief_source_gdal::set_block_budget(manifest.raster_budget_bytes);
         let registry = Registry::builtin();
@@ -132,6 +147,7 @@ impl Scene {
         Ok((
             Self {
                 manifest_path: snapshot.manifest.path.clone(),
+                check,
                 current: RwLock::new(snapshot),
                 manifest_error: RwLock::new(None),
                 registry,
@@ -140,8 +156,6 @@ impl Scene {
                 events,
                 refresh_lock: Mutex::new(()),
                 reads_retried: AtomicU64::new(0),
-                effects_ran: RwLock::new(BTreeMap::new()),
-                passes: RwLock::new(Vec::new()),
                 content,
                 dirt_log: Mutex::new(VecDeque::new()),
             },
@@ -165,27 +179,6 @@ impl Scene {
     /// Reads discarded so far because a writer was still at work.
     pub fn reads_retried(&self) -> u64 {
         self.reads_retried.load(Ordering::Relaxed)
-    }
-
-    /// Records the effects the last frame computed (and their cost), so
-    /// the scene state shows that nothing else was.
-    pub fn set_effects_ran(&self, ran: BTreeMap<String, f64>) {
-        *self.effects_ran.write().expect("scene lock is never poisoned") = ran;
-    }
-
-    pub fn set_passes(&self, passes: Vec<relief_renderer::PassStats>) {
-        *self.passes.write().expect("scene lock is never poisoned") = passes;
-    }
-
-    /// The renderer's passes as of the last frame; every pass unbuilt
-    /// before the first.
-    pub fn passes(&self) -> Vec<relief_renderer::PassStats> {
-        let passes = self.passes.read().expect("scene lock is never poisoned").clone();
-        if passes.is_empty() { relief_renderer::PassCounters::default().stats().to_vec() } else { passes }
-    }
-
-    pub fn effects_ran(&self) -> BTreeMap<String, f64> {
-        self.effects_ran.read().expect("scene lock is never poisoned").clone()
     }
 
     /// The dirty extents of every generation after `since` up to `upto`,
@@ -326,6 +319,7 @@ impl Scene {
         let started = Instant::now();
         let old = self.snapshot();
         let built = Manifest::load(&self.manifest_path)
+            .and_then(|m| (self.check)(&m).map(|()| m))
             .map_err(|e| vec![LoadError::from(e)])
             .and_then(|m| graph::build(m, &self.registry, Some(&old)));
         let (new, open_errors) = match built {

@@ -226,6 +226,10 @@ pub struct Rendered {
 struct Report {
     work: CacheWork,
     held: Vec<(&'static str, u64)>,
+    /// Effects the last frame computed, and what its pass cost (ms).
+    effects_ran: BTreeMap<String, f64>,
+    /// The renderer's passes as of the last frame.
+    passes: Vec<relief_renderer::PassStats>,
 }
 
 pub struct Viewer {
@@ -345,11 +349,12 @@ impl Viewer {
         let camera = camera.unwrap_or_else(|| self.camera());
         let snap = self.scene.snapshot();
         let pose = pose(&snap, &camera)?;
-        let config = clipmap.unwrap_or(snap.manifest.clipmap);
+        let picture = crate::picture::Picture::of(&snap.manifest);
+        let config = clipmap.unwrap_or(picture.clipmap);
         config.validate().map_err(|message| RenderError::Request { field: "quality.clipmap_grid_size", message })?;
         let terrain = SceneTerrain::new(&self.scene.store, &snap, quality.unwrap_or(snap.manifest.quality));
         let lighting = snap.manifest.effects.iter().any(|e| e == "lighting");
-        let effects = effects.unwrap_or(snap.manifest.effect_settings);
+        let effects = effects.unwrap_or(picture.effect_settings);
         let mut guard = self.renderers();
         let r = &mut *guard;
         // Detail below the data: its noise fitted to the height layer over
@@ -401,12 +406,12 @@ impl Viewer {
             buildings: buildings.as_ref().map(|b| b as &dyn relief_renderer::MeshTiles),
             instances: instances.as_ref().map(|i| i as &dyn relief_renderer::InstanceTiles),
         };
-        let sun_spec = sun.unwrap_or(snap.manifest.sun);
+        let sun_spec = sun.unwrap_or(picture.sun);
         let sun = sun_spec
             .angles(camera.lon_deg, camera.lat_deg)
             .map_err(|message| RenderError::Request { field: "sun.time", message })?;
         let settings = RenderSettings {
-            bands: bands.unwrap_or(snap.manifest.bands),
+            bands: bands.unwrap_or(picture.bands),
             sun,
             atmosphere: effects.atmosphere,
             fog: effects.fog,
@@ -436,7 +441,6 @@ impl Viewer {
                 ran.insert(effect.to_owned(), *ms);
             }
         }
-        self.scene.set_effects_ran(ran);
         for (pass, ms) in &frame.passes {
             metrics::histogram!("relief_render_pass_seconds", "pass" => *pass).record(ms / 1e3);
         }
@@ -451,10 +455,11 @@ impl Viewer {
                     }
                 }
             }
-            *self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner) = Report { work: r.work, held };
+            let passes = r.count_passes(&frame);
+            *self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner) =
+                Report { work: r.work, held, effects_ran: ran, passes };
         }
-        let passes = r.count_passes(&frame);
-        self.scene.set_passes(passes.clone());
+        let passes = self.passes();
         self.frames.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         Ok(Rendered {
             frame,
@@ -482,7 +487,8 @@ impl Viewer {
         if since >= snap.generation {
             return false;
         }
-        let water = overrides.effects.unwrap_or(snap.manifest.effect_settings).water.is_some();
+        let water =
+            overrides.effects.unwrap_or(crate::picture::Picture::of(&snap.manifest).effect_settings).water.is_some();
         let drawn: Vec<&String> =
             snap.manifest.layers.iter().filter(|(name, _)| water || *name != "water").map(|(_, id)| id).collect();
         self.scene
@@ -494,6 +500,19 @@ impl Viewer {
     /// summed over the renderers, as of the last frame.
     pub fn held_bytes(&self) -> Vec<(&'static str, u64)> {
         self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner).held.clone()
+    }
+
+    /// The effects the last frame computed (and their cost, ms), so the
+    /// scene state shows that nothing else was.
+    pub fn effects_ran(&self) -> BTreeMap<String, f64> {
+        self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner).effects_ran.clone()
+    }
+
+    /// The renderer's passes as of the last frame; every pass unbuilt
+    /// before the first.
+    pub fn passes(&self) -> Vec<relief_renderer::PassStats> {
+        let passes = self.report.lock().unwrap_or_else(std::sync::PoisonError::into_inner).passes.clone();
+        if passes.is_empty() { PassCounters::default().stats().to_vec() } else { passes }
     }
 
     /// What the renderers' caches did since start.

@@ -204,7 +204,9 @@ const DEBUG_MARKS: DebugMarks =
 fn parses_or_fails_in_words(text: &str) -> Result<(), TestCaseError> {
     let dir = tempfile::tempdir().expect("a temporary folder");
     let path = dir.path().join("scene.toml");
-    if let Err(e) = Manifest::parse(text, &path) {
+    // The manifest's own checks, then the picture's (as reliefd loads it).
+    let parsed = Manifest::parse(text, &path).and_then(|m| relief_daemon::picture::Picture::parse(&m).map(drop));
+    if let Err(e) = parsed {
         let message = e.to_string();
         check_message(&message, text, &path)?;
     }

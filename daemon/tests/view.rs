@@ -17,7 +17,7 @@ fn hill_scene(dir: &std::path::Path) -> anyhow::Result<Scene> {
         dir,
         "[scene]\nname = \"hill\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n[layers]\nheight = \"dem\"\n",
     )?;
-    Scene::load(&manifest, false, 2)
+    Scene::load_checked(&manifest, false, 2, relief_daemon::picture::check)
         .map(|(scene, _)| scene)
         .map_err(|e| anyhow::anyhow!("the hill scene does not load: {e:?}"))
 }

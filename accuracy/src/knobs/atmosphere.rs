@@ -27,7 +27,10 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
     let scene = cx.load(&cx.demo)?;
     let snap = scene.snapshot();
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
-    let demo = snap.manifest.effect_settings.atmosphere.context("the demo declares no atmosphere")?;
+    let demo = relief_daemon::picture::Picture::of(&snap.manifest)
+        .effect_settings
+        .atmosphere
+        .context("the demo declares no atmosphere")?;
     let renderer = || Renderer::new(Arc::clone(&cx.gpu), Surface::new(snap.grid.clone()), ClipmapConfig::default());
     let at = view();
     let mut sweeps = Vec::new();

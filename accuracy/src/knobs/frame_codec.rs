@@ -5,7 +5,7 @@
 //! viewer would): each encoding's pixels against the frame itself.
 
 use relief_daemon::codec::Codec;
-use relief_daemon::manifest::DEFAULT_FRAME_JPEG_QUALITY;
+use relief_daemon::picture::DEFAULT_FRAME_JPEG_QUALITY;
 use relief_daemon::view::SceneTerrain;
 use relief_renderer::{ClipmapConfig, Frame, RenderSettings};
 
@@ -20,7 +20,7 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
     let scene = cx.load(&cx.demo)?;
     let snap = scene.snapshot();
     let terrain = SceneTerrain::new(&scene.store, &snap, snap.manifest.quality);
-    let e = snap.manifest.effect_settings;
+    let e = relief_daemon::picture::Picture::of(&snap.manifest).effect_settings;
     let settings = RenderSettings { atmosphere: e.atmosphere, fog: e.fog, shadows: e.shadows, water: e.water, ..HD };
     let frames =
         super::still_frames(&cx.gpu, &terrain, &snap.grid, ClipmapConfig::default(), &settings, &demo_pose(), 1)?;

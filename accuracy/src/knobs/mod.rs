@@ -69,7 +69,7 @@ impl Context {
     /// A scene loaded in process (tile pool of 2), every source loaded.
     #[expect(clippy::unused_self, reason = "a knob loads its scenes through its context, as it renders through it")]
     pub fn load(&self, manifest: &std::path::Path) -> anyhow::Result<Scene> {
-        match Scene::load(manifest, false, 2) {
+        match Scene::load_checked(manifest, false, 2, relief_daemon::picture::check) {
             Ok((scene, _)) => Ok(scene),
             Err(errors) => {
                 let lines: Vec<String> = errors.iter().map(ToString::to_string).collect();

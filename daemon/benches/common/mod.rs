@@ -9,7 +9,7 @@ use relief_daemon::scene::Scene;
 
 /// The scene of `manifest` with a tile pool of `threads`; every source must load.
 pub fn load(manifest: &Path, threads: usize) -> anyhow::Result<Scene> {
-    match Scene::load(manifest, false, threads) {
+    match Scene::load_checked(manifest, false, threads, relief_daemon::picture::check) {
         Ok((scene, _)) => Ok(scene),
         Err(errors) => anyhow::bail!("bench scene {} does not load: {errors:?}", manifest.display()),
     }

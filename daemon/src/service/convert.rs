@@ -147,7 +147,8 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
         })
         .collect();
     let m = &snap.manifest;
-    let ran = scene.effects_ran();
+    let picture = crate::picture::Picture::of(m);
+    let ran = hub.viewer().effects_ran();
     let effects = m
         .effects
         .iter()
@@ -163,7 +164,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
         .collect();
     let c = store.counters();
     let frames = hub.counters();
-    let passes = pass_states(&scene.passes());
+    let passes = pass_states(&hub.viewer().passes());
     pb::SceneState {
         name: m.name.clone(),
         generation: snap.generation,
@@ -175,17 +176,17 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             ("resampling".to_string(), m.quality.resampling.to_string()),
             ("reprojection_error_px".to_string(), m.quality.reprojection_error_px.to_string()),
             ("tile_size".to_string(), snap.grid.tile_size().to_string()),
-            ("clipmap_grid_size".to_string(), m.clipmap.n.to_string()),
-            ("clipmap_levels".to_string(), m.clipmap.levels.to_string()),
-            ("color_detail".to_string(), m.clipmap.color_detail.to_string()),
-            ("interactive_scale".to_string(), m.interactive_scale.to_string()),
-            ("frame_jpeg_quality".to_string(), m.frame_jpeg_quality.to_string()),
-            ("instance_bands_m".to_string(), join(&m.bands.edges_m)),
-            ("instance_band_densities".to_string(), join(&m.bands.densities)),
-            ("instance_model_distance_m".to_string(), m.bands.model_distance_m.to_string()),
+            ("clipmap_grid_size".to_string(), picture.clipmap.n.to_string()),
+            ("clipmap_levels".to_string(), picture.clipmap.levels.to_string()),
+            ("color_detail".to_string(), picture.clipmap.color_detail.to_string()),
+            ("interactive_scale".to_string(), picture.interactive_scale.to_string()),
+            ("frame_jpeg_quality".to_string(), picture.frame_jpeg_quality.to_string()),
+            ("instance_bands_m".to_string(), join(&picture.bands.edges_m)),
+            ("instance_band_densities".to_string(), join(&picture.bands.densities)),
+            ("instance_model_distance_m".to_string(), picture.bands.model_distance_m.to_string()),
         ]
         .into_iter()
-        .chain(m.effect_settings.quality())
+        .chain(picture.effect_settings.quality())
         .collect(),
         counters: Some(pb::Counters {
             tiles_generated: c.tiles_generated,

@@ -72,11 +72,12 @@ fn frame_request(
     sun: Option<&Sun>,
 ) -> Result<FrameRequest, Status> {
     let snap = scene.snapshot();
+    let picture = crate::picture::Picture::of(&snap.manifest);
     let jpeg_quality = overrides
         .and_then(|o| o.frame_jpeg_quality)
-        .map(|q| crate::manifest::jpeg_quality(q).map_err(|e| invalid_field("quality.frame_jpeg_quality", e)))
+        .map(|q| crate::picture::jpeg_quality(q).map_err(|e| invalid_field("quality.frame_jpeg_quality", e)))
         .transpose()?
-        .unwrap_or(snap.manifest.frame_jpeg_quality);
+        .unwrap_or(picture.frame_jpeg_quality);
     let format = frame_format(format, stream, jpeg_quality)?;
     if let Some(o) = overrides {
         // Knobs of effects not drawn yet: refused, never ignored.
@@ -87,13 +88,13 @@ fn frame_request(
             ));
         }
     }
-    let effects = overrides.map(|o| effect_overrides(&snap.manifest.effect_settings, o)).transpose()?;
+    let effects = overrides.map(|o| effect_overrides(&picture.effect_settings, o)).transpose()?;
     let clipmap = overrides.and_then(|o| {
         (o.clipmap_grid_size.is_some() || o.clipmap_levels.is_some() || o.color_detail.is_some()).then(|| {
             ClipmapConfig {
-                n: o.clipmap_grid_size.map_or(snap.manifest.clipmap.n, |n| n as usize),
-                levels: o.clipmap_levels.map_or(snap.manifest.clipmap.levels, |l| l as usize),
-                color_detail: o.color_detail.map_or(snap.manifest.clipmap.color_detail, |d| d as usize),
+                n: o.clipmap_grid_size.map_or(picture.clipmap.n, |n| n as usize),
+                levels: o.clipmap_levels.map_or(picture.clipmap.levels, |l| l as usize),
+                color_detail: o.color_detail.map_or(picture.clipmap.color_detail, |d| d as usize),
             }
         })
     });
@@ -108,7 +109,7 @@ fn frame_request(
         }
     }
     let camera = camera.map(|c| checked_camera(&snap, c)).transpose()?;
-    let bands = overrides.map(|o| convert::bands(snap.manifest.bands, o)).transpose()?.flatten();
+    let bands = overrides.map(|o| convert::bands(picture.bands, o)).transpose()?.flatten();
     let sun = sun
         .map(|s| {
             let time = (!s.time.is_empty()).then_some(s.time.as_str());
@@ -274,7 +275,7 @@ impl ViewCalls {
             overrides: req.overrides,
             max_fps: fps,
             format: req.format,
-            interactive_scale: self.scene.snapshot().manifest.interactive_scale,
+            interactive_scale: crate::picture::Picture::of(&self.scene.snapshot().manifest).interactive_scale,
         };
         let frames = crate::frames::start(&self.hub, spec, self.shutdown.clone()).map_err(|e| status(&e))?;
         let format = req.format;
