@@ -25,14 +25,14 @@ qgis-plugin:
 	python3 clients/qgis/scripts/package.py
 
 bench: setup
-	cargo bench -p relief-daemon --bench pyramid
-	cargo bench -p relief-daemon --bench reload
-	cargo bench -p relief-daemon --bench rasterize
+	cargo bench -p relief-engine --bench pyramid
+	cargo bench -p relief-engine --bench reload
+	cargo bench -p relief-engine --bench rasterize
 	cargo bench -p relief-daemon --bench render
 	cargo bench -p relief-daemon --bench instances
 	cargo bench -p relief-daemon --bench frames
-	cargo bench -p relief-daemon --bench geopackage
-	cargo bench -p relief-daemon --bench bigdem
+	cargo bench -p relief-engine --bench geopackage
+	cargo bench -p relief-engine --bench bigdem
 	cargo bench -p relief-daemon --bench warm
 	cargo bench -p relief-daemon --bench soak
 	bash clients/qgis/scripts/bench.sh

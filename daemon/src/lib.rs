@@ -1,30 +1,21 @@
-//! reliefd's library: the scene manifest, the source graph, the tile store
-//! and scheduler, file watching and the gRPC service.
+//! reliefd's library: the serving side over the scene engine
+//! (`relief-engine`): both transports, auth, TLS and metrics (`service`),
+//! the frame hub and views (`frames`), the viewer that draws the scene's
+//! tiles with relief-renderer (`view`, `scene_tiles`), cameras, gestures,
+//! the sun, the effects' options and the picture a manifest asks for.
 //!
-//! It depends on the source crates (registered in `registry`) and on
-//! relief-proto at the gRPC edge only (`service`). Frames are drawn by
-//! relief-renderer; `view` feeds it the scene's tiles and owns the camera.
+//! The engine's modules are re-exported under their names, so that
+//! `relief_daemon::scene::Scene` and `crate::scene` read as before.
 
-pub mod addressing;
-pub mod backing;
+pub use relief_engine::{addressing, backing, content, graph, manifest, registry, scene, tile, tiles, watcher};
+
 pub mod camera;
 pub mod codec;
-pub mod content;
 pub mod effects;
 pub mod frames;
-pub mod graph;
-pub mod manifest;
 pub mod navigate;
 pub mod picture;
-mod priority;
-pub mod registry;
-pub mod scene;
 pub mod scene_tiles;
 pub mod service;
 pub mod sun;
-#[cfg(test)]
-mod testing;
-pub mod tile;
-pub mod tiles;
 pub mod view;
-pub mod watcher;

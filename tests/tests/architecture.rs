@@ -1,7 +1,8 @@
 //! The architecture's invariants that a reader cannot see at a glance,
-//! checked on the source itself (issue 37): no two files of a crate import
-//! each other in a circle, directly or through others, so that each can be
-//! read after the files below it.
+//! checked on the source itself (issue 37): the engine depends on no
+//! serving crate, and no two files of a crate import each other in a
+//! circle, directly or through others, so that each can be read after the
+//! files below it.
 //!
 //! A file's imports are the paths it names (`crate::a::b`, `super::x`,
 //! `self::y`, a child module's `z::`), `use` groups included, outside
@@ -16,7 +17,7 @@ use std::path::{Path, PathBuf};
 /// The crates whose files are held to it. (The gdal source's `raster/`
 /// is not yet: its files share `raster/mod.rs`'s `Raster` and `Store`, and
 /// `header.rs` builds them from the others; see ARCHITECTURE.md.)
-const CRATES: [&str; 2] = ["daemon/src", "renderer/src"];
+const CRATES: [&str; 3] = ["engine/src", "daemon/src", "renderer/src"];
 
 /// Every `.rs` file under `root` by module path (`backing::codec`; the
 /// crate root is "").
@@ -250,4 +251,26 @@ fn the_checker_finds_a_circle_through_a_group_and_a_parents_item() {
     write("c.rs", "pub struct Unit;\npub fn f() -> super::b::Other { super::b::Other }\n");
     let edges = imports(&modules(dir.path()));
     assert_eq!(circles(&edges), vec![vec!["a".to_owned(), "a::inner".to_owned(), "b".to_owned(), "c".to_owned()]]);
+}
+
+/// What serves or draws: none may be among the engine's dependencies.
+const SERVING: [&str; 8] =
+    ["tonic", "prost", "axum", "hyper", "wgpu", "relief-proto", "relief-renderer", "relief-daemon"];
+
+/// `cargo tree -p relief-engine` (normal dependencies, what the engine is
+/// built with) names none of the serving crates.
+#[test]
+fn the_engine_depends_on_no_transport_renderer_or_proto() {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = std::process::Command::new(cargo)
+        .args(["tree", "-p", "relief-engine", "-e", "normal", "--prefix", "none", "--offline"])
+        .current_dir(relief_tests::workspace_root())
+        .output()
+        .expect("cargo runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "cargo tree failed: {}", String::from_utf8_lossy(&out.stderr));
+    let crates: BTreeSet<&str> = text.lines().filter_map(|l| l.split_whitespace().next()).collect();
+    assert!(crates.contains("relief-engine") && crates.contains("relief-source"), "{text}");
+    let found: Vec<&&str> = SERVING.iter().filter(|c| crates.contains(**c)).collect();
+    assert!(found.is_empty(), "relief-engine depends on {found:?}:\n{text}");
 }

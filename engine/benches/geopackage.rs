@@ -13,7 +13,7 @@
 //!    the `shapefile` kind: scene load time, then feature tiles and drawn
 //!    (rasterize) tiles per second over levels 0..=5, with the ratios.
 //!
-//! `cargo bench -p relief-daemon --bench geopackage` (RELIEF_BENCH_COMMITS,
+//! `cargo bench -p relief-engine --bench geopackage` (RELIEF_BENCH_COMMITS,
 //! default 25).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]

@@ -13,7 +13,7 @@
 //! and nothing else: the floor under a build that read them through GDAL
 //! (relief decodes that file's blocks itself).
 //!
-//! `cargo bench -p relief-daemon --bench pyramid` (RELIEF_BENCH_MAX_LEVEL, default 10;
+//! `cargo bench -p relief-engine --bench pyramid` (RELIEF_BENCH_MAX_LEVEL, default 10;
 //! RELIEF_PYRAMID_ONLY=srtm,big,kernels,reprojection picks tables).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
@@ -25,7 +25,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use common::median;
-use relief_daemon::scene::Scene;
+use relief_engine::scene::Scene;
 use relief_examples as fixtures;
 use relief_source::{Payload, Quality, Resampling, TileKey};
 

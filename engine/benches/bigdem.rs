@@ -35,7 +35,7 @@
 //! The bench itself holds at most BAND_ROWS rows of samples (or one mosaic
 //! file's) and a 256 MB GDAL block cache; `gdaladdo` runs as its own process.
 //!
-//! `cargo bench -p relief-daemon --bench bigdem`; RELIEF_BIGDEM_SIDE
+//! `cargo bench -p relief-engine --bench bigdem`; RELIEF_BIGDEM_SIDE
 //! (default 40000, a multiple of 20, at least 2560), RELIEF_BIGDEM_EDITS
 //! (default 25), RELIEF_BIGDEM_MAKE_ONLY (make the data and stop),
 //! RELIEF_BIGDEM_ONLY (the datasets to serve, commas: big, exact, mosaic), RELIEF_BIGDEM_RASTER_MB (`[cache] raster_mb`, default 512,

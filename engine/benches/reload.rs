@@ -7,7 +7,7 @@
 //! includes reading the file, finding the changed blocks, and rebuilding
 //! the cached tiles they touch. Repeated for each `[watch]` setting.
 //!
-//! `cargo bench -p relief-daemon --bench reload` (RELIEF_BENCH_EDITS, default 25).
+//! `cargo bench -p relief-engine --bench reload` (RELIEF_BENCH_EDITS, default 25).
 
 #![expect(clippy::print_stdout, reason = "a bench binary prints its table")]
 

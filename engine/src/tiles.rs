@@ -14,8 +14,9 @@ use crate::backing::Backings;
 use crate::graph::SceneSnapshot;
 pub use crate::tile::Tile;
 
+/// Why a tile cannot be had. Not `non_exhaustive`: the server maps each
+/// kind to its answer, and a new kind should make it choose one.
 #[derive(Debug, Clone, thiserror::Error)]
-#[non_exhaustive]
 pub enum TileError {
     #[error("no source has id '{0}'")]
     UnknownSource(String),
