@@ -7,7 +7,7 @@
 //! The engine's modules are re-exported under their names, so that
 //! `relief_daemon::scene::Scene` and `crate::scene` read as before.
 
-pub use relief_engine::{addressing, backing, content, graph, manifest, registry, scene, tile, tiles, watcher};
+pub use relief_engine::{graph, manifest, scene, tiles, watcher};
 
 pub mod camera;
 pub mod codec;

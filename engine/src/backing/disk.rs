@@ -27,7 +27,6 @@ enum Job {
 
 pub struct DiskTiles {
     root: PathBuf,
-    budget_bytes: u64,
     jobs: SyncSender<Job>,
     dropped: AtomicU64,
 }
@@ -54,15 +53,7 @@ impl DiskTiles {
             crate::priority::lowest("disk-cache");
             Writer::new(thread_root, budget_bytes).run(&rx);
         })?;
-        Ok(Self { root, budget_bytes, jobs, dropped: AtomicU64::new(0) })
-    }
-
-    pub fn root(&self) -> &Path {
-        &self.root
-    }
-
-    pub fn budget_bytes(&self) -> u64 {
-        self.budget_bytes
+        Ok(Self { root, jobs, dropped: AtomicU64::new(0) })
     }
 
     fn send(&self, job: Job) {
@@ -216,18 +207,18 @@ mod tests {
         let disk = DiskTiles::open(dir.path().join("tiles"), 3000)?;
         for address in 1..=5u128 {
             disk.put(address, vec![address as u8; 1000]);
-            assert!(wait_for(&path_of(disk.root(), address), true));
+            assert!(wait_for(&path_of(&disk.root, address), true));
             std::thread::sleep(std::time::Duration::from_millis(20));
         }
         // 5 kB written under a 3 kB budget: the oldest went first.
-        assert!(wait_for(&path_of(disk.root(), 1), false));
+        assert!(wait_for(&path_of(&disk.root, 1), false));
         assert_eq!(disk.get(5), Some(vec![5; 1000]));
         assert_eq!(disk.get(1), None);
         // The folder deleted under it: reads miss, writes make it again.
-        fs::remove_dir_all(disk.root())?;
+        fs::remove_dir_all(&disk.root)?;
         assert_eq!(disk.get(5), None);
         disk.put(6, vec![6; 10]);
-        assert!(wait_for(&path_of(disk.root(), 6), true));
+        assert!(wait_for(&path_of(&disk.root, 6), true));
         assert_eq!(disk.get(6), Some(vec![6; 10]));
         Ok(())
     }
