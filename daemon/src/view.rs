@@ -487,8 +487,10 @@ impl Viewer {
         if since >= snap.generation {
             return false;
         }
-        let water =
-            overrides.effects.unwrap_or(crate::picture::Picture::of(&snap.manifest).effect_settings).water.is_some();
+        let water = overrides
+            .effects
+            .map_or_else(|| crate::picture::Picture::of(&snap.manifest).effect_settings.water, |e| e.water)
+            .is_some();
         let drawn: Vec<&String> =
             snap.manifest.layers.iter().filter(|(name, _)| water || *name != "water").map(|(_, id)| id).collect();
         self.scene

@@ -8,6 +8,7 @@ pub mod browser;
 pub mod daemon;
 pub mod edit;
 pub mod http;
+pub mod probe;
 pub mod qgis;
 pub mod redis;
 pub mod reference;

@@ -10,7 +10,7 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::path::Path;
 use std::process::Command;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::Context;
 use relief_proto::v1 as pb;
@@ -18,26 +18,11 @@ use relief_proto::v1::navigate_request::Gesture;
 use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_tests::daemon::Reliefd;
 use relief_tests::http::{Reply, request_with};
+use relief_tests::probe::{CONTROL, OTHER_READ, READ, seconds_until_closed, token_file, with_token};
 use relief_tests::scenes;
 use tokio_stream::StreamExt;
 use tonic::Code;
 use tonic::transport::Channel;
-
-const READ: &str = "read-0123456789abcdef";
-const OTHER_READ: &str = "read-fedcba9876543210";
-const CONTROL: &str = "control-0123456789abcdef";
-
-fn token_file(dir: &Path) -> anyhow::Result<String> {
-    let path = dir.join("tokens");
-    std::fs::write(&path, format!("read {READ}\nread {OTHER_READ}\ncontrol {CONTROL}\n"))?;
-    Ok(path.display().to_string())
-}
-
-fn with_token<T>(message: T, token: &str) -> anyhow::Result<tonic::Request<T>> {
-    let mut r = tonic::Request::new(message);
-    r.metadata_mut().insert("authorization", format!("Bearer {token}").parse()?);
-    Ok(r)
-}
 
 fn orbit(view_id: &str) -> pb::NavigateRequest {
     pb::NavigateRequest {
@@ -58,7 +43,8 @@ async fn http(method: &str, url: String, body: Option<String>, token: &str) -> a
 }
 
 async fn scene_heading(channel: &Channel) -> anyhow::Result<f64> {
-    let camera = ViewServiceClient::new(channel.clone()).get_camera(with_token(pb::GetCameraRequest {}, READ)?).await?;
+    let camera =
+        ViewServiceClient::new(channel.clone()).get_camera(with_token(pb::GetCameraRequest {}, Some(READ))?).await?;
     Ok(camera.into_inner().heading_deg)
 }
 
@@ -77,26 +63,29 @@ async fn a_read_token_steers_only_views_of_its_own() -> anyhow::Result<()> {
 
     // gRPC: a read token's view that follows the scene camera.
     let follow = pb::OpenViewRequest { camera: None, follow_scene_camera: true };
-    let view = views.open_view(with_token(follow, READ)?).await?.into_inner().view_id;
+    let view = views.open_view(with_token(follow, Some(READ))?).await?.into_inner().view_id;
     for gesture in [orbit(&view), fly_to(&view)] {
-        let denied = views.navigate(with_token(gesture, READ)?).await.err().context("a read token moved the scene")?;
+        let denied =
+            views.navigate(with_token(gesture, Some(READ))?).await.err().context("a read token moved the scene")?;
         assert_eq!(denied.code(), Code::PermissionDenied, "{}", denied.message());
         assert!(denied.message().contains("control token"), "{}", denied.message());
     }
     assert_eq!(scene_heading(&channel).await?, heading, "the scene camera moved");
     // Its own view, let go of the scene camera, it may steer.
     let own = pb::UpdateViewRequest { view_id: view.clone(), follow_scene_camera: Some(false), ..Default::default() };
-    views.update_view(with_token(own, READ)?).await?;
-    let moved = views.navigate(with_token(orbit(&view), READ)?).await?.into_inner();
+    views.update_view(with_token(own, Some(READ))?).await?;
+    let moved = views.navigate(with_token(orbit(&view), Some(READ))?).await?.into_inner();
     assert!((moved.heading_deg - heading).abs() > 1.0, "{moved:?}");
     assert_eq!(scene_heading(&channel).await?, heading, "steering a view moved the scene camera");
     // Another read token may not, by gesture or update; a control token may.
-    let denied = views.navigate(with_token(orbit(&view), OTHER_READ)?).await.err().context("another token steered")?;
+    let denied =
+        views.navigate(with_token(orbit(&view), Some(OTHER_READ))?).await.err().context("another token steered")?;
     assert_eq!(denied.code(), Code::PermissionDenied);
     let theirs = pb::UpdateViewRequest { view_id: view.clone(), follow_scene_camera: Some(true), ..Default::default() };
-    let denied = views.update_view(with_token(theirs, OTHER_READ)?).await.err().context("another token updated")?;
+    let denied =
+        views.update_view(with_token(theirs, Some(OTHER_READ))?).await.err().context("another token updated")?;
     assert_eq!(denied.code(), Code::PermissionDenied);
-    views.navigate(with_token(orbit(&view), CONTROL)?).await?;
+    views.navigate(with_token(orbit(&view), Some(CONTROL))?).await?;
 
     // HTTP: the same calls, the same answers.
     let url = daemon.url();
@@ -278,29 +267,6 @@ async fn a_named_pipe_in_a_files_place_is_refused_not_waited_on() -> anyhow::Res
     let _ = reload(url.clone()).await?;
     daemon.stop(&["not a regular file", "keeping the last good", "cannot"])?;
     Ok(())
-}
-
-/// How long until the server ends a connection that sends `bytes` one a
-/// second: None when it was still open at `limit`.
-fn seconds_until_closed(stream: &mut (impl Read + Write), bytes: &[u8], limit: Duration) -> Option<f64> {
-    let start = Instant::now();
-    let mut sent = 0;
-    let mut buffer = [0u8; 4096];
-    while start.elapsed() < limit {
-        if sent < bytes.len() && stream.write_all(&bytes[sent..=sent]).and_then(|()| stream.flush()).is_err() {
-            return Some(start.elapsed().as_secs_f64());
-        }
-        sent += 1;
-        // The read times out after a second: the drip's pace.
-        match stream.read(&mut buffer) {
-            Ok(0) => return Some(start.elapsed().as_secs_f64()),
-            // An answer (408, say) before the close.
-            Ok(_) => {}
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {}
-            Err(_) => return Some(start.elapsed().as_secs_f64()),
-        }
-    }
-    None
 }
 
 const DRIP: &[u8] = b"GET /api/state HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa";

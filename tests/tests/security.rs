@@ -14,27 +14,10 @@ use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_proto::v1::view_service_client::ViewServiceClient;
 use relief_tests::daemon::Reliefd;
 use relief_tests::http::{get, request_with};
+use relief_tests::probe::{CONTROL, READ, seconds_until_closed, token_file, with_token};
 use relief_tests::scenes;
 use tonic::Code;
 use tonic::transport::{Certificate, Channel, ClientTlsConfig};
-
-const READ: &str = "read-0123456789abcdef";
-const CONTROL: &str = "control-0123456789abcdef";
-
-fn token_file(dir: &Path) -> anyhow::Result<String> {
-    let path = dir.join("tokens");
-    std::fs::write(&path, format!("# who may call\nread {READ}\ncontrol {CONTROL}\n"))?;
-    Ok(path.display().to_string())
-}
-
-/// `message` with `authorization: Bearer token`, when there is one.
-fn with_token<T>(message: T, token: Option<&str>) -> anyhow::Result<tonic::Request<T>> {
-    let mut r = tonic::Request::new(message);
-    if let Some(t) = token {
-        r.metadata_mut().insert("authorization", format!("Bearer {t}").parse()?);
-    }
-    Ok(r)
-}
 
 async fn state_code(channel: &Channel, token: Option<&str>) -> anyhow::Result<Code> {
     let answer = SceneServiceClient::new(channel.clone()).get_state(with_token(pb::GetStateRequest {}, token)?).await;
@@ -179,7 +162,6 @@ async fn tls_clients_with_the_ca_are_served_and_plaintext_is_refused() -> anyhow
 #[test]
 fn a_slowloris_connection_over_tls_is_closed_within_the_header_timeout() -> anyhow::Result<()> {
     use rustls::pki_types::pem::PemObject;
-    use std::io::{Read, Write};
     let dir = tempfile::tempdir()?;
     let (daemon, port, ca) = tls_daemon(dir.path())?;
     let mut roots = rustls::RootCertStore::empty();
@@ -198,20 +180,7 @@ fn a_slowloris_connection_over_tls_is_closed_within_the_header_timeout() -> anyh
         while tls.conn.is_handshaking() {
             tls.conn.complete_io(&mut tls.sock)?;
         }
-        let start = std::time::Instant::now();
-        let mut buffer = [0u8; 4096];
-        for n in 0..20 {
-            if n < bytes.len() && tls.write_all(&bytes[n..=n]).and_then(|()| tls.flush()).is_err() {
-                return Ok(Some(start.elapsed().as_secs_f64()));
-            }
-            match tls.read(&mut buffer) {
-                Ok(0) => return Ok(Some(start.elapsed().as_secs_f64())),
-                Ok(_) => {}
-                Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => {}
-                Err(_) => return Ok(Some(start.elapsed().as_secs_f64())),
-            }
-        }
-        Ok(None)
+        Ok(seconds_until_closed(&mut tls, bytes, Duration::from_secs(20)))
     };
     let silent = std::thread::scope(|s| {
         let silent = s.spawn(|| drip(b""));

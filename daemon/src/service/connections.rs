@@ -13,7 +13,7 @@ use std::collections::HashMap;
 use std::net::IpAddr;
 use std::pin::Pin;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::task::{Context, Poll};
 use std::time::{Duration, Instant};
 
@@ -77,7 +77,7 @@ impl Connections {
 
     /// Lets a connection from `address` in, or says which limit it meets.
     pub fn admit(self: &Arc<Self>, address: IpAddr) -> Result<Admitted, String> {
-        let mut by_address = self.by_address.lock().expect("never held across a panic");
+        let mut by_address = self.by_address.lock().unwrap_or_else(PoisonError::into_inner);
         let from = by_address.get(&address).copied().unwrap_or(0);
         let refusal = if self.open.load(Ordering::Relaxed) >= self.limits.global {
             Some(format!("{} connections are open", self.limits.global))
@@ -114,7 +114,7 @@ impl Hold {
 
 impl Drop for Admitted {
     fn drop(&mut self) {
-        let mut by_address = self.connections.by_address.lock().expect("never held across a panic");
+        let mut by_address = self.connections.by_address.lock().unwrap_or_else(PoisonError::into_inner);
         if let Some(n) = by_address.get_mut(&self.address) {
             *n -= 1;
             if *n == 0 {
@@ -150,7 +150,7 @@ impl Activity {
     }
 
     fn touch(&self) {
-        *self.last.lock().expect("never held across a panic") = Instant::now();
+        *self.last.lock().unwrap_or_else(PoisonError::into_inner) = Instant::now();
     }
 
     /// A request begins; it is under way until the guard is dropped (with
@@ -169,7 +169,7 @@ impl Activity {
             return (self.opened.elapsed() > limits.first_request).then_some("no request in time");
         }
         let idle = self.under_way.load(Ordering::Relaxed) == 0
-            && self.last.lock().expect("never held across a panic").elapsed() > limits.idle;
+            && self.last.lock().unwrap_or_else(PoisonError::into_inner).elapsed() > limits.idle;
         idle.then_some("idle")
     }
 }

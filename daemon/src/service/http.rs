@@ -26,7 +26,7 @@ use tower::ServiceExt as _;
 
 use super::auth::{Holder, Scope};
 use super::calls::Calls;
-pub use super::status::HttpError;
+use super::status::HttpError;
 use super::status::error_body;
 
 type Shared = State<Arc<Calls>>;

@@ -126,10 +126,10 @@ impl SceneCalls {
         let _turn = self.reloads.running.lock().await;
         // One of the same sources started after this call came and is done.
         let covered = self.reloads.started.load(std::sync::atomic::Ordering::Acquire) > arrived
-            && *self.reloads.last.lock().expect("never held across a panic") == ids;
+            && *self.reloads.last.lock().unwrap_or_else(std::sync::PoisonError::into_inner) == ids;
         if !covered {
             self.reloads.started.fetch_add(1, std::sync::atomic::Ordering::AcqRel);
-            ids.clone_into(&mut self.reloads.last.lock().expect("never held across a panic"));
+            ids.clone_into(&mut self.reloads.last.lock().unwrap_or_else(std::sync::PoisonError::into_inner));
             let only = (!ids.is_empty()).then_some(ids);
             let scene = Arc::clone(&self.scene);
             tokio::task::spawn_blocking(move || scene.refresh(only.as_deref(), "reload requested", true))
