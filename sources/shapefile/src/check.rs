@@ -1,6 +1,10 @@
 //! Consistency checks across a shapefile's files, from their headers and
 //! sizes alone: the torn states EDITORS.md records (an index that does not
-//! match its shapes, a table whose record count disagrees).
+//! match its shapes, a table whose record count disagrees, a record
+//! appended before the header that counts it). What no writer leaves in
+//! the middle of a save but users' files have, and GDAL reads (a stray
+//! byte after the last record, a .shx header length off by less than an
+//! entry), is read, with a warning.
 
 use relief_source::SourceError;
 
@@ -49,8 +53,15 @@ fn le_u16(bytes: &[u8], at: usize) -> Option<usize> {
     Some(usize::from(u16::from_le_bytes(word)))
 }
 
-/// The .shp is a shapefile whose header gives its true length.
-pub(crate) fn shp(shp: &Part) -> Result<(), SourceError> {
+/// The .shp is a shapefile whose header gives its length: the file as
+/// long as that, or longer by bytes that are not whole records.
+///
+/// Bytes past the header's length that walk as one or more whole records
+/// are a record being appended (QGIS writes each added record, then the
+/// header): torn, read again later. Any other tail (a stray byte a writer
+/// left, as users' files have) is ignored, as GDAL ignores it, with a
+/// warning; the records are those within the header's length.
+pub(crate) fn shp(shp: &Part) -> Result<Shp, SourceError> {
     let len = shp.bytes.len();
     let header = (len >= HEADER_BYTES).then(|| be_i32(&shp.bytes, 24));
     let Some(Some(words)) = header else {
@@ -58,13 +69,60 @@ pub(crate) fn shp(shp: &Part) -> Result<(), SourceError> {
     };
     header_codes(shp, ".shp")?;
     let declared = words * 2;
-    if declared != len as i64 {
-        return Err(SourceError::format(
+    if declared == len as i64 {
+        return Ok(Shp { len, warning: None });
+    }
+    let torn = || {
+        SourceError::format(
             format!("truncated or torn .shp: its header says {declared} bytes, the file has {len}"),
+            &shp.path,
+        )
+    };
+    let Ok(declared) = usize::try_from(declared) else { return Err(torn()) };
+    if declared < HEADER_BYTES || declared > len {
+        return Err(torn());
+    }
+    if whole_records(&shp.bytes, declared) {
+        return Err(SourceError::format(
+            format!(
+                "torn .shp: whole records lie past the {declared} bytes its header says (the file has {len}): \
+                 a writer appending them"
+            ),
             &shp.path,
         ));
     }
-    Ok(())
+    let extra = len - declared;
+    let warning = format!(
+        "the .shp has {extra} byte{} past the {declared} its header says, not a record: ignored, as GDAL does \
+         ({})",
+        if extra == 1 { "" } else { "s" },
+        shp.path.display()
+    );
+    Ok(Shp { len: declared, warning: Some(warning) })
+}
+
+/// What the .shp check found: the length its records span, and a warning
+/// when the file is longer.
+pub(crate) struct Shp {
+    /// The bytes to read: the header's length.
+    pub len: usize,
+    pub warning: Option<String>,
+}
+
+/// True when the bytes of `bytes` from `from` on are one or more whole
+/// records (each an 8-byte record header whose content length takes the
+/// walk exactly to the end).
+fn whole_records(bytes: &[u8], from: usize) -> bool {
+    let mut at = from;
+    while at + 8 <= bytes.len() {
+        let Some(content) = be_i32(bytes, at + 4).filter(|c| *c >= 2) else { return false };
+        let Ok(content) = usize::try_from(content) else { return false };
+        at += 8 + 2 * content;
+        if at == bytes.len() {
+            return true;
+        }
+    }
+    false
 }
 
 /// Records are counted from 0 in messages, as their features' ids are.
@@ -73,15 +131,28 @@ pub(crate) fn shp(shp: &Part) -> Result<(), SourceError> {
 /// its size, every entry lies inside the .shp, and the record header
 /// there gives the same content length (as GDAL checks: "sizes do not match
 /// in .shx and .shp").
-pub(crate) fn shx(shx: &Part, shp: &Part) -> Result<usize, SourceError> {
+///
+/// A header length over the file's by less than one entry (no entry can
+/// be missing: GDAL reads all the entries of such a file) is read, with a
+/// warning; a header that promises a whole entry more, or fewer entries
+/// than the file holds, is a .shx being rewritten: torn.
+pub(crate) fn shx(shx: &Part, shp: &Part) -> Result<Shx, SourceError> {
     let shp_len = shp.bytes.len();
     let bytes = &shx.bytes;
     let len = bytes.len();
     let torn =
         || SourceError::format(format!("torn .shx: its header length does not match its {len} bytes"), &shx.path);
     let Some(words) = be_i32(bytes, 24) else { return Err(torn()) };
-    if len < HEADER_BYTES || words * 2 != len as i64 || !(len - HEADER_BYTES).is_multiple_of(ENTRY_BYTES) {
+    if len < HEADER_BYTES || !(len - HEADER_BYTES).is_multiple_of(ENTRY_BYTES) {
         return Err(torn());
+    }
+    let declared = words * 2;
+    let over = declared - len as i64;
+    if !(0..ENTRY_BYTES as i64).contains(&over) {
+        return Err(SourceError::format(
+            format!("torn .shx: its header says {declared} bytes, the file has {len}"),
+            &shx.path,
+        ));
     }
     header_codes(shx, ".shx")?;
     let records = (len - HEADER_BYTES) / ENTRY_BYTES;
@@ -123,7 +194,20 @@ pub(crate) fn shx(shx: &Part, shp: &Part) -> Result<usize, SourceError> {
             ));
         }
     }
-    Ok(records)
+    let warning = (over > 0).then(|| {
+        format!(
+            "the .shx header says {declared} bytes, the file has {len}: its {records} entries read, as GDAL does ({})",
+            shx.path.display()
+        )
+    });
+    Ok(Shx { records, warning })
+}
+
+/// What the .shx check found: the records it indexes, and a warning when
+/// its header's length is off.
+pub(crate) struct Shx {
+    pub records: usize,
+    pub warning: Option<String>,
 }
 
 /// The .dbf holds `records` records, as `counted_by` ("the .shx indexes")

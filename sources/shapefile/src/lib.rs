@@ -4,7 +4,11 @@
 //! Before a shapefile is taken in, its files are checked against each other
 //! (the torn states EDITORS.md records: an index that does not match its
 //! shapes, a table whose record count disagrees), so a half-saved dataset
-//! is an error, never a partial one. Only the .shp is required, as other
+//! is an error, never a partial one. What no writer leaves mid-save but
+//! GDAL reads (a stray byte after the last record, a .shx header length off
+//! by less than an entry) is read, with a warning in the source's state;
+//! whole records past the .shp header's length are a record being
+//! appended, read again later. Only the .shp is required, as other
 //! readers have it: a missing .shx is rebuilt by walking the .shp's records
 //! (GDAL's SHAPE_RESTORE_SHX) and a missing .dbf gives features without
 //! attributes, each with a warning in the source's state; but a sidecar

@@ -53,9 +53,27 @@ impl VectorFormat for Shapefile {
         };
 
         let mut warnings = Vec::new();
-        check::shp(&dataset.shp)?;
+        let mut dataset = dataset;
+        let shp = check::shp(&dataset.shp)?;
+        // Bytes past the header's length are no record: read without them.
+        dataset.shp.bytes.truncate(shp.len);
+        warnings.extend(shp.warning);
         let (shx, records, counted_by): (Cow<'_, [u8]>, usize, &str) = match &dataset.shx {
-            Some(shx) => (Cow::Borrowed(&shx.bytes), check::shx(shx, &dataset.shp)?, "the .shx indexes"),
+            Some(shx) => {
+                let checked = check::shx(shx, &dataset.shp)?;
+                let index = match checked.warning {
+                    Some(warning) => {
+                        warnings.push(warning);
+                        // The header's length made true, for the reader.
+                        let mut fixed = shx.bytes.clone();
+                        let words = i32::try_from(fixed.len() / 2).unwrap_or(i32::MAX);
+                        fixed[24..28].copy_from_slice(&words.to_be_bytes());
+                        Cow::Owned(fixed)
+                    }
+                    None => Cow::Borrowed(shx.bytes.as_slice()),
+                };
+                (index, checked.records, "the .shx indexes")
+            }
             None => {
                 let (rebuilt, records) = shx::rebuild(&dataset.shp)?;
                 warnings

@@ -156,3 +156,99 @@ fn a_record_deleted_in_the_dbf_takes_its_shape_with_it() -> TestResult {
     assert_eq!(read.details.get("deleted_records").map(String::as_str), Some("1"));
     Ok(())
 }
+
+/// The big-endian header length of a .shp or .shx, in bytes.
+fn header_bytes(bytes: &[u8]) -> usize {
+    2 * u32::from_be_bytes([bytes[24], bytes[25], bytes[26], bytes[27]]) as usize
+}
+
+fn set_header_bytes(bytes: &mut [u8], len: usize) {
+    bytes[24..28].copy_from_slice(&u32::try_from(len / 2).expect("a test file is small").to_be_bytes());
+}
+
+#[test]
+fn a_stray_byte_after_the_last_record_is_ignored_with_a_warning() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    for layer in Layer::ALL {
+        let shp = layer.write(dir.path())?;
+        let whole = read(&shp, &[])?;
+        let mut bytes = std::fs::read(&shp)?;
+        let len = bytes.len();
+        bytes.push(0);
+        std::fs::write(&shp, &bytes)?;
+        let odd = read(&shp, &[])?;
+        // Debug text, as z is NaN (no z) and NaN is never equal to itself.
+        assert_eq!(format!("{:?}", odd.features), format!("{:?}", whole.features), "{layer:?}");
+        assert_eq!(
+            odd.warnings,
+            [format!(
+                "the .shp has 1 byte past the {len} its header says, not a record: ignored, as GDAL does ({})",
+                shp.display()
+            )]
+        );
+        // Without its .shx, the walk stops at the header's length too.
+        std::fs::remove_file(shp.with_extension("shx"))?;
+        let walked = read(&shp, &[])?;
+        assert_eq!(walked.features.len(), layer.count(), "{layer:?}");
+        assert_eq!(walked.warnings.len(), 2, "{:?}", walked.warnings);
+    }
+    Ok(())
+}
+
+#[test]
+fn a_record_appended_before_the_header_counts_it_is_torn() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let shp = Layer::Polygons.write(dir.path())?;
+    let mut bytes = std::fs::read(&shp)?;
+    // QGIS appends a record, then rewrites the header: in between, the
+    // header is one record short.
+    let last = header_bytes(&std::fs::read(shp.with_extension("shx"))?) - 8;
+    let shx = std::fs::read(shp.with_extension("shx"))?;
+    let offset = 2 * u32::from_be_bytes([shx[last], shx[last + 1], shx[last + 2], shx[last + 3]]) as usize;
+    set_header_bytes(&mut bytes, offset);
+    std::fs::write(&shp, &bytes)?;
+    let message = read(&shp, &[]).err().ok_or("a record being appended was read")?.to_string();
+    assert!(message.starts_with("torn .shp: whole records lie past the"), "{message}");
+    assert!(message.ends_with(&format!(": {}", shp.display())), "{message}");
+    Ok(())
+}
+
+#[test]
+fn a_shx_header_length_off_by_less_than_an_entry_is_read_with_a_warning() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let shp = Layer::Points.write(dir.path())?;
+    let whole = read(&shp, &[])?;
+    let shx = shp.with_extension("shx");
+    let original = std::fs::read(&shx)?;
+    let len = original.len();
+
+    // Over by 2 or 6 bytes: GDAL reads every entry, and so does relief.
+    for over in [2, 6] {
+        let mut bytes = original.clone();
+        set_header_bytes(&mut bytes, len + over);
+        std::fs::write(&shx, &bytes)?;
+        let odd = read(&shp, &[])?;
+        assert_eq!(format!("{:?}", odd.features), format!("{:?}", whole.features));
+        assert_eq!(
+            odd.warnings,
+            [format!(
+                "the .shx header says {} bytes, the file has {len}: its 5 entries read, as GDAL does ({})",
+                len + over,
+                shx.display()
+            )]
+        );
+    }
+    // A whole entry more (a .shx being extended), or fewer than the file
+    // holds (being rewritten): torn.
+    for declared in [len + 8, len - 8, len - 2] {
+        let mut bytes = original.clone();
+        set_header_bytes(&mut bytes, declared);
+        std::fs::write(&shx, &bytes)?;
+        let message = read(&shp, &[]).err().ok_or("a torn .shx was read")?.to_string();
+        assert_eq!(
+            message,
+            format!("torn .shx: its header says {declared} bytes, the file has {len}: {}", shx.display())
+        );
+    }
+    Ok(())
+}
