@@ -24,7 +24,9 @@ pub struct Kind {
 }
 
 /// A file-backed vector kind: its format read through `VectorSource`,
-/// reprojected by OSR, features out.
+/// reprojected by OSR; features out, or meshes for a MultiPatch layer (the
+/// open source says so; `output` is what the graph assumes of one that
+/// failed to open).
 fn vector_kind<F: VectorFormat>() -> Kind {
     Kind {
         name: F::KIND,

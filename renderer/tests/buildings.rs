@@ -140,6 +140,7 @@ impl<'a> Town<'a> {
                 first_index: first,
                 index_count,
                 color: [40, 60, 230, 255],
+                on_ground: true,
             });
         }
         mesh

@@ -308,6 +308,7 @@ pub fn mesh(m: &relief_source::MeshTile) -> pb::Mesh {
                 first_index: p.first_index,
                 index_count: p.index_count,
                 rgba: u32::from_be_bytes(p.color),
+                on_ground: p.on_ground,
             })
             .collect(),
         skipped: skipped(&m.skipped),

@@ -10,6 +10,14 @@
 //!   failed; errors from this read are shown on the source;
 //! - after `write_timeout_ms` when a file was written but never closed.
 //!
+//! An ArcGIS edit or write lock on a dataset (`*.lock` beside it, not the
+//! schema lock `*.sr.lock` every session holds) holds its read back until
+//! the lock goes, or for `write_timeout_ms` without events (a crashed
+//! ArcGIS leaves its locks; the source's read then says so in the state).
+//! A file geodatabase is watched per table: a source's files are its
+//! table's (`a0000000b.*` in the `.gdb` folder) and the catalog's, so an
+//! edit to one table refreshes only the sources that read it.
+//!
 //! A SQLite database (a GeoPackage) is watched with its write-ahead log and
 //! rollback journal. Its writes are transactions, so a reader through SQLite
 //! never sees one torn; but one QGIS commit is several transactions

@@ -5,7 +5,9 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use notify::event::{AccessKind, AccessMode, EventKind, ModifyKind, RenameMode};
-use relief_source::files::{Member, dataset_key, is_repack_marker, is_sqlite, member};
+use relief_source::files::{
+    Member, WHOLE_FOLDER_LOCK, dataset_key, is_repack_marker, is_sqlite, is_write_lock, member,
+};
 
 use crate::manifest::WatchSettings;
 
@@ -70,16 +72,23 @@ pub(super) enum Ready {
 }
 
 /// What on disk holds a dataset back: a QGIS repack swaps files (no read
-/// at all), a SQLite journal marks a transaction under way (no fast read).
+/// at all), a SQLite journal marks a transaction under way (no fast read),
+/// an ArcGIS edit or write lock (no read until it goes, or until
+/// `write_timeout_ms` without events: a crashed ArcGIS leaves its locks).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub(super) struct Busy {
     pub(super) repacking: bool,
     pub(super) journal: bool,
+    pub(super) locked: bool,
 }
 
 impl Busy {
     pub(super) fn or(self, other: Self) -> Self {
-        Self { repacking: self.repacking | other.repacking, journal: self.journal | other.journal }
+        Self {
+            repacking: self.repacking | other.repacking,
+            journal: self.journal | other.journal,
+            locked: self.locked | other.locked,
+        }
     }
 }
 
@@ -88,7 +97,7 @@ pub(super) fn readiness(p: &Pending, now: Instant, s: &WatchSettings, busy: Busy
         return None;
     }
     let quiet = now.duration_since(p.last_event);
-    if p.save == Save::Writing {
+    if p.save == Save::Writing || busy.locked {
         return (quiet >= Duration::from_millis(s.write_timeout_ms.max(s.debounce_ms))).then_some(Ready::Quiet);
     }
     if quiet >= Duration::from_millis(s.debounce_ms) && !busy.repacking {
@@ -163,9 +172,13 @@ pub(super) fn busy(dir: &Path, stems: &std::collections::BTreeSet<&str>) -> Busy
         return busy;
     };
     for p in entries.flatten().map(|e| e.path()) {
-        if dataset_key(&p).is_some_and(|(_, s)| stems.contains(s.as_str())) {
+        let Some((_, stem)) = dataset_key(&p) else { continue };
+        if stems.contains(stem.as_str()) {
             busy.repacking |= is_repack_marker(&p);
             busy.journal |= member(&p) == Member::SqliteJournal;
+        }
+        if stems.contains(stem.as_str()) || stem == WHOLE_FOLDER_LOCK {
+            busy.locked |= is_write_lock(&p);
         }
     }
     busy

@@ -73,6 +73,11 @@ impl FeatureIndex {
         Ok(Self { features: Arc::new(features), extents: Arc::new(extents) })
     }
 
+    /// The features, in the grid's CRS.
+    pub fn features(&self) -> &[Feature] {
+        &self.features
+    }
+
     pub fn len(&self) -> usize {
         self.features.len()
     }

@@ -29,6 +29,22 @@ pub fn is_repack_marker(path: &Path) -> bool {
         .is_some_and(|stem| stem.to_lowercase().ends_with("_packed"))
 }
 
+/// The stem of an ArcGIS lock on a whole file geodatabase
+/// (`_gdb.HOST.PID.N.ed.lock`): it is on every table in its folder.
+pub const WHOLE_FOLDER_LOCK: &str = "_gdb";
+
+/// True for an editor's lock that holds a read back: ArcGIS's `*.lock`
+/// files beside a dataset (`<stem>.<host>.<pid>.<n>.ed.lock` while it
+/// edits, `.wr.lock` while it writes), but not the schema lock every
+/// ArcGIS session keeps while it merely shows the data (`.sr.lock`), nor
+/// another reader's (`.rd.lock`). A lock is never data (`Member::Ignored`).
+#[expect(clippy::case_sensitive_file_extension_comparisons, reason = "the name is lower-cased first")]
+pub fn is_write_lock(path: &Path) -> bool {
+    let Some(name) = path.file_name().and_then(|n| n.to_str()) else { return false };
+    let lower = name.to_lowercase();
+    lower.ends_with(".lock") && !lower.ends_with(".sr.lock") && !lower.ends_with(".rd.lock")
+}
+
 /// The part a file plays in its dataset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Member {
@@ -41,8 +57,10 @@ pub enum Member {
     /// A SQLite rollback journal (`x.gpkg-journal`): a write transaction is
     /// under way while it exists.
     SqliteJournal,
-    /// Lock files, editor back-ups, temporaries and SQLite's shared-memory
-    /// index (`-shm`, touched by every reader): never data.
+    /// Lock files, editor back-ups, temporaries, SQLite's shared-memory
+    /// index (`-shm`, touched by every reader) and ArcGIS's side files
+    /// (spatial indexes `.sbn`/`.sbx`, metadata `.shp.xml`, which it
+    /// rewrites when it merely opens a layer): never data.
     Ignored,
 }
 
@@ -66,6 +84,9 @@ pub fn member(path: &Path) -> Member {
         || lower.ends_with(".tmp")
         || lower.ends_with(".swp")
         || lower.ends_with("-shm")
+        || lower.ends_with(".sbn")
+        || lower.ends_with(".sbx")
+        || lower.ends_with(".shp.xml")
     {
         Member::Ignored
     } else {
@@ -166,6 +187,15 @@ impl Fingerprint {
         }
         Ok(Self(files))
     }
+
+    /// The fingerprints of several datasets, by their primaries, as one.
+    pub fn of_each(primaries: &[PathBuf], what: &'static str) -> Result<Self, crate::SourceError> {
+        let mut all = Vec::new();
+        for primary in primaries {
+            all.extend(Self::of(primary, what)?.0);
+        }
+        Ok(Self(all))
+    }
 }
 
 #[cfg(test)]
@@ -186,9 +216,25 @@ mod tests {
 
     #[test]
     fn locks_and_temporaries_are_not_data() {
-        for p in [".~lock.dem.tif#", "dem.tif~", "x.gpkg-shm", "dem.tif.lock", "~$dem.tif", ".#dem.tif"] {
+        for p in [
+            ".~lock.dem.tif#",
+            "dem.tif~",
+            "x.gpkg-shm",
+            "dem.tif.lock",
+            "~$dem.tif",
+            ".#dem.tif",
+            "roads.sbn",
+            "roads.SBX",
+            "roads.shp.xml",
+            "roads.shp.HOST.1234.5678.sr.lock",
+        ] {
             assert_eq!(member(Path::new(p)), Member::Ignored, "{p}");
         }
+        assert!(is_write_lock(Path::new("/g.gdb/a0000000b.HOST.1.2.ed.lock")));
+        assert!(is_write_lock(Path::new("_gdb.HOST.1.2.wr.lock")));
+        assert!(!is_write_lock(Path::new("a0000000b.HOST.1.2.sr.lock")));
+        assert!(!is_write_lock(Path::new("_gdb.HOST.1.2.RD.LOCK")));
+        assert!(!is_write_lock(Path::new("a0000000b.gdbtable")));
         for p in ["dem.tif", "dem.tif.aux.xml", "roads.dbf", "N43E007.hgt", "town.gpkg"] {
             assert_eq!(member(Path::new(p)), Member::Data, "{p}");
         }

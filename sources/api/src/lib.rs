@@ -7,6 +7,7 @@
 //! It must never depend on GDAL, gRPC, the renderer or any source crate:
 //! source crates depend on it, not the other way round.
 
+pub mod colors;
 mod crs;
 mod dirty;
 pub mod echo;
@@ -15,6 +16,7 @@ mod features;
 pub mod files;
 pub mod geodesy;
 mod grid;
+pub mod patches;
 mod payload;
 mod quality;
 pub mod regular;

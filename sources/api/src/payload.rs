@@ -142,9 +142,13 @@ pub struct MeshPart {
     pub index_count: u32,
     /// The feature's colour, straight RGBA8.
     pub color: [u8; 4],
+    /// True: heights are relative, and the renderer sets the feature's
+    /// lowest vertex on the terrain as it draws it (extruded buildings,
+    /// MultiPatch with `z = "relative"`); false: heights as written.
+    pub on_ground: bool,
 }
 
-/// Triangle meshes (extruded buildings). Positions are grid-CRS x and y
+/// Triangle meshes (extruded buildings, MultiPatch surfaces). Positions are grid-CRS x and y
 /// with the height in metres, kept in f64: a renderer subtracts its eye
 /// position before going to f32. Triangles wind counter-clockwise seen
 /// from outside.
@@ -264,6 +268,7 @@ impl Payload {
                     b.u64(u64::from(p.first_index));
                     b.u64(u64::from(p.index_count));
                     b.0.extend(p.color);
+                    b.0.push(u8::from(p.on_ground));
                 }
                 b.skipped(&t.skipped);
                 h.update(&b.0);

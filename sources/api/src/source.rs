@@ -84,6 +84,15 @@ impl SourceSpec {
         }
     }
 
+    /// A tile level of the grid (a whole number, 0 to `MAX_LEVEL`).
+    pub fn level(&self, field: &str) -> Result<Option<u8>, SourceError> {
+        match self.number(field)? {
+            None => Ok(None),
+            Some(l) if (0.0..=f64::from(crate::MAX_LEVEL)).contains(&l) && l.fract() == 0.0 => Ok(Some(l as u8)),
+            Some(l) => Err(SourceError::option(field, format!("{l} is not a level of the grid"))),
+        }
+    }
+
     /// A list option (a TOML array, or an array of tables such as
     /// `[[source.rule]]`).
     pub fn list(&self, field: &str) -> Result<Option<&[OptionValue]>, SourceError> {

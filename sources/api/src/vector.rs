@@ -13,7 +13,8 @@ use crate::error::SourceError;
 use crate::features::FeatureIndex;
 use crate::files::Fingerprint;
 use crate::grid::{TileGrid, TileKey};
-use crate::payload::{Feature, Payload, PayloadKind};
+use crate::patches::{self, PatchCounts, PatchStyle};
+use crate::payload::{Feature, MeshTile, Payload, PayloadKind};
 use crate::source::{GenerateContext, Refresh, Source, SourceInfo, SourceSpec};
 
 /// What a format read from its files, features still in their own CRS.
@@ -34,6 +35,9 @@ pub struct VectorRead {
     /// What the reader did that the user should know about: a rebuilt
     /// index, a missing attribute table, a mode read as its nearest.
     pub warnings: Vec<String>,
+    /// The features are MultiPatch surfaces (3D buildings), each patch a
+    /// polygon (`patches`): the source's output is their meshes.
+    pub surfaces: bool,
 }
 
 /// A vector file format.
@@ -43,6 +47,14 @@ pub trait VectorFormat: Send + Sync + std::fmt::Debug + 'static {
 
     /// Reads the dataset whose primary file is `path`. Options are checked here.
     fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError>;
+
+    /// The files whose datasets (`files::dataset_files`) a read of `path`
+    /// depends on: stamped before and after each read, and compared by a
+    /// refresh. The path itself, unless the format keeps its data elsewhere
+    /// (a file geodatabase: the layer's table files in the folder).
+    fn stamped(_spec: &SourceSpec, path: &Path) -> Result<Vec<PathBuf>, SourceError> {
+        Ok(vec![path.to_path_buf()])
+    }
 }
 
 #[derive(Debug)]
@@ -50,10 +62,21 @@ pub struct VectorSource<F: VectorFormat> {
     spec: SourceSpec,
     path: PathBuf,
     crs: Arc<dyn CrsTransform>,
+    /// What `F::stamped` named, and their fingerprint when read.
+    stamped: Vec<PathBuf>,
     fingerprint: Fingerprint,
     index: FeatureIndex,
+    /// For MultiPatch surfaces: how they are drawn, and each feature's
+    /// anchor (the one tile a level that draws it).
+    surfaces: Option<Surfaces>,
     info: SourceInfo,
     format: PhantomData<F>,
+}
+
+#[derive(Debug)]
+struct Surfaces {
+    style: PatchStyle,
+    anchors: Vec<Option<(f64, f64)>>,
 }
 
 impl<F: VectorFormat> VectorSource<F> {
@@ -64,9 +87,10 @@ impl<F: VectorFormat> VectorSource<F> {
                 format!("a {} source reads one file (its sidecars come with it)", F::KIND),
             ));
         };
-        let fingerprint = Fingerprint::of(path, F::KIND)?;
-        let read = F::read(spec, path)?;
-        if Fingerprint::of(path, F::KIND)? != fingerprint {
+        let stamped = F::stamped(spec, path)?;
+        let fingerprint = Fingerprint::of_each(&stamped, F::KIND)?;
+        let mut read = F::read(spec, path)?;
+        if Fingerprint::of_each(&stamped, F::KIND)? != fingerprint {
             return Err(SourceError::Changing { path: path.clone() });
         }
         let crs_file = read.crs_file.clone();
@@ -74,6 +98,17 @@ impl<F: VectorFormat> VectorSource<F> {
             SourceError::Crs { crs, message, path: None } => SourceError::Crs { crs, message, path: crs_file },
             other => other,
         })?;
+        let surfaces = if read.surfaces {
+            let style = PatchStyle::from_spec(spec)?;
+            let geodetic = grid.is_geodetic();
+            style.details(&mut read.details);
+            PatchCounts::of(index.features().iter(), geodetic).report(&mut read.details, &mut read.warnings);
+            let anchors = index.features().iter().map(|f| patches::anchor(f, geodetic)).collect();
+            Some(Surfaces { style, anchors })
+        } else {
+            PatchStyle::refuse_on_features(spec, "points, lines or polygons")?;
+            None
+        };
         let info = SourceInfo {
             files: read.files,
             extent: index.extent(),
@@ -85,7 +120,32 @@ impl<F: VectorFormat> VectorSource<F> {
             warnings: read.warnings,
             ..SourceInfo::default()
         };
-        Ok(Self { spec: spec.clone(), path: path.clone(), crs, fingerprint, index, info, format: PhantomData })
+        Ok(Self {
+            spec: spec.clone(),
+            path: path.clone(),
+            crs,
+            stamped,
+            fingerprint,
+            index,
+            surfaces,
+            info,
+            format: PhantomData,
+        })
+    }
+
+    /// The meshes of the surfaces whose anchor tile `key` is.
+    fn meshes(&self, surfaces: &Surfaces, grid: &TileGrid, key: TileKey) -> MeshTile {
+        if key.level < surfaces.style.min_level {
+            return MeshTile::default();
+        }
+        let owned = self
+            .index
+            .features()
+            .iter()
+            .zip(&surfaces.anchors)
+            .filter(|(_, a)| a.is_some_and(|(x, y)| grid.key_at(key.level, x, y) == Some(key)))
+            .map(|(f, _)| f);
+        patches::mesh(owned, grid.is_geodetic(), &surfaces.style)
     }
 }
 
@@ -99,7 +159,7 @@ impl<F: VectorFormat> Source for VectorSource<F> {
     }
 
     fn output(&self) -> PayloadKind {
-        PayloadKind::Features
+        if self.surfaces.is_some() { PayloadKind::Mesh } else { PayloadKind::Features }
     }
 
     fn info(&self) -> SourceInfo {
@@ -107,16 +167,32 @@ impl<F: VectorFormat> Source for VectorSource<F> {
     }
 
     fn generate(&self, key: TileKey, ctx: &GenerateContext<'_>) -> Result<Payload, SourceError> {
-        Ok(Payload::Features(self.index.tile(ctx.grid, key)))
+        Ok(match &self.surfaces {
+            Some(surfaces) => Payload::Mesh(self.meshes(surfaces, ctx.grid, key)),
+            None => Payload::Features(self.index.tile(ctx.grid, key)),
+        })
     }
 
     /// Reads the dataset again when any of its files changed; the dirt is
     /// the old and new parts of every feature that changed, came or went.
     fn refresh(&self, grid: &TileGrid) -> Result<Refresh, SourceError> {
-        if Fingerprint::of(&self.path, F::KIND)? == self.fingerprint {
+        if F::stamped(&self.spec, &self.path)? == self.stamped
+            && Fingerprint::of_each(&self.stamped, F::KIND)? == self.fingerprint
+        {
             return Ok(Refresh::Unchanged);
         }
         let new = Self::open(&self.spec, grid, Arc::clone(&self.crs))?;
+        if new.output() != self.output() {
+            return Err(SourceError::format(
+                format!(
+                    "its layer now holds {} where it held {}: a source keeps its kind of output while the scene \
+                     runs; restart reliefd (or point the manifest at a new source) to draw the new kind",
+                    new.output(),
+                    self.output()
+                ),
+                &self.path,
+            ));
+        }
         let dirty = new.index.dirt_since(&self.index);
         Ok(Refresh::Changed { source: Arc::new(new), dirty })
     }

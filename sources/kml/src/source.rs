@@ -32,6 +32,7 @@ impl VectorFormat for Kml {
             details.insert("network_links_not_followed".into(), found.network_links.join(" "));
         }
         Ok(VectorRead {
+            surfaces: false,
             features: found.features,
             // KML is WGS84 longitude, latitude by definition.
             crs: "EPSG:4326".into(),

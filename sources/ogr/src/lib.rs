@@ -12,6 +12,7 @@
 //! It depends on relief-source and the gdal crate only, never on the
 //! daemon or another source crate.
 
+mod gdb;
 mod read;
 mod source;
 

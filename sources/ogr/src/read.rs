@@ -18,6 +18,8 @@ pub(crate) struct LayerRead {
     pub skipped: BTreeMap<&'static str, usize>,
     /// Every attribute field as "name:Type", in the layer's order.
     pub fields: Vec<String>,
+    /// Some features are surfaces (TINs, polyhedral surfaces).
+    pub surfaces: bool,
 }
 
 /// The parts of one geometry, sorted by family.
@@ -26,6 +28,9 @@ struct Parts {
     points: Vec<[f64; 3]>,
     lines: Vec<Vec<[f64; 3]>>,
     polygons: Vec<Vec<Vec<[f64; 3]>>>,
+    /// Some of the polygons came from a surface (a TIN or a polyhedral
+    /// surface, as OGR reads a MultiPatch's strips and fans).
+    surfaces: bool,
 }
 
 /// The vertices of a curve or ring; z is NaN when the geometry has none.
@@ -67,24 +72,32 @@ fn collect(g: &OgrGeometry, parts: &mut Parts) -> Result<(), &'static str> {
         | Wkb::wkbMultiSurface
         | Wkb::wkbCurve
         | Wkb::wkbSurface => return Err("curve"),
-        Wkb::wkbPolyhedralSurface | Wkb::wkbTIN => return Err("surface"),
+        // A MultiPatch's strips and fans, as OGR reads them: their
+        // triangles (or faces) as polygons.
+        Wkb::wkbPolyhedralSurface | Wkb::wkbTIN => {
+            parts.surfaces = true;
+            for i in 0..g.geometry_count() {
+                collect(&g.get_geometry(i), parts)?;
+            }
+        }
         _ => return Err("unknown_geometry"),
     }
     Ok(())
 }
 
-/// A relief geometry, `Ok(None)` for an empty one, or why it is skipped.
-fn geometry(g: &OgrGeometry) -> Result<Option<Geometry>, &'static str> {
+/// A relief geometry (and whether it holds surfaces), `Ok(None)` for an
+/// empty one, or why it is skipped.
+fn geometry(g: &OgrGeometry) -> Result<Option<(Geometry, bool)>, &'static str> {
     let mut parts = Parts::default();
     collect(g, &mut parts)?;
-    let Parts { points, lines, polygons } = parts;
-    Ok(match (points.is_empty(), lines.is_empty(), polygons.is_empty()) {
-        (true, true, true) => None,
-        (false, true, true) => Some(Geometry::Points(points)),
-        (true, false, true) => Some(Geometry::Lines(lines)),
-        (true, true, false) => Some(Geometry::Polygons(polygons)),
+    let Parts { points, lines, polygons, surfaces } = parts;
+    Ok(Some(match (points.is_empty(), lines.is_empty(), polygons.is_empty()) {
+        (true, true, true) => return Ok(None),
+        (false, true, true) => (Geometry::Points(points), false),
+        (true, false, true) => (Geometry::Lines(lines), false),
+        (true, true, false) => (Geometry::Polygons(polygons), surfaces),
         _ => return Err("mixed_collection"),
-    })
+    }))
 }
 
 /// GDAL's own text of a date-time ("2024/05/01 12:30:00.5+02") as
@@ -167,6 +180,7 @@ pub(crate) fn read_layer(
     let mut null_geometries = 0;
     let mut skipped = BTreeMap::new();
     let mut read = 0u64;
+    let mut surfaces = false;
     for (index, feature) in layer.features().enumerate() {
         read += 1;
         // A feature without geometry gives a geometry with no GDAL object.
@@ -175,7 +189,10 @@ pub(crate) fn read_layer(
                 null_geometries += 1;
                 continue;
             }
-            Some(Ok(Some(g))) => g,
+            Some(Ok(Some((g, surface)))) => {
+                surfaces |= surface;
+                g
+            }
             Some(Err(reason)) => {
                 *skipped.entry(reason).or_insert(0) += 1;
                 continue;
@@ -200,7 +217,7 @@ pub(crate) fn read_layer(
         ));
     }
     let fields = fields.into_iter().map(|(_, name, ty)| format!("{name}:{}", field_type_to_name(ty))).collect();
-    Ok(LayerRead { features, null_geometries, skipped, fields })
+    Ok(LayerRead { features, null_geometries, skipped, fields, surfaces })
 }
 
 #[cfg(test)]
@@ -221,7 +238,7 @@ mod tests {
         let g = |wkt: &str| OgrGeometry::from_wkt(wkt).expect("valid WKT");
         assert_eq!(
             geometry(&g("GEOMETRYCOLLECTION (POINT (1 2), MULTIPOINT ((3 4)))")).map(|g| g.map(|g| match g {
-                Geometry::Points(p) => p.len(),
+                (Geometry::Points(p), false) => p.len(),
                 _ => 0,
             })),
             Ok(Some(2))
@@ -229,9 +246,15 @@ mod tests {
         assert_eq!(geometry(&g("GEOMETRYCOLLECTION (POINT (1 2), LINESTRING (0 0, 1 1))")), Err("mixed_collection"));
         assert_eq!(geometry(&g("POINT EMPTY")), Ok(None));
         assert_eq!(geometry(&g("CIRCULARSTRING (0 0, 1 1, 2 0)")), Err("curve"));
-        let Ok(Some(Geometry::Points(p))) = geometry(&g("POINT Z (1 2 3)")) else { panic!("a point") };
+        let Ok(Some((Geometry::Points(p), _))) = geometry(&g("POINT Z (1 2 3)")) else { panic!("a point") };
         assert_eq!(p, vec![[1.0, 2.0, 3.0]]);
-        let Ok(Some(Geometry::Points(p))) = geometry(&g("POINT (1 2)")) else { panic!("a point") };
+        let Ok(Some((Geometry::Points(p), _))) = geometry(&g("POINT (1 2)")) else { panic!("a point") };
         assert!(p[0][2].is_nan());
+        // A MultiPatch as OGR reads it from a geodatabase: a TIN and a
+        // polygon with a hole, as four polygons.
+        let patch = g("GEOMETRYCOLLECTION Z (TIN Z (((0 0 10,1 0 10,0 1 10,0 0 10)),((1 0 10,1 1 10,0 1 10,1 0 10))),\
+                       MULTIPOLYGON Z (((0 0 0,10 0 0,10 10 0,0 0 0),(2 1 0,3 1 0,3 2 0,2 1 0))))");
+        let Ok(Some((Geometry::Polygons(p), true))) = geometry(&patch) else { panic!("surfaces") };
+        assert_eq!(p.iter().map(Vec::len).collect::<Vec<_>>(), vec![1, 1, 2]);
     }
 }

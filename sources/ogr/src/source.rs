@@ -1,7 +1,7 @@
 //! The `ogr` format: options, opening, layer choice, CRS and details.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use gdal::spatial_ref::SpatialRef;
 use gdal::vector::LayerAccess;
@@ -9,6 +9,7 @@ use gdal::{Dataset, DatasetCapability, DatasetOptions, GdalOpenFlags};
 use relief_source::{SourceError, SourceSpec, VectorFormat, VectorRead, VectorSource};
 use relief_source_gdal::describe_srs;
 
+use crate::gdb;
 use crate::read::read_layer;
 
 pub const KIND: &str = "ogr";
@@ -76,7 +77,7 @@ impl VectorFormat for Ogr {
     const KIND: &'static str = KIND;
 
     fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
-        spec.only_options(&["layer", "crs"])?;
+        spec.only_options(&[&["layer", "crs"], relief_source::patches::OPTIONS].concat())?;
         let wanted = spec.text("layer")?;
         let crs_option = spec.text("crs")?;
         let mut ds = open(path, wanted)?;
@@ -91,6 +92,21 @@ impl VectorFormat for Ogr {
             read_dataset(&ds, wanted, crs_option, path)
         }
     }
+
+    /// A file geodatabase's layer depends on its table's files and the
+    /// catalog, not on the folder; any other dataset on its own files.
+    fn stamped(spec: &SourceSpec, path: &Path) -> Result<Vec<PathBuf>, SourceError> {
+        if gdb::is_gdb(path) { gdb::stamped(path, spec.text("layer")?) } else { Ok(vec![path.to_path_buf()]) }
+    }
+}
+
+/// True when the `.shp` at `path` says MultiPatch in its header (OGR reads
+/// its patches as plain polygons).
+fn is_multipatch_shp(path: &Path) -> bool {
+    use std::io::Read;
+    let mut header = [0u8; 36];
+    relief_source::regular::open_regular(path).and_then(|mut f| f.read_exact(&mut header)).is_ok()
+        && i32::from_le_bytes([header[32], header[33], header[34], header[35]]) == 31
 }
 
 /// The chosen layer of an open dataset, read whole.
@@ -121,6 +137,10 @@ fn read_dataset(
     };
     let stable_fids = STABLE_FID_DRIVERS.contains(&driver.as_str());
     let read = read_layer(&mut layer, stable_fids, path)?;
+    let geodatabase = gdb::is_gdb(path);
+    let surfaces = read.surfaces
+        || (geodatabase && gdb::is_multipatch(ds, &layer.name()))
+        || (driver == "ESRI Shapefile" && is_multipatch_shp(path));
 
     let layer_srs = layer.spatial_ref();
     let (crs, crs_name, crs_note) = match (crs_option, &layer_srs) {
@@ -156,14 +176,37 @@ fn read_dataset(
     details.insert("fields".into(), read.fields.join(", "));
     details.insert("ids".into(), if stable_fids { "OGR FIDs" } else { "read order" }.into());
     details.insert("crs_source".into(), crs_note);
+    let mut files = relief_source::files::dataset_files(path);
+    let mut warnings = Vec::new();
+    if geodatabase {
+        let stamped = gdb::stamped(path, Some(&layer.name()))?;
+        if let Some(table) = stamped.first().filter(|t| stamped.len() > 1 && t.exists()) {
+            details.insert(
+                "table".into(),
+                table.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            );
+            let locks = gdb::write_locks(table);
+            if !locks.is_empty() {
+                warnings.push(format!(
+                    "read while ArcGIS's lock {} is on table '{}': an edit may be under way, or a crashed \
+                     ArcGIS left it (relief waits [watch] write_timeout_ms for a lock to go, then reads); \
+                     delete the lock file if no ArcGIS has the geodatabase open",
+                    locks.join(", "),
+                    layer.name()
+                ));
+            }
+        }
+        files.extend(stamped.iter().flat_map(|t| relief_source::files::dataset_files(t)));
+    }
     Ok(VectorRead {
         features: read.features,
         crs,
         crs_name,
         crs_file: Some(path.to_path_buf()),
-        files: relief_source::files::dataset_files(path),
+        files,
         vertical_datum: String::new(),
         details,
-        warnings: Vec::new(),
+        warnings,
+        surfaces,
     })
 }

@@ -8,11 +8,9 @@ use relief_source::{
     SourceInfo, SourceSpec, TileKey,
 };
 
-use crate::colors::{by_value, kml_color, parse_color, rgba8};
 use crate::placement::{AltitudeMode, AttributeOr, Ground, check_inputs};
-
-/// Buildings without a colour of their own: a light warm grey.
-const DEFAULT_COLOR: [f64; 4] = [0.85, 0.82, 0.76, 1.0];
+use relief_source::colors::{feature_color, parse_color};
+use relief_source::patches::DEFAULT_COLOR;
 
 pub const EXTRUDE_KIND: &str = "extrude";
 /// Footprints, then (optional) the terrain the buildings stand on.
@@ -42,11 +40,7 @@ impl Extrude {
         if height.value.is_some_and(|h| h <= 0.0) {
             return Err(SourceError::option("height", "a default height is more than 0 m"));
         }
-        let min_level = match spec.number("min_level")? {
-            None => 0,
-            Some(l) if (0.0..=f64::from(relief_source::MAX_LEVEL)).contains(&l) && l.fract() == 0.0 => l as u8,
-            Some(l) => return Err(SourceError::option("min_level", format!("{l} is not a level of the grid"))),
-        };
+        let min_level = spec.level("min_level")?.unwrap_or(0);
         let color = spec.text("color")?.map(|c| parse_color("color", c)).transpose()?.unwrap_or(DEFAULT_COLOR);
         let color_by = spec.text("color_by")?.map(str::to_owned);
         Ok(Self { id: spec.id.clone(), inputs: spec.inputs.clone(), height, min_level, color, color_by })
@@ -55,12 +49,7 @@ impl Extrude {
     /// A building's colour: by `color_by`'s value, else its KML style's
     /// fill (made opaque), else `color`.
     fn color_of(&self, feature: &Feature) -> [u8; 4] {
-        if let Some(value) = self.color_by.as_ref().and_then(|a| feature.properties.get(a)) {
-            let c = by_value(value);
-            return rgba8([c[0], c[1], c[2], 1.0]);
-        }
-        let kml = feature.properties.get("fill_color").and_then(|c| kml_color(c));
-        rgba8(kml.map_or(self.color, |c| [c[0], c[1], c[2], 1.0]))
+        feature_color(feature, self.color_by.as_deref(), self.color)
     }
 
     /// The roof height of `feature` (metres, same datum as the ground), given
@@ -277,7 +266,7 @@ impl Source for Extrude {
             let index_count = mesh.indices.len() as u32 - first_index;
             if index_count > 0 {
                 let color = self.color_of(feature);
-                mesh.parts.push(MeshPart { feature_id: feature.id, first_index, index_count, color });
+                mesh.parts.push(MeshPart { feature_id: feature.id, first_index, index_count, color, on_ground: true });
             }
         }
         Ok(Payload::Mesh(mesh))

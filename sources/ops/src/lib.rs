@@ -5,7 +5,6 @@
 //! `relief-models`, to check the glTF models `scatter` and `instances`
 //! place) only.
 
-mod colors;
 mod extrude;
 mod hillshade;
 mod instances;
@@ -16,11 +15,11 @@ mod rasterize;
 mod scatter;
 mod window;
 
-pub use colors::parse_color;
 pub use extrude::{EXTRUDE_INPUTS, EXTRUDE_KIND, Extrude};
 pub use hillshade::{HILLSHADE_INPUTS, HILLSHADE_KIND, Hillshade};
 pub use instances::{INSTANCES_INPUTS, INSTANCES_KIND, Instances};
 pub use overlay::{OVERLAY_INPUTS, OVERLAY_KIND, Overlay};
 pub use rasterize::{RASTERIZE_INPUTS, RASTERIZE_KIND, Rasterize, Style, Width, render};
+pub use relief_source::colors::parse_color;
 pub use scatter::{SCATTER_INPUTS, SCATTER_KIND, Scatter, default_level as scatter_default_level, scatter_input_kinds};
 pub use window::HeightWindow;

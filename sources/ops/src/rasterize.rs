@@ -3,7 +3,7 @@
 
 use std::collections::{BTreeMap, HashSet};
 
-use crate::colors::{by_value, kml_color, parse_color};
+use relief_source::colors::{by_value, kml_color, parse_color};
 
 use relief_source::{
     ColorTile, DirtySet, Feature, GenerateContext, Geometry, GridKind, Lattice, Payload, PayloadKind, SampleKind,

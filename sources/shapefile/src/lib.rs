@@ -14,13 +14,15 @@
 //! attributes, each with a warning in the source's state; but a sidecar
 //! missing while QGIS repacks the dataset is a writer at work, read again
 //! later. A zip is inflated within limits (a zip bomb is refused). Null
-//! shapes are skipped and counted; MultiPatch is rejected. The CRS comes
+//! shapes are skipped and counted; MultiPatch shapes are read as OGR reads them
+//! (`multipatch`), and the source draws them as buildings. The CRS comes
 //! from the .prj through the `CrsTransform` the daemon provides; there is
 //! no GDAL here, and none may be added.
 
 mod check;
 mod dataset;
 mod message;
+mod multipatch;
 mod read;
 mod shx;
 mod source;

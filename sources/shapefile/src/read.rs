@@ -4,7 +4,6 @@
 use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::io::Cursor;
-use std::path::Path;
 
 use relief_source::{Feature, Geometry, SourceError};
 use shapefile::{PolygonRing, Shape, dbase};
@@ -19,6 +18,8 @@ pub(crate) struct Read {
     /// Records marked deleted in the .dbf, left out.
     pub deleted: usize,
     pub shape_types: BTreeMap<String, usize>,
+    /// The header says MultiPatch: the features are 3D surfaces.
+    pub surfaces: bool,
 }
 
 trait Xyz {
@@ -66,7 +67,8 @@ fn polygons<P: Xyz>(rings: &[PolygonRing<P>]) -> Vec<Vec<Vec<[f64; 3]>>> {
 
 fn geometry(shape: &Shape) -> Option<Geometry> {
     Some(match shape {
-        Shape::NullShape | Shape::Multipatch(_) => return None,
+        Shape::NullShape => return None,
+        Shape::Multipatch(m) => Geometry::Polygons(crate::multipatch::polygons(m)),
         Shape::Point(p) => Geometry::Points(vec![p.xyz()]),
         Shape::PointM(p) => Geometry::Points(vec![p.xyz()]),
         Shape::PointZ(p) => Geometry::Points(vec![p.xyz()]),
@@ -187,7 +189,10 @@ pub(crate) fn read(dataset: &Dataset, shx: &[u8], records: usize) -> Result<Read
         None => (None, Vec::new(), Vec::new()),
     };
     let mut rows = table.as_mut().map(|(dbf, table)| (*dbf, table.iter_records()));
-    let mut read = Read { features: Vec::new(), null_shapes: 0, deleted: 0, shape_types: BTreeMap::new() };
+    const MULTIPATCH: i32 = 31;
+    let header_type = dataset.shp.bytes.get(32..36).and_then(|b| b.try_into().ok()).map(i32::from_le_bytes);
+    let surfaces = header_type == Some(MULTIPATCH);
+    let mut read = Read { features: Vec::new(), null_shapes: 0, deleted: 0, shape_types: BTreeMap::new(), surfaces };
     for index in 0..records {
         if deleted.get(index) == Some(&true) {
             read.deleted += 1;
@@ -217,33 +222,18 @@ pub(crate) fn read(dataset: &Dataset, shx: &[u8], records: usize) -> Result<Read
                 None => return Err(SourceError::format(format!("the .dbf ends before record {index}"), &dbf.path)),
             },
         };
-        read.take(index, &shape, properties, shp)?;
+        read.take(index, &shape, properties);
     }
     Ok(read)
 }
 
 impl Read {
     /// Counts `shape` and keeps it as feature `index`, unless it is null.
-    fn take(
-        &mut self,
-        index: usize,
-        shape: &Shape,
-        properties: BTreeMap<String, String>,
-        shp: &Path,
-    ) -> Result<(), SourceError> {
+    fn take(&mut self, index: usize, shape: &Shape, properties: BTreeMap<String, String>) {
         *self.shape_types.entry(shape_type(shape).to_owned()).or_insert(0) += 1;
-        if let Shape::Multipatch(_) = shape {
-            return Err(SourceError::format(
-                format!(
-                    "record {index} is a MultiPatch (3D surfaces), which relief does not read; export it as PolygonZ"
-                ),
-                shp,
-            ));
-        }
         match geometry(shape) {
             Some(geometry) => self.features.push(Feature { id: index as u64, geometry, properties }),
             None => self.null_shapes += 1,
         }
-        Ok(())
     }
 }

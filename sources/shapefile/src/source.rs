@@ -31,7 +31,7 @@ impl VectorFormat for Shapefile {
     /// it when the zip holds several). The zip is the file watched: an edit
     /// of it reloads the source.
     fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
-        spec.only_options(&["crs", "layer"])?;
+        spec.only_options(&[&["crs", "layer"], relief_source::patches::OPTIONS].concat())?;
         let layer = spec.text("layer")?;
         let (dataset, zip_member) = if has_extension(path, "zip") {
             let dataset = zipped::open(path, layer, &Limits::default())?;
@@ -110,6 +110,7 @@ impl VectorFormat for Shapefile {
             details.insert("zip_member".into(), member);
         }
         Ok(VectorRead {
+            surfaces: read.surfaces,
             features: read.features,
             crs_name: crs.lines().next().unwrap_or_default().chars().take(80).collect(),
             crs,

@@ -166,3 +166,36 @@ fn our_own_reads_of_a_database_are_not_changes() {
     assert_eq!(change(event("CLOSE_WRITE"), &db), Change::Closed, "no change to read: the fingerprint says so");
     assert_eq!(change(event("MODIFY"), &wal), Change::Committed);
 }
+
+#[test]
+fn an_arcgis_lock_holds_a_read_back_until_it_goes_or_the_write_timeout() {
+    let s = WatchSettings::default();
+    let t0 = Instant::now();
+    let closed = Pending::new(t0);
+    let locked = Busy { locked: true, ..Busy::default() };
+    assert_eq!(readiness(&closed, t0 + Duration::from_millis(6), &s, locked), None, "no fast read");
+    assert_eq!(readiness(&closed, t0 + Duration::from_millis(600), &s, locked), None, "nor a quiet one");
+    // A lock left by a crashed ArcGIS: read after the write timeout.
+    assert_eq!(readiness(&closed, t0 + Duration::from_millis(2100), &s, locked), Some(Ready::Quiet));
+    // Gone: read at once.
+    assert_eq!(readiness(&closed, t0 + Duration::from_millis(600), &s, Busy::default()), Some(Ready::Quiet));
+}
+
+#[test]
+fn edit_locks_on_a_table_or_the_whole_geodatabase_hold_it_back_and_schema_locks_do_not()
+-> Result<(), Box<dyn std::error::Error>> {
+    let dir = tempfile::tempdir()?;
+    let gdb = dir.path();
+    std::fs::write(gdb.join("a0000000b.gdbtable"), b"")?;
+    let stems: std::collections::BTreeSet<&str> = ["a0000000b"].into();
+    std::fs::write(gdb.join("a0000000b.HOST.12.3.sr.lock"), b"")?;
+    std::fs::write(gdb.join("_gdb.HOST.12.3.sr.lock"), b"")?;
+    std::fs::write(gdb.join("a0000000c.HOST.12.3.ed.lock"), b"")?;
+    assert!(!busy(gdb, &stems).locked, "schema locks, and another table's edit lock");
+    std::fs::write(gdb.join("a0000000b.HOST.12.3.ed.lock"), b"")?;
+    assert!(busy(gdb, &stems).locked);
+    std::fs::remove_file(gdb.join("a0000000b.HOST.12.3.ed.lock"))?;
+    std::fs::write(gdb.join("_gdb.HOST.12.3.wr.lock"), b"")?;
+    assert!(busy(gdb, &stems).locked, "a write lock on the whole geodatabase");
+    Ok(())
+}

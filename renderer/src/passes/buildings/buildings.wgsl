@@ -23,8 +23,10 @@ struct Out {
     @location(2) @interpolate(flat) sun: vec4<f32>,
     @location(3) @interpolate(flat) light: vec4<f32>,
     @location(4) @interpolate(flat) centre: vec4<f32>,
+    // The point relative to the eye: surfaces are lit on the side seen.
+    @location(5) from_eye: vec3<f32>,
     // Where the point is in each shadow cascade, when the frame casts shadows.
-    #sun_at_fields 5
+    #sun_at_fields 6
 }
 
 // high.w: the building's index in its tile; low.w: 1 at the foot of a wall.
@@ -41,6 +43,7 @@ fn vs_building(
     var out: Out;
     out.clip = frame.view_proj * vec4<f32>(p, 1.0);
     out.normal = normal.xyz;
+    out.from_eye = p;
     out.color = color;
     out.sun = frame.sun;
     out.light = frame.light;
@@ -51,13 +54,16 @@ fn vs_building(
 
 @fragment
 fn fs_building(in: Out) -> @location(0) vec4<f32> {
+    // The side seen: an extruded building's outside, either side of a
+    // MultiPatch surface whatever its rings' winding.
+    let normal = select(in.normal, -in.normal, dot(in.normal, in.from_eye) > 0.0);
     var light = 1.0;
     if in.light.z > 0.5 {
         #sun_at_in
-        light = sunlit(in.sun, in.light, in.normal, at);
+        light = sunlit(in.sun, in.light, normal, at);
     } else {
         // Unlit scenes still tell walls from roofs: a fixed sky light.
-        light = 0.55 + 0.45 * abs(dot(normalize(in.normal), normalize(-in.centre.xyz * in.centre.w + vec3<f32>(0.0, 0.0, 1.0 - in.centre.w))));
+        light = 0.55 + 0.45 * abs(dot(normalize(normal), normalize(-in.centre.xyz * in.centre.w + vec3<f32>(0.0, 0.0, 1.0 - in.centre.w))));
     }
     return vec4<f32>(in.color.rgb * light, 1.0);
 }

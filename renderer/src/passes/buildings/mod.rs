@@ -7,7 +7,9 @@
 //! Each building is lifted onto the terrain as the frame draws it (its
 //! lowest footprint corner on the drawn surface) and its walls reach down
 //! past the drawn surface's lowest point under it, so it neither floats nor
-//! sinks at any level of detail.
+//! sinks at any level of detail; a part with absolute heights (MultiPatch,
+//! `z = "absolute"`) is drawn where its heights say. Surfaces are lit on the
+//! side the camera sees (MultiPatch rings come in either winding).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -68,6 +70,8 @@ struct Building {
     /// Its base in the data (metres).
     base_m: f64,
     up: DVec3,
+    /// Set on the drawn terrain (false: heights as written, no lift).
+    on_ground: bool,
 }
 
 /// A mesh tile on the device.
@@ -428,6 +432,9 @@ impl Building {
     /// Onto the drawn terrain: the base to the lowest drawn ground under
     /// its corners, the walls down past the highest difference there.
     fn lift(&self, ground: &dyn Fn(f64, f64) -> Option<f64>) -> Lift {
+        if !self.on_ground {
+            return Lift::zeroed();
+        }
         let drawn: Vec<f64> = self.corners.iter().filter_map(|&(x, y)| ground(x, y)).collect();
         let (low, high) = drawn.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &z| (l.min(z), h.max(z)));
         let (offset, skirt) =
@@ -521,7 +528,7 @@ fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>, 
             part_of[v] = k as u32;
             color_of[v] = part.color.map(|c| f32::from(c) / 255.0);
             let [x, y, z] = mesh.positions[v];
-            base_of[v] = z == base_m;
+            base_of[v] = part.on_ground && z == base_m;
             if z == base_m && !footprint.contains(&(x, y)) {
                 footprint.push((x, y));
             }
@@ -537,6 +544,7 @@ fn vertices(surface: &Surface, mesh: &MeshTile) -> (Vec<Vertex>, Vec<Building>, 
             corners,
             base_m,
             up: surface.enu(centre.0, centre.1)[2],
+            on_ground: part.on_ground,
         });
     }
     let vertices = world

@@ -1,7 +1,7 @@
 //! Colours as manifests and files give them: "#rrggbb[aa]" options, KML's
 //! aabbggrr styles, and a fixed palette for colouring by an attribute.
 
-use relief_source::SourceError;
+use crate::SourceError;
 
 /// "#rrggbb" or "#rrggbbaa".
 pub fn parse_color(field: &str, text: &str) -> Result<[f64; 4], SourceError> {
@@ -41,6 +41,18 @@ const PALETTE: [[f64; 3]; 8] = [
 pub fn by_value(value: &str) -> [f64; 3] {
     let h = value.bytes().fold(0u64, |h, b| h.wrapping_mul(31).wrapping_add(u64::from(b)));
     PALETTE[(h % PALETTE.len() as u64) as usize]
+}
+
+/// A feature's colour, as buildings take it: by the `color_by` attribute's
+/// value (the palette, opaque), else its KML style's fill (made opaque),
+/// else `default`.
+pub fn feature_color(feature: &crate::Feature, color_by: Option<&str>, default: [f64; 4]) -> [u8; 4] {
+    if let Some(value) = color_by.and_then(|a| feature.properties.get(a)) {
+        let c = by_value(value);
+        return rgba8([c[0], c[1], c[2], 1.0]);
+    }
+    let kml = feature.properties.get("fill_color").and_then(|c| kml_color(c));
+    rgba8(kml.map_or(default, |c| [c[0], c[1], c[2], 1.0]))
 }
 
 /// 0..1 RGBA as RGBA8.
