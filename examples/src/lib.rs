@@ -453,3 +453,54 @@ pub fn in_demo_lake(lon: f64, lat: f64) -> bool {
 pub fn in_demo_void(lon: f64, lat: f64) -> bool {
     (lon - DEMO_VOID[0]).powi(2) + (lat - DEMO_VOID[1]).powi(2) < DEMO_VOID[2].powi(2)
 }
+
+/// How finely `write_textured_cog`'s texture is woven.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Texture {
+    /// Soft sinusoids some 40 pixels across: a JPEG's error stays within
+    /// a block's quantisation step.
+    Smooth,
+    /// Sinusoids a few pixels across, squared off into edges: a JPEG
+    /// overview's error goes well beyond it.
+    Fine,
+}
+
+/// The grey level of band `band` of `texture` at pixel (i, j).
+pub fn texture_level(texture: Texture, band: usize, i: usize, j: usize) -> u8 {
+    let (x, y, b) = (i as f64, j as f64, band as f64);
+    let v = match texture {
+        Texture::Smooth => 128.0 + 60.0 * (x / (7.0 + b) + y / 11.0).sin() * (y / (5.0 + b)).cos(),
+        Texture::Fine => {
+            let s = (x / (4.0 + b) + y / 6.4).sin() * (y / (2.8 + b) - x / 13.0).cos();
+            128.0 + 90.0 * (s * 3.0).clamp(-1.0, 1.0)
+        }
+    };
+    v.round().clamp(0.0, 255.0) as u8
+}
+
+/// Writes a 512 x 512 RGB image of `texture` (north-west corner at 7 E,
+/// 46 N, pixels of 0.0001 degrees) as a Cloud-Optimized GeoTIFF with
+/// `creation` options (`COMPRESS=JPEG`, `QUALITY=75`...), in 256-pixel
+/// blocks, so it has one overview, made by GDAL's COG driver. The plain
+/// GeoTIFF it was made from is left beside it (`<stem>.src.tif`).
+pub fn write_textured_cog(path: &Path, texture: Texture, creation: &[&str]) -> anyhow::Result<PathBuf> {
+    let spec = RasterSpec {
+        width: 512,
+        height: 512,
+        origin_x: 7.0,
+        origin_y: 46.0,
+        pixel: 0.0001,
+        crs: "EPSG:4326",
+        nodata: None,
+    };
+    let planes = (0..3)
+        .map(|b| (0..spec.height).flat_map(|j| (0..spec.width).map(move |i| texture_level(texture, b, i, j))).collect())
+        .collect();
+    let plain = path.with_extension("src.tif");
+    write_geotiff::<u8>(&plain, &spec, planes)?;
+    let source = gdal::Dataset::open(&plain)?;
+    let driver = DriverManager::get_driver_by_name("COG")?;
+    let options = creation.iter().copied().chain(["BLOCKSIZE=256"]).collect::<gdal::raster::RasterCreationOptions>();
+    source.create_copy(&driver, path, &options).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(path.to_path_buf())
+}

@@ -4,7 +4,9 @@
 //! VRT), as blocks of a nodata-aware mip pyramid: whole when it opens if it
 //! is small, else only the blocks tiles need, through one cache under a
 //! byte budget; coarse levels come from the file's overviews where it has
-//! them. It resamples them into the scene's tile grid with the named kernel.
+//! them and they agree with the base (a lossy file's within what its
+//! compression may change; beyond it they are left out and the levels
+//! halved from the base, with a warning in the state). It resamples them into the scene's tile grid with the named kernel.
 //! A raster georeferenced only by GCPs is read through GDAL's warp of it,
 //! north-up; a rotated geotransform is sampled through as it is.
 //! A reload reads only the blocks whose signatures changed. GDAL and PROJ

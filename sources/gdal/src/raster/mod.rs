@@ -4,6 +4,11 @@
 //! small enough is read whole when it opens; a larger one only where tiles
 //! need it. A reload finds the changed blocks (`changes`) and reads only those.
 //! A raster georeferenced by GCPs is opened through a north-up warp (`warp`).
+//! Overviews are checked against the base when the raster opens
+//! (`checks`): a lossless file's that disagree are refused; a lossy file's
+//! (JPEG, WebP, LERC) within what the compression may change are used, and
+//! beyond it left out (the coarse levels halved from the base), with a
+//! warning.
 
 mod blocks;
 mod changes;
@@ -174,7 +179,27 @@ impl Raster {
         };
         let raster = header.into_raster(blocks::new_uid(), None)?;
         let raster = if residency == Residency::Whole { raster.read_whole()? } else { raster.probe()? };
-        raster.check_overviews()?;
+        let mut raster = raster;
+        match raster.check_overviews()? {
+            checks::Overviews::Agree(detail) => {
+                if let Some(detail) = detail {
+                    raster.details.insert("overview_check".into(), detail);
+                }
+            }
+            checks::Overviews::Rebuild { detail, warning } => {
+                tracing::warn!(raster = %path.display(), "{warning}");
+                // The same read as with `overviews = false`: coarse levels
+                // halved from the base.
+                let mut rebuilt = Self::open(path, &ReadOptions { overviews: false, ..options.clone() })?;
+                rebuilt.details.insert("overview_check".into(), detail);
+                rebuilt.details.insert(
+                    "overviews".into(),
+                    "the file's left out (lossy beyond tolerance): coarse levels are halved from the base".into(),
+                );
+                rebuilt.warnings.push(warning);
+                return Ok(rebuilt);
+            }
+        }
         raster.sign_in_background(options.changes);
         Ok(raster)
     }
