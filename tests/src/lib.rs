@@ -3,6 +3,7 @@
 //! reference values; for the benches and `make accuracy` too, a drawn
 //! surface's error against the demo's formula (`surface`).
 
+pub mod arcgis;
 pub mod bench;
 pub mod browser;
 pub mod daemon;

@@ -136,8 +136,11 @@ fn read_dataset(
         }
     };
     let stable_fids = STABLE_FID_DRIVERS.contains(&driver.as_str());
-    let read = read_layer(&mut layer, stable_fids, path)?;
     let geodatabase = gdb::is_gdb(path);
+    // A geodatabase layer's files: its table's (named in errors) and the catalog's.
+    let stamped = if geodatabase { gdb::stamped(path, Some(&layer.name()))? } else { Vec::new() };
+    let table = stamped.first().filter(|t| stamped.len() > 1 && t.exists());
+    let read = read_layer(&mut layer, stable_fids, table.map_or(path, PathBuf::as_path))?;
     let surfaces = read.surfaces
         || (geodatabase && gdb::is_multipatch(ds, &layer.name()))
         || (driver == "ESRI Shapefile" && is_multipatch_shp(path));
@@ -179,8 +182,7 @@ fn read_dataset(
     let mut files = relief_source::files::dataset_files(path);
     let mut warnings = Vec::new();
     if geodatabase {
-        let stamped = gdb::stamped(path, Some(&layer.name()))?;
-        if let Some(table) = stamped.first().filter(|t| stamped.len() > 1 && t.exists()) {
+        if let Some(table) = table {
             details.insert(
                 "table".into(),
                 table.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
