@@ -83,7 +83,7 @@ impl GdbEditor {
     }
 
     /// Sets attributes (and the geometry, when given) of feature `fid`.
-    pub fn update(&mut self, layer: &str, fid: u64, attrs: Value, wkt: Option<&str>) -> anyhow::Result<Value> {
+    pub fn update(&mut self, layer: &str, fid: u64, attrs: &Value, wkt: Option<&str>) -> anyhow::Result<Value> {
         let mut command = json!({"update": layer, "fid": fid, "attrs": attrs});
         if let Some(wkt) = wkt {
             command["wkt"] = json!(wkt);
@@ -91,7 +91,7 @@ impl GdbEditor {
         self.run(&command)
     }
 
-    pub fn insert(&mut self, layer: &str, wkt: &str, attrs: Value) -> anyhow::Result<u64> {
+    pub fn insert(&mut self, layer: &str, wkt: &str, attrs: &Value) -> anyhow::Result<u64> {
         let reply = self.run(&json!({"insert": layer, "wkt": wkt, "attrs": attrs}))?;
         reply["fid"].as_u64().with_context(|| format!("no fid in {reply}"))
     }

@@ -95,14 +95,14 @@ async fn edits_saved_to_a_geodatabase_reach_the_scene_and_only_the_edited_tables
     assert_ne!(source(&before, "sites").details["table"], table, "two tables");
 
     // Update one feature's attribute: the parcels source is new, the sites' is not.
-    editor.update("parcels", 2, json!({"name": "renamed"}), None).unwrap();
+    editor.update("parcels", 2, &json!({"name": "renamed"}), None).unwrap();
     let updated = wait_for(channel.clone(), before.generation + 1).await.unwrap();
     assert!(edit::version(&updated, "parcels") > edit::version(&before, "parcels"));
     assert_eq!(edit::version(&updated, "sites"), edit::version(&before, "sites"));
     assert_eq!(names(&channel).await, ["p0", "p2", "p3", "p4", "renamed"]);
 
     // Insert one.
-    editor.insert("parcels", &square_wkt(10.3, 45.25, 0.01), json!({"name": "new"})).unwrap();
+    editor.insert("parcels", &square_wkt(10.3, 45.25, 0.01), &json!({"name": "new"})).unwrap();
     let inserted = wait_for(channel.clone(), updated.generation + 1).await.unwrap();
     assert_eq!(source(&inserted, "parcels").details["features"], "6");
     assert!(names(&channel).await.contains(&"new".to_owned()));
@@ -114,7 +114,7 @@ async fn edits_saved_to_a_geodatabase_reach_the_scene_and_only_the_edited_tables
     assert!(!names(&channel).await.contains(&"p0".to_owned()));
 
     // An edit to the other table refreshes only its source.
-    editor.update("sites", 1, json!({"name": "moved"}), Some("POINT (10.21 45.31)")).unwrap();
+    editor.update("sites", 1, &json!({"name": "moved"}), Some("POINT (10.21 45.31)")).unwrap();
     let sited = wait_for(channel.clone(), deleted.generation + 1).await.unwrap();
     assert!(edit::version(&sited, "sites") > edit::version(&deleted, "sites"));
     assert_eq!(edit::version(&sited, "parcels"), edit::version(&deleted, "parcels"));
@@ -128,7 +128,7 @@ async fn edits_saved_to_a_geodatabase_reach_the_scene_and_only_the_edited_tables
     assert!(after_repack.error.is_empty(), "{after_repack:#?}");
     assert_eq!(after_repack.details["features"], "5");
     assert_eq!(names(&channel).await, ["new", "p2", "p3", "p4", "renamed"]);
-    editor.update("parcels", 3, json!({"name": "after repack"}), None).unwrap();
+    editor.update("parcels", 3, &json!({"name": "after repack"}), None).unwrap();
     wait_for(channel.clone(), repacked.generation + 1).await.unwrap();
     assert!(names(&channel).await.contains(&"after repack".to_owned()));
     daemon.stop(&[]).unwrap();
@@ -149,7 +149,7 @@ async fn an_arcgis_edit_lock_holds_the_read_back_and_a_stale_one_is_read_after_t
     let stem = source(&before, "parcels").details["table"].trim_end_matches(".gdbtable").to_owned();
     std::fs::write(gdb.join(format!("{stem}.DESKTOP-7.4242.9000.sr.lock")), b"").unwrap();
     std::fs::write(gdb.join("_gdb.DESKTOP-7.4242.9000.sr.lock"), b"").unwrap();
-    editor.update("parcels", 2, json!({"name": "schema-locked"}), None).unwrap();
+    editor.update("parcels", 2, &json!({"name": "schema-locked"}), None).unwrap();
     let seen = wait_for(channel.clone(), before.generation + 1).await.unwrap();
     assert!(names(&channel).await.contains(&"schema-locked".to_owned()));
     assert!(source(&seen, "parcels").warnings.is_empty(), "{:#?}", source(&seen, "parcels"));
@@ -157,7 +157,7 @@ async fn an_arcgis_edit_lock_holds_the_read_back_and_a_stale_one_is_read_after_t
     // An edit lock: the save is not read while it is there...
     let lock = gdb.join(format!("{stem}.DESKTOP-7.4242.9000.ed.lock"));
     std::fs::write(&lock, b"").unwrap();
-    editor.update("parcels", 3, json!({"name": "while locked"}), None).unwrap();
+    editor.update("parcels", 3, &json!({"name": "while locked"}), None).unwrap();
     tokio::time::sleep(Duration::from_millis(1200)).await;
     let held = state(&channel).await;
     assert_eq!(edit::version(&held, "parcels"), edit::version(&seen, "parcels"), "read while the lock was there");
@@ -169,7 +169,7 @@ async fn an_arcgis_edit_lock_holds_the_read_back_and_a_stale_one_is_read_after_t
 
     // A lock a crashed ArcGIS left: read after write_timeout_ms, and said.
     std::fs::write(&lock, b"").unwrap();
-    editor.update("parcels", 4, json!({"name": "stale lock"}), None).unwrap();
+    editor.update("parcels", 4, &json!({"name": "stale lock"}), None).unwrap();
     let stale = wait_for(channel.clone(), released.generation + 1).await.unwrap();
     assert!(names(&channel).await.contains(&"stale lock".to_owned()));
     let warnings = source(&stale, "parcels").warnings.join("\n");
@@ -198,7 +198,7 @@ async fn a_table_caught_mid_rewrite_is_retried_and_never_published() {
         let mut other = GdbEditor::start(&copy).unwrap();
         for k in 0..10 {
             other
-                .insert("parcels", &square_wkt(10.2 + 0.01 * f64::from(k), 45.33, 0.005), json!({"name": "more"}))
+                .insert("parcels", &square_wkt(10.2 + 0.01 * f64::from(k), 45.33, 0.005), &json!({"name": "more"}))
                 .unwrap();
         }
     }
