@@ -143,3 +143,40 @@ impl Drop for GdbEditor {
 pub fn square_wkt(x: f64, y: f64, side: f64) -> String {
     format!("POLYGON (({x} {y},{x} {y2},{x2} {y2},{x2} {y},{x} {y}))", x2 = x + side, y2 = y + side)
 }
+
+/// A MultiPatch shapefile written by GDAL (`SHPT=MULTIPATCH`), EPSG:4326,
+/// with a string field `use`: one feature per (WKT, use).
+pub fn write_multipatch_shapefile(shp: &Path, features: &[(String, &str)]) -> anyhow::Result<()> {
+    let script = r#"
+import json, sys
+from osgeo import gdal, ogr, osr
+gdal.UseExceptions()
+srs = osr.SpatialReference(); srs.ImportFromEPSG(4326)
+ds = ogr.GetDriverByName("ESRI Shapefile").CreateDataSource(sys.argv[1])
+layer = ds.CreateLayer("patches", srs, ogr.wkbTINZ, options=["SHPT=MULTIPATCH"])
+layer.CreateField(ogr.FieldDefn("use", ogr.OFTString))
+for wkt, use in json.loads(sys.stdin.read()):
+    f = ogr.Feature(layer.GetLayerDefn())
+    f.SetGeometry(ogr.CreateGeometryFromWkt(wkt))
+    f.SetField("use", use)
+    layer.CreateFeature(f)
+ds = None
+"#;
+    let mut child = Command::new(PYTHON)
+        .args(["-c", script])
+        .arg(shp)
+        .stdin(Stdio::piped())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .context("cannot start GDAL's python")?;
+    child.stdin.take().context("stdin")?.write_all(serde_json::to_string(features)?.as_bytes())?;
+    let out = child.wait_with_output()?;
+    anyhow::ensure!(
+        out.status.success(),
+        "GDAL could not write {}: {}",
+        shp.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Ok(())
+}
