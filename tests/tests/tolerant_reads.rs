@@ -8,7 +8,10 @@
 //!   base, saved lossless, gives);
 //! - a shapefile whose .shx header length is off by less than an entry,
 //!   and one whose .shp has a stray byte after its last record: the same
-//!   features as OGR reads.
+//!   features as OGR reads;
+//! - a KML with one placemark whose inner tags do not match (which OGR
+//!   refuses whole): the whole placemarks read, as OGR reads them without
+//!   the torn one, with a warning naming its lines.
 
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
@@ -291,4 +294,73 @@ fn shapefiles_torn_for_real_are_still_refused_naming_the_file() {
     // Every record torn: the .shp cut inside its first record.
     std::fs::write(&wells, &shp_bytes[..110]).unwrap();
     assert_refused(&m, &["source 'wells'", "truncated or torn .shp", wells.to_str().unwrap()]);
+}
+
+/// Three whole placemarks and, between them, one whose inner tags do not
+/// match (`<Data>` closed by `</Dta>`): OGR refuses the whole file; relief
+/// reads the whole placemarks, as OGR reads them once the torn one is gone.
+const KML_TORN: &str = r#"<?xml version="1.0" encoding="UTF-8"?>
+<kml xmlns="http://www.opengis.net/kml/2.2">
+<Document>
+<Placemark><name>a</name><description>one <b>bold</i> line</description><Point><coordinates>10.20,45.2</coordinates></Point></Placemark>
+<Placemark><name>torn</name><ExtendedData><Data name="x"><value>1</value></Dta>
+</ExtendedData><Point><coordinates>10.25,45.2</coordinates></Point></Placemark>
+<Placemark><name>b</name><Point><coordinates>10.30,45.2</coordinates></Point></Placemark>
+<Placemark><name>c</name><Point><coordinates>10.35,45.2</coordinates></Point></Placemark>
+</Document>
+</kml>
+"#;
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_kml_placemark_with_mismatched_tags_is_left_out_and_the_whole_ones_read_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let kml = dir.path().join("sites.kml");
+    std::fs::write(&kml, KML_TORN).unwrap();
+    // OGR's reference: the same file without the torn placemark (and with
+    // its description's stray HTML escaped, which relief reads as CDATA).
+    let whole: String = KML_TORN
+        .lines()
+        .filter(|l| !l.contains("<name>torn</name>") && !l.starts_with("</ExtendedData>"))
+        .map(|l| l.replace("<b>bold</i>", "&lt;b&gt;bold&lt;/i&gt;") + "\n")
+        .collect();
+    let reference = dir.path().join("whole.kml");
+    std::fs::write(&reference, whole).unwrap();
+    assert!(gdal::Dataset::open(&kml).is_err(), "OGR refuses the torn file here");
+    let ds = gdal::Dataset::open(&reference).unwrap();
+    let mut layer = ds.layer(0).unwrap();
+    let mut want: Vec<(String, f64, f64)> = layer
+        .features()
+        .map(|f| {
+            let name = f.field_as_string(f.field_index("Name").unwrap()).unwrap().unwrap_or_default();
+            let (x, y, _) = f.geometry().unwrap().get_point(0);
+            (name, x, y)
+        })
+        .collect();
+    want.sort_by(|a, b| a.0.cmp(&b.0));
+
+    let manifest = fixtures::write_manifest(
+        dir.path(),
+        "[scene]\nname = \"kml\"\n\n[[source]]\nid = \"sites\"\nkind = \"kml\"\npath = \"sites.kml\"\n",
+    )
+    .unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let got = relief_features(&daemon, "sites").await;
+    assert_eq!(got.len(), 3, "{got:?}");
+    for (g, w) in got.iter().zip(&want) {
+        assert_eq!(g.0, w.0);
+        assert!((g.1 - w.1).abs() < 1e-9 && (g.2 - w.2).abs() < 1e-9, "{g:?} vs OGR's {w:?}");
+    }
+    let s = state(&daemon, "sites").await;
+    assert!(s.error.is_empty(), "{s:#?}");
+    assert_eq!(
+        s.warnings,
+        ["the placemark at lines 5-6 (<Data> opened at line 5 is closed by </Dta> at line 5) was left out: its tags \
+          do not match; the other placemarks are read"]
+    );
+    daemon.stop(&[]).unwrap();
+
+    // Every placemark torn: refused, naming the file and the lines.
+    let all_torn = KML_TORN.replace("</Point></Placemark>", "</Pont></Placemark>");
+    std::fs::write(&kml, all_torn).unwrap();
+    assert_refused(&manifest, &["source 'sites'", "every placemark is torn", "line 4", kml.to_str().unwrap()]);
 }

@@ -17,7 +17,12 @@
 //!   (the kml crate refuses a comment inside a value).
 //! - The elements must nest and close properly (the kml crate can loop
 //!   forever on a document cut short), and no deeper than `MAX_DEPTH`
-//!   (it reads nesting by recursion, on a stack sized for that).
+//!   (it reads nesting by recursion, on a stack sized for that). A
+//!   placemark whose inner tags do not match (`<Data>` closed by `</Dta>`,
+//!   an element never closed before `</Placemark>`) is left out whole, with
+//!   a warning naming its lines, and the others are read; a document whose
+//!   every placemark is torn, or whose structure outside placemarks is
+//!   (a file cut short, being written), is refused.
 //!
 //! Everything else is copied through byte for byte.
 
@@ -60,6 +65,8 @@ struct Open {
     /// For a `Point`: where it begins in the output, and whether the last
     /// `coordinates` inside it (at any depth) held a tuple.
     point: Option<(usize, bool)>,
+    /// For a `Placemark`: where it begins in the output.
+    out_at: usize,
 }
 
 /// Where altitude modes read as another were found.
@@ -80,6 +87,8 @@ struct Pass<'a> {
     /// (mode as written, mode read) to where.
     remapped: BTreeMap<(String, &'static str), Remapped>,
     points_left_out: usize,
+    /// Placemarks left out for their mismatched tags: why, by line.
+    torn: Vec<String>,
 }
 
 impl<'a> Pass<'a> {
@@ -93,6 +102,7 @@ impl<'a> Pass<'a> {
             placemarks: 0,
             remapped: BTreeMap::new(),
             points_left_out: 0,
+            torn: Vec::new(),
         }
     }
 
@@ -118,8 +128,12 @@ impl<'a> Pass<'a> {
                     Event::Start(start) => {
                         let name = String::from_utf8_lossy(start.name().as_ref()).into_owned();
                         if is_text_element(&name) {
-                            let Some((close, end)) = close_of(self.text, &name, after) else {
-                                return Err(format!("<{name}> at line {} is never closed", self.line(before)));
+                            let Some((close, end)) = close_of(self.text, &name, after)
+                                .filter(|(close, _)| self.closes_inside_placemark(*close))
+                            else {
+                                let why = format!("<{name}> at line {} is never closed", self.line(before));
+                                base = self.leave_out_placemark(None, after, why)?;
+                                continue 'restart;
                             };
                             self.text_element(&name, before, after, close)?;
                             base = end;
@@ -129,7 +143,10 @@ impl<'a> Pass<'a> {
                     }
                     Event::End(end) => {
                         let name = String::from_utf8_lossy(end.name().as_ref()).into_owned();
-                        self.close_element(&name, before, after)?;
+                        if let Some(resume) = self.close_element(&name, before, after)? {
+                            base = resume;
+                            continue 'restart;
+                        }
                     }
                     // A dangling `&` (allowed above) is text starting with one.
                     Event::Text(text) if text.starts_with(b"&") => self.replace(before, before + 1, "&amp;"),
@@ -156,6 +173,9 @@ impl<'a> Pass<'a> {
                 self.line(open.at)
             ));
         }
+        if !self.torn.is_empty() && self.torn.len() == self.placemarks {
+            return Err(format!("every placemark is torn: {}", self.torn.join("; ")));
+        }
         let warnings = self.warnings();
         let text = if self.changed {
             self.flush(self.text.len());
@@ -170,8 +190,11 @@ impl<'a> Pass<'a> {
         if self.open.len() >= MAX_DEPTH {
             return Err(format!("elements nest more than {MAX_DEPTH} deep at line {}", self.line(at)));
         }
+        let mut out_at = 0;
         let (placemark, point) = match local(&name) {
             "Placemark" => {
+                self.flush(at);
+                out_at = self.out.len();
                 self.placemarks += 1;
                 (Some(self.placemarks - 1), None)
             }
@@ -181,21 +204,26 @@ impl<'a> Pass<'a> {
             }
             _ => (None, None),
         };
-        self.open.push(Open { name, at, placemark, point });
+        self.open.push(Open { name, at, placemark, point, out_at });
         Ok(())
     }
 
-    fn close_element(&mut self, name: &str, at: usize, end: usize) -> Result<(), String> {
+    /// Closes the innermost element with the end tag `name` (from `at` to
+    /// `end`). Some(offset): a torn placemark was left out, and reading
+    /// goes on from `offset`, past its end.
+    fn close_element(&mut self, name: &str, at: usize, end: usize) -> Result<Option<usize>, String> {
         let Some(open) = self.open.pop() else {
             return Err(format!("</{name}> at line {} closes no open element", self.line(at)));
         };
         if open.name != name {
-            return Err(format!(
+            let why = format!(
                 "<{}> opened at line {} is closed by </{name}> at line {}",
                 open.name,
                 self.line(open.at),
                 self.line(at)
-            ));
+            );
+            self.open.push(open);
+            return self.leave_out_placemark(Some(name), end, why).map(Some);
         }
         if let Some((mark, false)) = open.point {
             self.flush(end);
@@ -203,7 +231,42 @@ impl<'a> Pass<'a> {
             self.changed = true;
             self.points_left_out += 1;
         }
-        Ok(())
+        Ok(None)
+    }
+
+    /// True when the end tag at `close` comes before the end of the
+    /// placemark being read, if any (a text element's end found past it
+    /// belongs to another placemark).
+    fn closes_inside_placemark(&self, close: usize) -> bool {
+        let Some(placemark) = self.open.iter().rev().find(|o| o.placemark.is_some()) else { return true };
+        let placemark_end = self.text.get(placemark.at..close).and_then(|t| t.find(&format!("</{}", placemark.name)));
+        placemark_end.is_none()
+    }
+
+    /// Leaves out the placemark being read, torn at a mismatched end tag
+    /// `closing` (ending at `end`) or at an element never closed (`None`,
+    /// from `end`), and says where reading goes on: after this tag when it
+    /// is the placemark's own end, else after the placemark's next end tag.
+    /// Err(`why`) outside any placemark.
+    fn leave_out_placemark(&mut self, closing: Option<&str>, end: usize, why: String) -> Result<usize, String> {
+        let Some(depth) = self.open.iter().rposition(|o| o.placemark.is_some()) else { return Err(why) };
+        let placemark_name = self.open[depth].name.clone();
+        let resume = if closing == Some(placemark_name.as_str()) {
+            end
+        } else {
+            close_of(self.text, &placemark_name, end).map(|(_, resume)| resume).ok_or_else(|| why.clone())?
+        };
+        let placemark = &self.open[depth];
+        let (first, last) = (self.line(placemark.at), self.line(resume.saturating_sub(1)));
+        let out_at = placemark.out_at;
+        self.flush(placemark.at);
+        self.out.truncate(out_at);
+        self.copied = resume;
+        self.changed = true;
+        self.open.truncate(depth);
+        let lines = if first == last { format!("line {first}") } else { format!("lines {first}-{last}") };
+        self.torn.push(format!("the placemark at {lines} ({why})"));
+        Ok(resume)
     }
 
     /// A text element from its start tag at `at`, its content from
@@ -294,6 +357,9 @@ impl<'a> Pass<'a> {
                 (count, n) => format!("{count} placemark{} (and {n} element{} outside placemarks)", s(count), s(n)),
             };
             warnings.push(format!("altitude mode '{written}' read as '{read}' in {where_}: {why}"));
+        }
+        for torn in &self.torn {
+            warnings.push(format!("{torn} was left out: its tags do not match; the other placemarks are read"));
         }
         if self.points_left_out > 0 {
             let n = self.points_left_out;
@@ -538,6 +604,43 @@ mod tests {
 
     fn run(text: &str) -> Result<(String, Vec<String>), String> {
         Pass::new(text).run().map(|t| (t.text.into_owned(), t.warnings))
+    }
+
+    #[test]
+    fn a_placemark_whose_tags_do_not_match_is_left_out_and_the_others_read() -> Result<(), String> {
+        let text = "<kml><Document>\n\
+             <Placemark><name>a</name><Point><coordinates>1,2</coordinates></Point></Placemark>\n\
+             <Placemark><name>b</name><ExtendedData><Data name=\"x\"><value>1</value></Dta>\n\
+             </ExtendedData><Point><coordinates>3,4</coordinates></Point></Placemark>\n\
+             <Placemark><name>c</name><ExtendedData><Data name=\"y\"><value>2</value></ExtendedData></Placemark>\n\
+             <Placemark><name>d</name><Point><coordinates>5,6</coordinates></Point></Placemark>\n\
+             </Document></kml>";
+        let (out, warnings) = run(text)?;
+        assert!(out.contains("<name>a</name>") && out.contains("<name>d</name>"), "{out}");
+        assert!(!out.contains("<name>b</name>") && !out.contains("<name>c</name>"), "{out}");
+        assert!(out.ends_with("</Document></kml>"), "{out}");
+        assert_eq!(
+            warnings,
+            [
+                "the placemark at lines 3-4 (<Data> opened at line 3 is closed by </Dta> at line 3) was left out: \
+                 its tags do not match; the other placemarks are read",
+                "the placemark at line 5 (<Data> opened at line 5 is closed by </ExtendedData> at line 5) was left \
+                 out: its tags do not match; the other placemarks are read",
+            ]
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn every_placemark_torn_or_a_tear_outside_placemarks_is_refused() {
+        let all =
+            "<kml><Document>\n<Placemark><name>a</Name></Placemark>\n<Placemark><b></Placemark>\n</Document></kml>";
+        let err = run(all).unwrap_err();
+        assert!(err.starts_with("every placemark is torn: the placemark at line 2"), "{err}");
+        let outside = "<kml><Document><Folder><name>f</name></Document></kml>";
+        assert_eq!(run(outside).unwrap_err(), "<Folder> opened at line 1 is closed by </Document> at line 1");
+        let cut = "<kml><Document><Placemark><name>a</name><Point><coordinates>1,2</coordinates></Point></Placemark><Placemark><Data>";
+        assert!(run(cut).unwrap_err().contains("never closed"), "a file cut short");
     }
 
     #[test]
