@@ -87,6 +87,8 @@ pub struct Scene {
     events: broadcast::Sender<SceneEvent>,
     refresh_lock: Mutex<()>,
     reads_retried: AtomicU64,
+    /// Sources read again because their files changed.
+    source_reads: AtomicU64,
     /// Works out each new version's content address in the background.
     content: ContentKeys,
     /// The last [`DIRT_LOG`] generations' dirty extents by source, oldest
@@ -156,6 +158,7 @@ impl Scene {
                 events,
                 refresh_lock: Mutex::new(()),
                 reads_retried: AtomicU64::new(0),
+                source_reads: AtomicU64::new(0),
                 content,
                 dirt_log: Mutex::new(VecDeque::new()),
             },
@@ -179,6 +182,11 @@ impl Scene {
     /// Reads discarded so far because a writer was still at work.
     pub fn reads_retried(&self) -> u64 {
         self.reads_retried.load(Ordering::Relaxed)
+    }
+
+    /// Sources read again because their files changed (successful or not).
+    pub fn source_reads(&self) -> u64 {
+        self.source_reads.load(Ordering::Relaxed)
     }
 
     /// The dirty extents of every generation after `since` up to `upto`,
@@ -254,6 +262,9 @@ impl Scene {
                         _ => (false, false, e),
                     }),
             };
+            if !matches!(result, Ok(Refresh::Unchanged)) {
+                self.source_reads.fetch_add(1, Ordering::Relaxed);
+            }
             match result {
                 Ok(Refresh::Unchanged) => {
                     if slot.error.take().is_some() {

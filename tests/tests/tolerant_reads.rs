@@ -11,7 +11,9 @@
 //!   features as OGR reads;
 //! - a KML with one placemark whose inner tags do not match (which OGR
 //!   refuses whole): the whole placemarks read, as OGR reads them without
-//!   the torn one, with a warning naming its lines.
+//!   the torn one, with a warning naming its lines;
+//! - ArcGIS's side files beside a shapefile (.sbn, .sbx, .shp.xml, locks):
+//!   never data, and writing them reads nothing.
 
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
@@ -363,4 +365,54 @@ async fn a_kml_placemark_with_mismatched_tags_is_left_out_and_the_whole_ones_rea
     let all_torn = KML_TORN.replace("</Point></Placemark>", "</Pont></Placemark>");
     std::fs::write(&kml, all_torn).unwrap();
     assert_refused(&manifest, &["source 'sites'", "every placemark is torn", "line 4", kml.to_str().unwrap()]);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn arcgis_side_files_beside_a_shapefile_are_not_data_and_their_writes_read_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let wells = points(dir.path(), "wells", 8);
+    let daemon = Reliefd::start(&shapefiles(dir.path(), &[("wells", &wells)]), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let counters = |s: &pb::SceneState| s.counters.clone().unwrap_or_default();
+    let get = || async {
+        SceneServiceClient::new(channel.clone()).get_state(pb::GetStateRequest {}).await.unwrap().into_inner()
+    };
+    let before = get().await;
+
+    // What ArcGIS writes beside a shapefile it shows and indexes: spatial
+    // indexes, metadata, its schema and edit locks; each written twice.
+    let side = [
+        "wells.sbn",
+        "wells.sbx",
+        "wells.shp.xml",
+        "wells.shp.DESKTOP-7.4242.9000.sr.lock",
+        "wells.shp.DESKTOP-7.4242.9000.ed.lock",
+    ];
+    for round in 0..2 {
+        for name in side {
+            std::fs::write(dir.path().join(name), format!("ArcGIS {round}")).unwrap();
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(300)).await;
+    }
+    for name in &side[4..] {
+        std::fs::remove_file(dir.path().join(name)).unwrap();
+    }
+    tokio::time::sleep(std::time::Duration::from_millis(1500)).await;
+    let after = get().await;
+    assert_eq!(after.generation, before.generation);
+    assert_eq!(counters(&after).source_reads, counters(&before).source_reads, "a side file caused a read");
+    let s = after.sources.iter().find(|s| s.id == "wells").unwrap();
+    assert!(s.files.iter().all(|f| !side.iter().any(|n| f.ends_with(n))), "{:?}", s.files);
+    assert!(s.error.is_empty() && s.warnings.is_empty(), "{s:#?}");
+
+    // A write to the data itself is read (the counter counts).
+    let mut bytes = std::fs::read(&wells).unwrap();
+    bytes.push(0);
+    std::fs::write(&wells, bytes).unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while counters(&get().await).source_reads == counters(&before).source_reads {
+        assert!(std::time::Instant::now() < deadline, "the .shp write was never read");
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+    daemon.stop(&[]).unwrap();
 }

@@ -99,6 +99,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
     let store = &scene.store;
     let manifest_error = scene.manifest_error();
     let reads_retried = scene.reads_retried();
+    let source_reads = scene.source_reads();
     let sources = snap
         .slots
         .iter()
@@ -197,6 +198,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             cache_budget_bytes: c.budget_bytes,
             frames_rendered: hub.viewer().frames_rendered(),
             reads_retried,
+            source_reads,
             frame_views: frames.views as u64,
             frame_streams: frames.streams as u64,
             open_views: frames.open_views as u64,

@@ -345,6 +345,7 @@ def scene_state(s: pb.SceneState) -> SceneState:
             stream_frames_rendered=c.stream_frames_rendered,
             stream_frames_carried_over=c.stream_frames_carried_over,
             memory={m.name: m.bytes for m in c.memory},
+            source_reads=c.source_reads,
         ),
         manifest=s.manifest,
         manifest_error=s.manifest_error,
@@ -491,6 +492,7 @@ def tile(r: pb.GetTileResponse) -> Tile:
                 first_index=p.first_index,
                 index_count=p.index_count,
                 rgba=(p.rgba >> 24 & 0xFF, p.rgba >> 16 & 0xFF, p.rgba >> 8 & 0xFF, p.rgba & 0xFF),
+                on_ground=p.on_ground,
             )
             for p in m.parts
         )

@@ -206,6 +206,9 @@ class Counters:
     #: cache", "raster blocks", "renderer: terrain", ..., "frames held for
     #: streams").
     memory: dict[str, int] = field(default_factory=dict)
+    #: Sources read again because their files changed (an editor's lock
+    #: and side files cause none).
+    source_reads: int = 0
 
 
 @dataclass(frozen=True)
@@ -552,6 +555,10 @@ class MeshPart:
     index_count: int
     #: The feature's colour, straight RGBA (0-255 each).
     rgba: tuple[int, int, int, int] = (0, 0, 0, 0)
+    #: True: heights are relative, the feature's lowest vertex belongs on
+    #: the terrain (extruded buildings, MultiPatch with z = "relative");
+    #: False: heights as written (MultiPatch, z = "absolute").
+    on_ground: bool = False
 
     @property
     def first_triangle(self) -> int:

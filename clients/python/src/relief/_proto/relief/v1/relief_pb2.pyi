@@ -220,7 +220,7 @@ class EffectState(_message.Message):
     def __init__(self, name: _Optional[str] = ..., sources: _Optional[_Iterable[str]] = ..., ran: _Optional[bool] = ..., last_cost_ms: _Optional[float] = ...) -> None: ...
 
 class Counters(_message.Message):
-    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes", "stream_frames_carried_over", "renderer_caches", "memory")
+    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "source_reads", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes", "stream_frames_carried_over", "renderer_caches", "memory")
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     CACHE_HITS_FIELD_NUMBER: _ClassVar[int]
     CACHE_MISSES_FIELD_NUMBER: _ClassVar[int]
@@ -229,6 +229,7 @@ class Counters(_message.Message):
     CACHE_BUDGET_BYTES_FIELD_NUMBER: _ClassVar[int]
     FRAMES_RENDERED_FIELD_NUMBER: _ClassVar[int]
     READS_RETRIED_FIELD_NUMBER: _ClassVar[int]
+    SOURCE_READS_FIELD_NUMBER: _ClassVar[int]
     FRAME_VIEWS_FIELD_NUMBER: _ClassVar[int]
     FRAME_STREAMS_FIELD_NUMBER: _ClassVar[int]
     OPEN_VIEWS_FIELD_NUMBER: _ClassVar[int]
@@ -247,6 +248,7 @@ class Counters(_message.Message):
     cache_budget_bytes: int
     frames_rendered: int
     reads_retried: int
+    source_reads: int
     frame_views: int
     frame_streams: int
     open_views: int
@@ -257,7 +259,7 @@ class Counters(_message.Message):
     stream_frames_carried_over: int
     renderer_caches: CacheWork
     memory: _containers.RepeatedCompositeFieldContainer[MemoryUse]
-    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ..., stream_frames_carried_over: _Optional[int] = ..., renderer_caches: _Optional[_Union[CacheWork, _Mapping]] = ..., memory: _Optional[_Iterable[_Union[MemoryUse, _Mapping]]] = ...) -> None: ...
+    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., source_reads: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ..., stream_frames_carried_over: _Optional[int] = ..., renderer_caches: _Optional[_Union[CacheWork, _Mapping]] = ..., memory: _Optional[_Iterable[_Union[MemoryUse, _Mapping]]] = ...) -> None: ...
 
 class MemoryUse(_message.Message):
     __slots__ = ("name", "bytes")
@@ -763,16 +765,18 @@ class Mesh(_message.Message):
     def __init__(self, positions_f64_le: _Optional[bytes] = ..., indices_u32_le: _Optional[bytes] = ..., parts: _Optional[_Iterable[_Union[MeshPart, _Mapping]]] = ..., skipped: _Optional[_Iterable[_Union[SkippedFeature, _Mapping]]] = ...) -> None: ...
 
 class MeshPart(_message.Message):
-    __slots__ = ("feature_id", "first_index", "index_count", "rgba")
+    __slots__ = ("feature_id", "first_index", "index_count", "rgba", "on_ground")
     FEATURE_ID_FIELD_NUMBER: _ClassVar[int]
     FIRST_INDEX_FIELD_NUMBER: _ClassVar[int]
     INDEX_COUNT_FIELD_NUMBER: _ClassVar[int]
     RGBA_FIELD_NUMBER: _ClassVar[int]
+    ON_GROUND_FIELD_NUMBER: _ClassVar[int]
     feature_id: int
     first_index: int
     index_count: int
     rgba: int
-    def __init__(self, feature_id: _Optional[int] = ..., first_index: _Optional[int] = ..., index_count: _Optional[int] = ..., rgba: _Optional[int] = ...) -> None: ...
+    on_ground: bool
+    def __init__(self, feature_id: _Optional[int] = ..., first_index: _Optional[int] = ..., index_count: _Optional[int] = ..., rgba: _Optional[int] = ..., on_ground: _Optional[bool] = ...) -> None: ...
 
 class Instance(_message.Message):
     __slots__ = ("feature_id", "x", "y", "z", "kind", "model", "scale", "rotation_deg")
