@@ -10,22 +10,12 @@ use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use anyhow::Context;
 use serde_json::{Value, json};
 
-const PYTHON: &str = "/usr/bin/python3";
+use crate::PYTHON;
 
 /// True when GDAL's Python bindings with the OpenFileGDB driver are here
 /// (CI always has them: scripts/setup.sh installs python3-gdal).
 pub fn available(test: &str) -> bool {
-    let found = Command::new(PYTHON)
-        .args(["-c", "from osgeo import ogr; assert ogr.GetDriverByName('OpenFileGDB')"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(found || std::env::var_os("CI").is_none(), "{test}: CI must have python3-gdal (scripts/setup.sh)");
-    if !found {
-        eprintln!("skipping {test}: it needs Debian's python3-gdal (scripts/setup.sh installs it)");
-    }
-    found
+    crate::python_can(test, "from osgeo import ogr; assert ogr.GetDriverByName('OpenFileGDB')", "python3-gdal")
 }
 
 /// A layer to create: name, geometry ("polygon", "point", "multipatch"),

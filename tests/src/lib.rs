@@ -50,6 +50,27 @@ pub fn shared_data(test: &str) -> Option<PathBuf> {
     }
 }
 
+/// Debian's Python, which has GDAL's and QGIS's bindings (scripts/setup.sh).
+pub const PYTHON: &str = "/usr/bin/python3";
+
+/// True when Debian's Python runs `code` (an import check): the editors
+/// the tests drive need it. CI must have it (`packages`, installed by
+/// scripts/setup.sh); elsewhere `test` is skipped with a note.
+pub fn python_can(test: &str, code: &str, packages: &str) -> bool {
+    use std::process::{Command, Stdio};
+    let found = Command::new(PYTHON)
+        .args(["-c", code])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    assert!(found || std::env::var_os("CI").is_none(), "{test}: CI must have {packages} (scripts/setup.sh)");
+    if !found {
+        eprintln!("skipping {test}: it needs Debian's {packages} (scripts/setup.sh installs them)");
+    }
+    found
+}
+
 /// The machine a benchmark ran on, for its table: CPU model and cores.
 pub fn machine() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")

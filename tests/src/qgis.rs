@@ -9,7 +9,7 @@ use anyhow::Context;
 use serde_json::{Value, json};
 
 /// Debian's python3 has the `qgis` module (pyenv's or a venv's may not).
-const PYTHON: &str = "/usr/bin/python3";
+use crate::PYTHON;
 
 /// One feature as QGIS reads it back.
 #[derive(Debug, Clone, PartialEq)]
@@ -53,17 +53,7 @@ impl Edit {
 /// True when Debian's QGIS Python bindings are installed. Absent, a test
 /// skips with a note, except under CI (`CI` set), which always has them.
 pub fn available(test: &str) -> bool {
-    let found = Command::new(PYTHON)
-        .args(["-c", "import qgis.core"])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .status()
-        .is_ok_and(|s| s.success());
-    assert!(found || std::env::var_os("CI").is_none(), "{test}: CI must have qgis and python3-qgis (scripts/setup.sh)");
-    if !found {
-        eprintln!("skipping {test}: it needs Debian's qgis and python3-qgis (scripts/setup.sh installs them)");
-    }
-    found
+    crate::python_can(test, "import qgis.core", "qgis and python3-qgis")
 }
 
 /// A QGIS process with one layer of a GeoPackage loaded.
