@@ -80,7 +80,7 @@ async fn render_returns_the_frame_the_generation_and_its_passes() {
     assert!(out.contains("10.3,45.2,7000,270,-30,0"), "{out}");
     let (_, out, _) = relief(&daemon, &["--json", "camera", "get"]).unwrap();
     let got: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert_eq!((got["heading_deg"].as_f64(), got["vertical_fov_deg"].as_f64()), (Some(270.0), Some(40.0)));
+    assert_eq!((got["headingDeg"].as_f64(), got["verticalFovDeg"].as_f64()), (Some(270.0), Some(40.0)));
     let png = dir.path().join("view.png");
     let (code, out, err) = relief(&daemon, &["render", "--size", "200x100", "-o", png.to_str().unwrap()]).unwrap();
     assert_eq!(code, 0, "{err}");

@@ -373,8 +373,9 @@ async fn cli_prints_elevations_and_writes_geotiff_tiles() {
     let (code, out, err) = relief(&daemon, &["--json", "elevation", "10.25,45.25", "11,45"]).unwrap();
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    assert!(v["heights_m"][1].is_null());
-    assert!((v["heights_m"][0].as_f64().unwrap() - peak).abs() < 1e-3);
+    // The proto3 JSON mapping: a sample without a height has no heightM.
+    assert!(v["samples"][1].get("heightM").is_none(), "{v}");
+    assert!((v["samples"][0]["heightM"].as_f64().unwrap() - peak).abs() < 1e-3);
 
     let tif = dir.path().join("tile.tif");
     let (code, _, err) = relief(&daemon, &["tile", "dem", "9", "541", "127", "-o", tif.to_str().unwrap()]).unwrap();
@@ -399,10 +400,14 @@ async fn cli_prints_elevations_and_writes_geotiff_tiles() {
     assert_eq!(code, 0, "{err}");
     let state: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(state["sources"][0]["id"], "dem");
-    assert_eq!(state["sources"][0]["status"], "ready");
+    assert_eq!(state["sources"][0]["status"], "SOURCE_STATUS_READY");
     assert_eq!(state["sources"][0]["active"], true);
     assert_eq!(state["effects"][0]["name"], "lighting");
-    assert!(state["counters"]["tiles_generated"].as_u64().unwrap() >= 2);
+    // uint64 is a string in the proto3 JSON mapping.
+    assert!(state["counters"]["tilesGenerated"].as_str().unwrap().parse::<u64>().unwrap() >= 2);
+    // Field for field what the HTTP transport answers (the scene is idle).
+    let http = relief_tests::http::get(&format!("{}/api/state", daemon.url())).unwrap().json().unwrap();
+    assert_eq!(state, http, "relief --json state and GET /api/state differ");
 
     let (code, _, err) = relief(&daemon, &["tile", "nope", "0", "0", "0", "-o", "/dev/null"]).unwrap();
     assert_eq!(code, 1);

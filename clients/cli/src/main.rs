@@ -10,7 +10,6 @@ use relief_proto::v1 as pb;
 use relief_proto::v1::scene_service_client::SceneServiceClient;
 use relief_proto::v1::tile_service_client::TileServiceClient;
 use relief_proto::v1::view_service_client::ViewServiceClient;
-use serde_json::{Value, json};
 use tokio_stream::StreamExt;
 
 mod connect;
@@ -218,9 +217,7 @@ async fn run(args: Args) -> anyhow::Result<()> {
                     })
                     .await,
             )?;
-            output::emit(args.json, &json!({"generation": state.generation}), || {
-                format!("generation {}", state.generation)
-            });
+            output::emit(args.json, &output::state_json(&state), || format!("generation {}", state.generation));
         }
         Command::Tile { source, level, x, y, output: path, resampling } => {
             let tile = rpc(
@@ -234,12 +231,7 @@ async fn run(args: Args) -> anyhow::Result<()> {
                     .await,
             )?;
             write_tile(&tile, &path)?;
-            let summary = json!({
-                "source": tile.source_id, "level": level, "x": x, "y": y,
-                "generation": tile.generation, "content_hash": format!("{:016x}", tile.content_hash),
-                "width": tile.width, "height": tile.height, "crs": tile.crs, "path": path.display().to_string(),
-            });
-            output::emit(args.json, &summary, || {
+            output::emit(args.json, &output::tile_json(&tile, &path), || {
                 format!(
                     "wrote {}x{} tile {level}/{x}/{y} of '{}' (generation {}, hash {:016x}) to {}",
                     tile.width,
@@ -262,23 +254,17 @@ async fn run(args: Args) -> anyhow::Result<()> {
                     })
                     .await,
             )?;
-            let heights: Vec<Value> =
-                answer.samples.iter().map(|s| s.height_m.map_or(Value::Null, |h| json!(h))).collect();
-            output::emit(
-                args.json,
-                &json!({"source": answer.source_id, "generation": answer.generation, "heights_m": heights}),
-                || {
-                    points
-                        .iter()
-                        .zip(&answer.samples)
-                        .map(|(p, s)| match s.height_m {
-                            Some(h) => format!("{:.6},{:.6}\t{h:.3}", p.lon_deg, p.lat_deg),
-                            None => format!("{:.6},{:.6}\tnull", p.lon_deg, p.lat_deg),
-                        })
-                        .collect::<Vec<_>>()
-                        .join("\n")
-                },
-            );
+            output::emit(args.json, &output::proto_json(&answer), || {
+                points
+                    .iter()
+                    .zip(&answer.samples)
+                    .map(|(p, s)| match s.height_m {
+                        Some(h) => format!("{:.6},{:.6}\t{h:.3}", p.lon_deg, p.lat_deg),
+                        None => format!("{:.6},{:.6}\tnull", p.lon_deg, p.lat_deg),
+                    })
+                    .collect::<Vec<_>>()
+                    .join("\n")
+            });
         }
         Command::Render { camera, fov, size, output, grid_size, levels, sun_time, sun_azimuth, sun_elevation } => {
             let (width, height) = parse_size(&size)?;

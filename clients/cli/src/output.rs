@@ -35,45 +35,15 @@ fn payload_name(kind: i32) -> &'static str {
     }
 }
 
-fn extent_json(e: Option<&pb::Extent>) -> Value {
-    e.map_or(Value::Null, |e| json!([e.min_x, e.min_y, e.max_x, e.max_y]))
+/// A message in the proto3 JSON mapping (camelCase names, enums by name,
+/// 64-bit integers as strings, zero and default fields left out): what
+/// reliefd's HTTP transport answers, made by the same generated code.
+pub fn proto_json<T: serde::Serialize>(message: &T) -> Value {
+    serde_json::to_value(message).unwrap_or(Value::Null)
 }
 
 pub fn state_json(s: &pb::SceneState) -> Value {
-    let sources: Vec<Value> = s
-        .sources
-        .iter()
-        .map(|src| {
-            json!({
-                "id": src.id, "kind": src.kind, "output": payload_name(src.output), "inputs": src.inputs,
-                "status": status_name(src.status), "error": (!src.error.is_empty()).then_some(&src.error),
-                "files": src.files, "version": src.version, "active": src.active,
-                "extent": extent_json(src.extent.as_ref()), "crs": src.crs,
-                "vertical_datum": src.vertical_datum, "vertical_units": src.vertical_units,
-                "tiles_generated": src.tiles_generated, "details": src.details,
-                "instance_classes": src.instance_classes.iter().map(|k| json!({
-                    "class": k.class, "has_rule": k.has_rule, "instances": k.instances, "samples": k.samples,
-                })).collect::<Vec<Value>>(),
-            })
-        })
-        .collect();
-    let grid = s.grid.as_ref().map(|g| {
-        json!({"kind": g.kind, "crs": g.crs, "tile_size": g.tile_size, "extent": extent_json(g.extent.as_ref()),
-               "level0_columns": g.level0_columns, "level0_rows": g.level0_rows})
-    });
-    let effects: Vec<Value> = s
-        .effects
-        .iter()
-        .map(|e| json!({"name": e.name, "sources": e.sources, "ran": e.ran, "last_cost_ms": e.last_cost_ms}))
-        .collect();
-    let c = s.counters.clone().unwrap_or_default();
-    json!({
-        "name": s.name, "generation": s.generation, "manifest": s.manifest, "grid": grid,
-        "sources": sources, "layers": s.layers, "effects": effects, "quality": s.quality,
-        "counters": {"tiles_generated": c.tiles_generated, "cache_hits": c.cache_hits, "cache_misses": c.cache_misses,
-                     "cache_entries": c.cache_entries, "cache_bytes": c.cache_bytes, "cache_budget_bytes": c.cache_budget_bytes,
-                     "reads_retried": c.reads_retried},
-    })
+    proto_json(s)
 }
 
 pub fn state_text(s: &pb::SceneState) -> String {
@@ -145,24 +115,7 @@ pub fn state_text(s: &pb::SceneState) -> String {
 }
 
 pub fn event_json(e: &pb::SceneEvent) -> Value {
-    match &e.event {
-        Some(pb::scene_event::Event::Snapshot(s)) => {
-            json!({"generation": e.generation, "snapshot": state_json(s)})
-        }
-        Some(pb::scene_event::Event::GenerationChanged(g)) => json!({
-            "generation": e.generation, "changed_sources": g.changed_sources, "reason": g.reason,
-            "dirty": g.dirty.iter().map(|d| json!({"source": d.source_id, "extents": d.extents.iter().map(|x| extent_json(Some(x))).collect::<Vec<_>>()})).collect::<Vec<_>>(),
-            "tiles_rebuilt": g.tiles_rebuilt, "tiles_invalidated": g.tiles_invalidated,
-            "tiles_carried_over": g.tiles_carried_over, "tiles_cut_off": g.tiles_cut_off, "elapsed_ms": g.elapsed_ms,
-        }),
-        Some(pb::scene_event::Event::SourceError(err)) => json!({
-            "generation": e.generation, "source_error": {"source": err.source_id, "error": err.error, "kept_last_good": err.kept_last_good},
-        }),
-        Some(pb::scene_event::Event::ManifestError(m)) => {
-            json!({"generation": e.generation, "manifest_error": m.error})
-        }
-        None => json!({"generation": e.generation}),
-    }
+    proto_json(e)
 }
 
 pub fn event_text(e: &pb::SceneEvent) -> String {
@@ -216,8 +169,7 @@ pub fn instances_geojson(list: &pb::InstanceList) -> Value {
 }
 
 pub fn camera_json(c: &pb::Camera) -> Value {
-    json!({"lon_deg": c.lon_deg, "lat_deg": c.lat_deg, "altitude_m": c.altitude_m, "heading_deg": c.heading_deg,
-           "pitch_deg": c.pitch_deg, "roll_deg": c.roll_deg, "vertical_fov_deg": c.vertical_fov_deg})
+    proto_json(c)
 }
 
 pub fn camera_text(c: &pb::Camera) -> String {
@@ -227,13 +179,22 @@ pub fn camera_text(c: &pb::Camera) -> String {
     )
 }
 
+/// The tile's answer without its payload (written to `path`), and the path.
+pub fn tile_json(t: &pb::GetTileResponse, path: &std::path::Path) -> Value {
+    with_path(proto_json(&pb::GetTileResponse { payload: None, ..t.clone() }), path)
+}
+
+/// `value` (a JSON object) with the file the command wrote as `path`.
+fn with_path(mut value: Value, path: &std::path::Path) -> Value {
+    if let Value::Object(map) = &mut value {
+        map.insert("path".into(), json!(path.display().to_string()));
+    }
+    value
+}
+
+/// The render's answer without its image (written to `path`), and the path.
 pub fn frame_json(f: &pb::RenderResponse, path: &std::path::Path) -> Value {
-    let passes: serde_json::Map<String, Value> =
-        f.passes.iter().map(|p| (p.pass.clone(), json!(p.elapsed_ms))).collect();
-    json!({"path": path.display().to_string(), "generation": f.generation, "width": f.width, "height": f.height,
-           "passes_ms": passes, "camera": f.camera.as_ref().map(camera_json),
-           "sun": f.sun.as_ref().map(|s| json!({"azimuth_deg": s.azimuth_deg, "elevation_deg": s.elevation_deg,
-                                                 "source": s.source}))})
+    with_path(proto_json(&pb::RenderResponse { image: Default::default(), ..f.clone() }), path)
 }
 
 pub fn frame_text(f: &pb::RenderResponse, path: &std::path::Path) -> String {
