@@ -194,7 +194,9 @@ fn with_path(mut value: Value, path: &std::path::Path) -> Value {
 
 /// The render's answer without its image (written to `path`), and the path.
 pub fn frame_json(f: &pb::RenderResponse, path: &std::path::Path) -> Value {
-    with_path(proto_json(&pb::RenderResponse { image: Default::default(), ..f.clone() }), path)
+    let mut without_image = f.clone();
+    without_image.image.clear();
+    with_path(proto_json(&without_image), path)
 }
 
 pub fn frame_text(f: &pb::RenderResponse, path: &std::path::Path) -> String {
