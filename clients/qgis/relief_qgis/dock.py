@@ -1,11 +1,14 @@
 """The dock: the live frame, the scene's generation and sources, and the
 controls (daemon address, its token and CA file, Follow map, Reload now,
-pitch and heading). It only shows and asks: the plugin wires it to the
-daemon link."""
+Retry now, pitch and heading). It only shows and asks: the plugin wires it
+to the daemon link. While the daemon is away it shows nothing stale: the
+frame and the source list are cleared and say so."""
 
 from __future__ import annotations
 
 from typing import Optional
+
+from . import proto_json as pj
 
 from qgis.PyQt.QtCore import QSize, Qt, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage, QPixmap
@@ -25,6 +28,9 @@ from qgis.PyQt.QtWidgets import (
     QWidget,
 )
 
+#: The frame's shape (width over height): landscape, as a screen is.
+ASPECT = 16 / 9
+
 #: How each relief.v1.SourceStatus reads in the list.
 STATUS_TEXT = {
     "SOURCE_STATUS_READY": "ready",
@@ -34,8 +40,9 @@ STATUS_TEXT = {
 
 
 class _Frame(QLabel):
-    """The frame, scaled to fit and keeping its aspect; says when its size
-    settles so the stream can be asked for frames of that size."""
+    """The frame, landscape (ASPECT) and scaled to fit; says when its width
+    settles so the stream can be asked for frames of that size. A dock at
+    the side of QGIS is tall and narrow: the frames stay landscape in it."""
 
     resized = pyqtSignal(QSize)
 
@@ -43,16 +50,41 @@ class _Frame(QLabel):
         super().__init__("waiting for the first frame")
         self.setAlignment(Qt.AlignCenter)
         self.setMinimumSize(160, 90)
-        self.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Expanding)
+        policy = QSizePolicy(QSizePolicy.Expanding, QSizePolicy.Preferred)
+        policy.setHeightForWidth(True)
+        self.setSizePolicy(policy)
         self._image = QImage()
         self._settle = QTimer(self)
         self._settle.setSingleShot(True)
         self._settle.setInterval(300)
-        self._settle.timeout.connect(lambda: self.resized.emit(self.size()))
+        self._settle.timeout.connect(lambda: self.resized.emit(self.wanted_size()))
+
+    def wanted_size(self) -> QSize:
+        """The frame size to ask for: the label's width, landscape."""
+        width = max(self.width(), 16)
+        return QSize(width, max(16, int(round(width / ASPECT))))
+
+    def hasHeightForWidth(self) -> bool:  # noqa: N802 (Qt's name)
+        return True
+
+    def heightForWidth(self, width: int) -> int:  # noqa: N802 (Qt's name)
+        return int(round(width / ASPECT))
+
+    def sizeHint(self) -> QSize:  # noqa: N802 (Qt's name)
+        return QSize(320, 180)
 
     def show_image(self, image: QImage) -> None:
         self._image = image
         self._paint()
+
+    def clear_image(self, why: str) -> None:
+        """No frame: the old one would show a scene that may be gone."""
+        self._image = QImage()
+        self.clear()
+        self.setText(why)
+
+    def image(self) -> QImage:
+        return self._image
 
     def resizeEvent(self, event) -> None:  # noqa: N802 (Qt's name)
         super().resizeEvent(event)
@@ -73,6 +105,7 @@ class ReliefDock(QDockWidget):
     credentials_changed = pyqtSignal(str, str)
     follow_toggled = pyqtSignal(bool)
     reload_clicked = pyqtSignal()
+    retry_clicked = pyqtSignal()
     #: Pitch (degrees, negative: below the horizon) and heading, as set.
     pitch_changed = pyqtSignal(float)
     heading_changed = pyqtSignal(float)
@@ -81,7 +114,13 @@ class ReliefDock(QDockWidget):
     dragging = pyqtSignal(bool)
 
     def __init__(
-        self, address: str, parent: Optional[QWidget] = None, *, token: str = "", ca_file: str = ""
+        self,
+        address: str,
+        parent: Optional[QWidget] = None,
+        *,
+        token: str = "",
+        ca_file: str = "",
+        follow: bool = False,
     ) -> None:
         super().__init__("relief 3D view", parent)
         self.setObjectName("ReliefDock")
@@ -96,8 +135,15 @@ class ReliefDock(QDockWidget):
         self.banner = QLabel()
         self.banner.setWordWrap(True)
         self.banner.setStyleSheet("background: #b3261e; color: white; padding: 4px;")
+        banner_row = QHBoxLayout()
+        banner_row.addWidget(self.banner, 1)
+        self.retry_button = QPushButton("Retry now")
+        self.retry_button.setToolTip("Connect to reliefd again now, without waiting for the next try")
+        self.retry_button.clicked.connect(self.retry_clicked)
+        banner_row.addWidget(self.retry_button)
+        layout.addLayout(banner_row)
         self.banner.hide()
-        layout.addWidget(self.banner)
+        self.retry_button.hide()
 
         self.frame = _Frame()
         self.frame.resized.connect(lambda s: self.frame_size_changed.emit(s.width(), s.height()))
@@ -140,6 +186,8 @@ class ReliefDock(QDockWidget):
         row = QHBoxLayout()
         self.follow = QCheckBox("Follow map")
         self.follow.setToolTip("The map's centre, scale and rotation drive the camera")
+        self.follow.setChecked(follow)
+        self._follow_toggled(follow, quiet=True)
         self.follow.toggled.connect(self._follow_toggled)
         row.addWidget(self.follow)
         self.reload_button = QPushButton("Reload now")
@@ -155,6 +203,9 @@ class ReliefDock(QDockWidget):
         )
         self.address.editingFinished.connect(lambda: self.address_changed.emit(self.address.text().strip()))
         connection.addRow("reliefd", self.address)
+        self.address_note = QLabel()
+        self.address_note.setWordWrap(True)
+        connection.addRow("", self.address_note)
         self.token = QLineEdit(token)
         self.token.setEchoMode(QLineEdit.PasswordEchoOnEdit)
         self.token.setPlaceholderText("none")
@@ -173,36 +224,52 @@ class ReliefDock(QDockWidget):
         self.ca_file.editingFinished.connect(self._credentials_edited)
         connection.addRow("CA file", self.ca_file)
         layout.addLayout(connection)
+        self.address_note.hide()
 
         self.setWidget(body)
 
     # ------------------------------------------------------------ showing
 
-    def show_frame(self, image: QImage, generation: int, camera: dict) -> None:
+    def show_frame(self, image: QImage, generation: int, camera: Optional[dict]) -> None:
+        """A frame and the camera it was drawn from (None: leave the
+        sliders alone, a change of theirs is on its way)."""
         self.frame.show_image(image)
         self.frame_generation = generation
         self.frames_shown += 1
-        self._show_camera(camera)
+        if camera is not None:
+            self._show_camera(camera)
 
     def show_reachable(self, up: bool, message: str) -> None:
         self.banner.setText(message)
         self.banner.setVisible(not up)
+        self.retry_button.setVisible(not up)
         if not up:
+            # Nothing stale: the last frame and the sources' "ready" are
+            # not what the daemon has now.
             self.generation_label.setText("not connected")
+            self.frame.clear_image("disconnected: no frame")
+            self.sources.clear()
+            self.show_message("")
+
+    def show_address_note(self, note: str) -> None:
+        """What was assumed of the address typed (a default port), or why it
+        cannot be used ("" hides it)."""
+        self.address_note.setText(note)
+        self.address_note.setVisible(bool(note))
 
     def show_state(self, state: dict) -> None:
-        name = state.get("name") or "scene"
-        text = f"{name}: generation {int(state.get('generation', 0))}"
-        if state.get("manifestError"):
-            text += f"; manifest not taken: {state['manifestError']}"
+        name = pj.text(state, "name") or "scene"
+        text = f"{name}: generation {pj.integer(state, 'generation')}"
+        if pj.text(state, "manifestError"):
+            text += f"; manifest not taken: {pj.text(state, 'manifestError')}"
         self.generation_label.setText(text)
         self.sources.clear()
-        for source in state.get("sources") or []:
-            status = STATUS_TEXT.get(str(source.get("status")), str(source.get("status", "")))
-            if not source.get("active"):
+        for source in pj.items(state, "sources"):
+            status = STATUS_TEXT.get(pj.text(source, "status"), pj.text(source, "status"))
+            if not pj.flag(source, "active"):
                 status += ", not used"
-            item = QTreeWidgetItem([str(source.get("id", "")), str(source.get("kind", "")), status])
-            error = str(source.get("error") or "")
+            item = QTreeWidgetItem([pj.text(source, "id"), pj.text(source, "kind"), status])
+            error = pj.text(source, "error")
             if error:
                 item.setText(2, f"{status}: {error}")
                 item.setToolTip(2, error)
@@ -218,13 +285,14 @@ class ReliefDock(QDockWidget):
 
     def _show_camera(self, camera: dict) -> None:
         """The sliders follow the camera the frame was drawn from, without
-        asking for anything."""
+        asking for anything. proto3 JSON leaves out zeros: a camera without
+        `headingDeg` looks north (0), one without `pitchDeg` at the horizon."""
         self._quiet = True
         try:
-            if "pitchDeg" in camera and not self.pitch.isSliderDown():
-                self.pitch.setValue(int(round(-float(camera["pitchDeg"]))))
-            if "headingDeg" in camera and not self.heading.isSliderDown():
-                self.heading.setValue(int(round(float(camera["headingDeg"]))) % 360)
+            if not self.pitch.isSliderDown():
+                self.pitch.setValue(int(round(-pj.number(camera, "pitchDeg"))))
+            if not self.heading.isSliderDown():
+                self.heading.setValue(int(round(pj.number(camera, "headingDeg"))) % 360)
         finally:
             self._quiet = False
         self._label_sliders()
@@ -251,7 +319,7 @@ class ReliefDock(QDockWidget):
     def _credentials_edited(self) -> None:
         self.credentials_changed.emit(self.token.text().strip(), self.ca_file.text().strip())
 
-    def _follow_toggled(self, on: bool) -> None:
+    def _follow_toggled(self, on: bool, quiet: bool = False) -> None:
         # Following, the map's rotation sets the heading.
         self.heading.setEnabled(not on)
         self.heading.setToolTip(
@@ -259,4 +327,5 @@ class ReliefDock(QDockWidget):
             if on
             else "The camera's heading, clockwise from north"
         )
-        self.follow_toggled.emit(on)
+        if not quiet:
+            self.follow_toggled.emit(on)

@@ -10,6 +10,8 @@ from typing import Iterable, Optional
 
 from qgis.core import QgsMapLayer, QgsProviderRegistry
 
+from . import proto_json as pj
+
 #: Files that are one dataset with the .shp beside them.
 SHAPEFILE_PARTS = {".shp", ".shx", ".dbf", ".prj", ".cpg", ".qix", ".sbn", ".sbx"}
 
@@ -33,8 +35,8 @@ def sources_reading(state: dict, path: str) -> list[str]:
     `files`, as JSON), in the scene's order."""
     target = _dataset(path)
     found = []
-    for source in state.get("sources") or []:
-        files: Iterable[str] = source.get("files") or []
-        if any(_dataset(f) == target for f in files):
-            found.append(str(source.get("id", "")))
+    for source in pj.items(state, "sources"):
+        files: Iterable[str] = pj.items(source, "files")
+        if any(_dataset(str(f)) == target for f in files):
+            found.append(pj.text(source, "id"))
     return found

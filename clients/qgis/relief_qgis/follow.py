@@ -95,9 +95,10 @@ def map_view(settings: QgsMapSettings) -> Optional[MapView]:
     return MapView(_wrap(c.x()), max(-90.0, min(90.0, c.y())), heading, across / (2.0 * STEP))
 
 
-def camera_for(view: MapView, pitch_deg: float, ground_m: Optional[float], fov_deg: float = 50.0) -> dict:
+def camera_for(view: MapView, pitch_deg: float, ground_m: float, fov_deg: float = 50.0) -> dict:
     """The camera (relief.v1.Camera as JSON) looking at the view's centre
-    on ground at `ground_m` (0 when unknown), `pitch_deg` below the
+    on ground at `ground_m` (the height there, which the caller must know:
+    a guess could put the camera under the terrain), `pitch_deg` below the
     horizon (negative), the view's height filling `fov_deg`."""
     pitch = max(-90.0, min(-1.0, pitch_deg))
     distance = 0.5 * view.height_m / math.tan(math.radians(0.5 * fov_deg))
@@ -112,7 +113,7 @@ def camera_for(view: MapView, pitch_deg: float, ground_m: Optional[float], fov_d
     return {
         "lonDeg": lon,
         "latDeg": lat,
-        "altitudeM": (ground_m or 0.0) + rise,
+        "altitudeM": float(ground_m) + rise,
         "headingDeg": view.heading_deg,
         "pitchDeg": pitch,
         "rollDeg": 0.0,

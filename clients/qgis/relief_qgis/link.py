@@ -5,9 +5,12 @@ callback on the UI thread's event loop.
 
 Two streams run while the daemon is up: /api/frames (a view opened to
 follow the scene camera, pushed, PNG) and /api/events (the scene's generations and source
-errors; each is followed by one GET /api/state). When either ends or
-fails, the link reports the daemon down, stops both and retries
-GET /api/state with a growing delay until it answers.
+errors; each is followed by one GET /api/state), and a heartbeat
+(GET /api/camera every second) that notices a daemon that hangs with its
+streams open. When a stream ends or fails, or a heartbeat goes unanswered
+for 3.5 s, the link reports the daemon down, stops everything and retries
+GET /api/state with a growing delay until it answers (`retry_now` at once).
+While the dock is hidden the frame stream is closed.
 
 A reliefd serving with --token-file wants `Authorization: Bearer TOKEN` on
 every request, the streams included (Qt sets headers on them, so the token
@@ -18,29 +21,34 @@ system's CA certificates and, when given, those of a PEM file."""
 from __future__ import annotations
 
 import base64
-import ipaddress
 import json
 from typing import Callable, Optional
 from urllib.parse import urlencode
 
 from qgis.PyQt.QtCore import QByteArray, QObject, QTimer, QUrl, pyqtSignal
 from qgis.PyQt.QtGui import QImage
-from qgis.PyQt.QtNetwork import (
-    QNetworkAccessManager,
-    QNetworkReply,
-    QNetworkRequest,
-    QSslCertificate,
-    QSslConfiguration,
-)
+from qgis.PyQt.QtNetwork import QNetworkAccessManager, QNetworkReply, QNetworkRequest
 
+from . import proto_json as pj
+from .address import DEFAULT_ADDRESS, parse_address
+from .credentials import Credentials
+from .replies import error_text, event_message, is_refusal, keep_tls_errors, not_relief
 from .sse import SseParser
 
-#: Where a fresh install looks for reliefd (`reliefd serve`'s default).
-DEFAULT_ADDRESS = "127.0.0.1:50051"
-#: How long a single request may take before it counts as unanswered.
-REQUEST_TIMEOUT_MS = 5000
-#: The reply property holding why Qt did not trust the daemon's certificate.
-TLS_ERRORS = "relief_tls_errors"
+__all__ = ["DEFAULT_ADDRESS", "Backoff", "DaemonLink"]
+
+#: How long the first GET /api/state and each heartbeat may go unanswered
+#: before the daemon counts as hung (seconds). With a heartbeat every
+#: HEARTBEAT_MS, a daemon that stops answering is seen within 4.5 s.
+ANSWER_TIMEOUT_S = 3.5
+#: Heartbeats while the daemon is up (GET /api/camera, a few bytes): its
+#: streams cannot tell a hung daemon from a quiet scene (reliefd's SSE
+#: keep-alive comments come every 15 s, axum's default).
+HEARTBEAT_MS = 1000
+#: How long other calls may take (a reload may read every source).
+CALL_TIMEOUT_S = 30.0
+#: How long a height lookup for Follow map may take.
+ELEVATION_TIMEOUT_S = 5.0
 
 
 class Backoff:
@@ -59,88 +67,6 @@ class Backoff:
         self.next = self.first
 
 
-def base_url(address: str) -> str:
-    """`host:port` or a URL, as the URL the calls hang from (no trailing /)."""
-    address = address.strip().rstrip("/")
-    return address if "://" in address else f"http://{address}"
-
-
-def is_loopback(host: str) -> bool:
-    """Whether `host` is this machine (localhost, 127.0.0.0/8, ::1)."""
-    if host.lower() == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
-def error_text(reply: QNetworkReply) -> str:
-    """What went wrong with a reply: the daemon's own message (its JSON
-    error body names the field) when it answered, else Qt's reason."""
-    status = reply.attribute(QNetworkRequest.HttpStatusCodeAttribute)
-    body = bytes(reply.readAll())
-    if status:
-        try:
-            message = str(json.loads(body.decode("utf-8"))["message"])
-        except (ValueError, KeyError, TypeError, UnicodeDecodeError):
-            message = body[:200].decode("utf-8", errors="replace").strip()
-        if status in (401, 403):
-            return f"refused (HTTP {status}): {message}"
-        return f"HTTP {status}: {message}"
-    tls = reply.property(TLS_ERRORS)
-    if tls:
-        return f"{reply.errorString()}: {tls}"
-    return reply.errorString()
-
-
-def is_refusal(reply: QNetworkReply) -> int:
-    """401 or 403 when the daemon refused the request's token, else 0."""
-    status = reply.attribute(QNetworkRequest.HttpStatusCodeAttribute)
-    return int(status) if status in (401, 403) else 0
-
-
-class Credentials:
-    """What every request carries: the bearer token (empty: none) and, for
-    https://, the TLS settings with the CA certificates to trust."""
-
-    def __init__(self, token: str = "", ca_file: str = "", insecure: bool = False) -> None:
-        self.token = token.strip()
-        self.ca_file = ca_file.strip()
-        #: Send the token over plain http:// to another machine anyway.
-        self.insecure = insecure
-        #: Why the CA file cannot be used ("" when it can, or none is set).
-        self.ca_error = ""
-        self._ssl: Optional[QSslConfiguration] = None
-        if self.ca_file:
-            certificates = QSslCertificate.fromPath(self.ca_file)
-            if not certificates:
-                self.ca_error = f"the CA file holds no PEM certificate or cannot be read: {self.ca_file}"
-            else:
-                self._ssl = QSslConfiguration.defaultConfiguration()
-                self._ssl.setCaCertificates(self._ssl.caCertificates() + certificates)
-
-    def refusal(self, url: str) -> str:
-        """Why no request may go to `url` with this token ("" when one may):
-        over plain http:// to another machine anyone on the path could read
-        the token and use it."""
-        address = QUrl(url)
-        host = address.host().strip("[]")
-        if not self.token or self.insecure or address.scheme() != "http" or is_loopback(host):
-            return ""
-        return (
-            f"refusing to send the token over plain http:// to {host}: anyone on the path could read it and use it; "
-            "serve reliefd with TLS (--tls-cert, --tls-key) and connect to https://"
-        )
-
-    def apply(self, request: QNetworkRequest) -> QNetworkRequest:
-        if self.token:
-            request.setRawHeader(b"Authorization", b"Bearer " + self.token.encode("utf-8"))
-        if self._ssl is not None and request.url().scheme() == "https":
-            request.setSslConfiguration(self._ssl)
-        return request
-
-
 class _Stream(QObject):
     """One Server-Sent Events request; `received` for each event, `ended`
     (with the reason) once when it stops by itself."""
@@ -148,9 +74,10 @@ class _Stream(QObject):
     received = pyqtSignal(str, str)
     ended = pyqtSignal(str)
 
-    def __init__(self, manager: QNetworkAccessManager, url: str, credentials: Credentials, parent: QObject) -> None:
+    def __init__(self, manager: QNetworkAccessManager, base: str, path: str, credentials: Credentials, parent: QObject) -> None:
         super().__init__(parent)
-        request = credentials.apply(QNetworkRequest(QUrl(url)))
+        self._base = base
+        request = credentials.apply(QNetworkRequest(QUrl(base + path)))
         request.setRawHeader(b"Accept", b"text/event-stream")
         request.setAttribute(QNetworkRequest.CacheLoadControlAttribute, QNetworkRequest.AlwaysNetwork)
         self._parser = SseParser()
@@ -168,7 +95,7 @@ class _Stream(QObject):
             return  # An error body: `finished` reports it.
         for name, data in self._parser.feed(bytes(self._reply.readAll())):
             if name == "error":
-                self.error = _message(data)
+                self.error = event_message(data)
             self.received.emit(name, data)
 
     def _finished(self) -> None:
@@ -179,8 +106,10 @@ class _Stream(QObject):
         self.refused = is_refusal(self._reply)
         if self.error:
             self.ended.emit(f"it answered: {self.error}")
+        elif failed:
+            self.ended.emit(error_text(self._reply, self._base, CALL_TIMEOUT_S))
         else:
-            self.ended.emit(error_text(self._reply) if failed else "the daemon ended the stream")
+            self.ended.emit("the daemon ended the stream")
         self._reply.deleteLater()
 
     def close(self) -> None:
@@ -193,7 +122,7 @@ class _Stream(QObject):
 
 class DaemonLink(QObject):
     """reliefd at one address. Signals carry decoded JSON (proto3 JSON
-    mapping: lowerCamelCase names, 64-bit integers as strings)."""
+    mapping, read with proto_json: a missing field is its default)."""
 
     #: A pushed frame: the image, its scene generation, its camera.
     frame = pyqtSignal(QImage, int, dict)
@@ -214,13 +143,18 @@ class DaemonLink(QObject):
     ) -> None:
         super().__init__(parent)
         self._manager = QNetworkAccessManager(self)
-        self._manager.sslErrors.connect(_keep_tls_errors)
-        self._address = address
+        self._manager.sslErrors.connect(keep_tls_errors)
+        self._address = address.strip()
+        self._target = parse_address(self._address)
         self._credentials = Credentials(token, ca_file)
         #: 401 or 403 while the daemon refuses the token, else 0.
         self.refused = 0
+        # Landscape, as the dock's frame is (it asks for its own size once laid out).
         self._size = (640, 360)
         self._max_fps = 10.0
+        #: Whether frames are wanted (the dock is shown): hidden, the frame
+        #: stream is closed and the rest (state, heartbeat) goes on.
+        self._frames_wanted = True
         self._streams: dict[str, _Stream] = {}
         self._pending: set[QNetworkReply] = set()
         self._view_id = ""
@@ -230,10 +164,16 @@ class DaemonLink(QObject):
         self._epoch = 0
         self._running = False
         self._up: Optional[bool] = None
+        #: GET /api/state probes sent so far (the first and each retry).
+        self.probes = 0
         self.backoff = Backoff()
         self._retry = QTimer(self)
         self._retry.setSingleShot(True)
         self._retry.timeout.connect(self._probe)
+        self._heartbeat = QTimer(self)
+        self._heartbeat.setInterval(HEARTBEAT_MS)
+        self._heartbeat.timeout.connect(self._beat)
+        self._beating = False
 
     # ------------------------------------------------------------ settings
 
@@ -242,13 +182,34 @@ class DaemonLink(QObject):
         return self._address
 
     @property
+    def url(self) -> str:
+        """The URL the calls go to ("" while the address cannot be used)."""
+        return self._target.url
+
+    @property
+    def address_note(self) -> str:
+        """What was assumed of the address (a default port), or why it
+        cannot be used; "" when neither."""
+        return self._target.error or self._target.note
+
+    @property
     def is_up(self) -> bool:
         return bool(self._up)
+
+    @property
+    def frame_size(self) -> tuple[int, int]:
+        return self._size
+
+    @property
+    def streaming_frames(self) -> bool:
+        """Whether the frame stream is open now."""
+        return "frames" in self._streams
 
     def set_address(self, address: str) -> None:
         if address.strip() == self._address:
             return
         self._address = address.strip()
+        self._target = parse_address(self._address)
         if self._running:
             self._restart()
 
@@ -283,6 +244,19 @@ class DaemonLink(QObject):
         if self._running and self._view_id and "frames" in self._streams:
             self._open_frames()
 
+    def set_frames_wanted(self, wanted: bool) -> None:
+        """Frames only while someone looks: False closes the frame stream
+        (the dock is hidden or closed), True opens it again."""
+        if wanted == self._frames_wanted:
+            return
+        self._frames_wanted = wanted
+        if not wanted:
+            stream = self._streams.pop("frames", None)
+            if stream is not None:
+                stream.close()
+        elif self._running and self._up and self._view_id:
+            self._open_frames()
+
     # ------------------------------------------------------------ lifetime
 
     def start(self) -> None:
@@ -292,13 +266,20 @@ class DaemonLink(QObject):
     def stop(self) -> None:
         self._running = False
         self._retry.stop()
+        self._heartbeat.stop()
         self._forget_requests()
         self._close_streams()
+
+    def retry_now(self) -> None:
+        """Connects again at once, whatever the backoff's delay."""
+        if self._running:
+            self._restart()
 
     def _restart(self) -> None:
         self._forget_requests()
         self._close_streams()
         self._retry.stop()
+        self._heartbeat.stop()
         self.backoff.reset()
         self._up = None
         self._probe()
@@ -306,6 +287,7 @@ class DaemonLink(QObject):
     def _forget_requests(self) -> None:
         self._epoch += 1
         self._view_id = ""
+        self._beating = False
         for reply in list(self._pending):
             reply.abort()
         self._pending.clear()
@@ -320,17 +302,27 @@ class DaemonLink(QObject):
         if not self._running:
             return
         self.refused = 0
+        if self._target.error:
+            # Nothing to retry until the address changes.
+            self._up = False
+            self.reachable.emit(False, f"reliefd: {self._target.error}")
+            return
         if self._credentials.ca_error:
             self._down(self._credentials.ca_error)
             return
-        refusal = self._credentials.refusal(base_url(self._address))
+        refusal = self._credentials.refusal(self.url)
         if refusal:
             self._down(refusal)
             return
-        self._get("/api/state", self._probed, on_error=self._down)
+        self.probes += 1
+        self._get("/api/state", self._probed, on_error=self._down, timeout_s=ANSWER_TIMEOUT_S)
 
     def _probed(self, state: dict) -> None:
         if not self._running:
+            return
+        if not any(key in state for key in ("grid", "sources", "name", "generation")):
+            # Something answered JSON, but not a scene state.
+            self._down(not_relief(self.url, "its /api/state is not a relief scene state"))
             return
         self.refused = 0
         self._set_up(True, "")
@@ -339,25 +331,48 @@ class DaemonLink(QObject):
         # the sliders turn the camera about the ground drawn at their centre.
         self._send("POST", "/api/views", {"followSceneCamera": True}, self._view_opened)
         self._open_events()
+        self._heartbeat.start()
 
     def _view_opened(self, view: dict) -> None:
-        self._view_id = str(view.get("viewId", ""))
-        if self._running and self._view_id:
+        self._view_id = pj.text(view, "viewId")
+        if self._running and self._view_id and self._frames_wanted:
             self._open_frames()
+
+    def _beat(self) -> None:
+        """One heartbeat: a daemon that answers nothing for ANSWER_TIMEOUT_S
+        is down (its streams stay open and silent when it hangs)."""
+        if not self._running or not self._up or self._beating:
+            return
+        self._beating = True
+
+        def answered(_: dict) -> None:
+            self._beating = False
+
+        def unanswered(why: str) -> None:
+            self._beating = False
+            self._down(why)
+
+        self._get("/api/camera", answered, on_error=unanswered, timeout_s=ANSWER_TIMEOUT_S)
 
     def _down(self, why: str) -> None:
         self._close_streams()
+        self._heartbeat.stop()
         if not self._running or (self._up is False and self._retry.isActive()):
             return  # Already waiting to try again.
+        # A hung daemon keeps its requests open: drop them with the streams.
+        self._forget_requests()
         delay = self.backoff.take()
+        url = self.url
         if self.refused == 401:
             what = "the token is wrong" if self._credentials.token else "it wants a token"
             message = (
-                f"reliefd at {self._address}: {why}; {what}: enter one of its token file in the dock's "
+                f"reliefd at {url}: {why}; {what}: enter one of its token file in the dock's "
                 f"Token field; trying again in {delay:g} s"
             )
+        elif url and url in why:
+            message = f"{why}; trying again in {delay:g} s"
         else:
-            message = f"reliefd at {self._address}: not reachable or not drawing ({why}); trying again in {delay:g} s"
+            message = f"reliefd at {url}: not reachable or not drawing ({why}); trying again in {delay:g} s"
         self._set_up(False, message)
         self._retry.start(int(delay * 1000))
 
@@ -374,7 +389,7 @@ class DaemonLink(QObject):
         old = self._streams.pop(name, None)
         if old is not None:
             old.close()
-        stream = _Stream(self._manager, base_url(self._address) + path, self._credentials, self)
+        stream = _Stream(self._manager, self.url, path, self._credentials, self)
         stream.received.connect(on_event)
         stream.ended.connect(lambda why, s=stream: self._ended(s, why))
         self._streams[name] = stream
@@ -397,12 +412,11 @@ class DaemonLink(QObject):
 
     def _on_frame(self, name: str, data: str) -> None:
         if name == "error":
-            self.failed.emit(_message(data))
+            self.failed.emit(event_message(data))
             return
         try:
             message = json.loads(data)
-            image = QImage.fromData(QByteArray(base64.b64decode(message.get("image", ""))), "PNG")
-            generation = int(message.get("generation", 0))
+            image = QImage.fromData(QByteArray(base64.b64decode(pj.text(message, "image"))), "PNG")
         except (ValueError, TypeError) as e:
             self.failed.emit(f"a frame from reliefd could not be read: {e}")
             return
@@ -410,18 +424,19 @@ class DaemonLink(QObject):
             self.failed.emit("a frame from reliefd is not a PNG image")
             return
         self.backoff.reset()
-        self.frame.emit(image, generation, message.get("camera") or {})
+        self.frame.emit(image, pj.integer(message, "generation"), pj.message(message, "camera"))
 
     def _on_scene_event(self, name: str, data: str) -> None:
         if name == "error":
-            self.failed.emit(_message(data))
+            self.failed.emit(event_message(data))
             return
         try:
             message = json.loads(data)
         except ValueError:
             return
-        if "snapshot" in message:
-            self.state.emit(message["snapshot"])
+        snapshot = pj.message(message, "snapshot")
+        if snapshot:
+            self.state.emit(snapshot)
         else:
             self.refresh_state()
 
@@ -451,44 +466,56 @@ class DaemonLink(QObject):
     def reload(self, source_ids: list[str], callback: Optional[Callable[[dict], None]] = None) -> None:
         self._send("POST", "/api/reload", {"sourceIds": source_ids}, callback)
 
-    def elevation(self, lon_deg: float, lat_deg: float, callback: Callable[[Optional[float]], None]) -> None:
-        """The height layer at a point (None over nodata or outside)."""
+    def elevation(self, lon_deg: float, lat_deg: float, callback: Callable[[Optional[float], str], None]) -> None:
+        """The height layer at a point: callback(height, "") when known;
+        callback(None, why) over nodata, outside the scene, or when the
+        lookup failed (an error or no answer in time)."""
 
         def done(answer: dict) -> None:
-            samples = answer.get("samples") or [{}]
-            height = samples[0].get("heightM")
-            callback(None if height is None else float(height))
+            samples = pj.items(answer, "samples")
+            height = pj.optional_number(samples[0], "heightM") if samples else None
+            callback(height, "" if height is not None else "the height layer has no data there")
 
         query = urlencode({"points": f"{lon_deg!r},{lat_deg!r}"})
-        self._get("/api/elevation?" + query, done, on_error=lambda _: callback(None))
+        self._get(
+            "/api/elevation?" + query, done, on_error=lambda why: callback(None, why), timeout_s=ELEVATION_TIMEOUT_S
+        )
 
     # ------------------------------------------------------------ plumbing
 
-    def _request(self, path: str) -> QNetworkRequest:
-        request = self._credentials.apply(QNetworkRequest(QUrl(base_url(self._address) + path)))
-        # An unreachable host fails in seconds, not the system's minutes.
-        request.setTransferTimeout(REQUEST_TIMEOUT_MS)
+    def _request(self, path: str, timeout_s: float) -> QNetworkRequest:
+        request = self._credentials.apply(QNetworkRequest(QUrl(self.url + path)))
+        # An unreachable or hung host fails in seconds, not the system's minutes.
+        request.setTransferTimeout(int(timeout_s * 1000))
         return request
 
-    def _get(self, path: str, callback: Callable[[dict], None], on_error: Optional[Callable[[str], None]] = None) -> None:
-        self._track(self._manager.get(self._request(path)), callback, on_error)
+    def _get(
+        self,
+        path: str,
+        callback: Callable[[dict], None],
+        on_error: Optional[Callable[[str], None]] = None,
+        timeout_s: float = CALL_TIMEOUT_S,
+    ) -> None:
+        self._track(self._manager.get(self._request(path, timeout_s)), timeout_s, callback, on_error)
 
     def _send(self, verb: str, path: str, body: dict, callback: Optional[Callable[[dict], None]] = None) -> None:
-        request = self._request(path)
+        request = self._request(path, CALL_TIMEOUT_S)
         request.setHeader(QNetworkRequest.ContentTypeHeader, "application/json")
         data = QByteArray(json.dumps(body).encode("utf-8"))
-        self._track(self._manager.sendCustomRequest(request, verb.encode("ascii"), data), callback, None)
+        reply = self._manager.sendCustomRequest(request, verb.encode("ascii"), data)
+        self._track(reply, CALL_TIMEOUT_S, callback, None)
 
     def _track(
         self,
         reply: QNetworkReply,
+        timeout_s: float,
         callback: Optional[Callable[[dict], None]],
         on_error: Optional[Callable[[str], None]],
     ) -> None:
         # Held until it ends: PyQt would let the garbage collector take a
         # reply only its own slot refers to, and the request with it.
         self._pending.add(reply)
-        epoch = self._epoch
+        epoch, url = self._epoch, self.url
 
         def finished() -> None:
             self._pending.discard(reply)
@@ -499,7 +526,7 @@ class DaemonLink(QObject):
             if reply.error() != QNetworkReply.NoError:
                 if is_refusal(reply) == 401:
                     self.refused = 401
-                why = error_text(reply)
+                why = error_text(reply, url, timeout_s)
                 if on_error is not None:
                     on_error(why)
                 elif not status:
@@ -509,24 +536,14 @@ class DaemonLink(QObject):
                 return
             try:
                 answer = json.loads(bytes(reply.readAll()).decode("utf-8") or "{}")
-            except ValueError as e:
-                self.failed.emit(f"reliefd's answer could not be read: {e}")
+            except (ValueError, UnicodeDecodeError):
+                why = not_relief(url, "its answer is not JSON")
+                if on_error is not None:
+                    on_error(why)
+                else:
+                    self.failed.emit(why)
                 return
             if callback is not None:
-                callback(answer)
+                callback(answer if isinstance(answer, dict) else {})
 
         reply.finished.connect(finished)
-
-
-def _keep_tls_errors(reply: QNetworkReply, errors: list) -> None:
-    """Keeps Qt's reasons on the reply (the reply itself only says "SSL
-    handshake failed"); the certificate stays refused."""
-    reply.setProperty(TLS_ERRORS, "; ".join(e.errorString() for e in errors))
-
-
-def _message(data: str) -> str:
-    try:
-        return str(json.loads(data)["message"])
-    except (ValueError, KeyError, TypeError):
-        return data
-

@@ -1,6 +1,14 @@
 """The plugin: wires the dock, the daemon link, the map canvas and the
 project's layers together. Nothing here blocks QGIS: every call to reliefd
-answers later on the event loop."""
+answers later on the event loop.
+
+Follow map is applied again whenever the daemon becomes reachable (a
+reconnect, a new address): a daemon that restarted has its own camera.
+When the ground height at the map's centre is not known (the lookup
+failed, timed out, or the height layer has no data there), the camera is
+not moved: a guessed ground (0 m, or a height from elsewhere) could put it
+under the terrain and draw a black frame. The dock says why, and the next
+map move or reconnect tries again."""
 
 from __future__ import annotations
 
@@ -10,6 +18,7 @@ from qgis.core import QgsMapLayer, QgsProject, QgsSettings, QgsVectorLayer
 from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtWidgets import QAction
 
+from . import proto_json as pj
 from .dock import ReliefDock
 from .edits import layer_file, sources_reading
 from .follow import camera_for, map_view
@@ -23,6 +32,8 @@ TOKEN_KEY = "relief_qgis/token"
 #: A PEM file of CA certificates to trust for an https:// address, beside
 #: the system's (empty: the system's only).
 CA_FILE_KEY = "relief_qgis/ca_file"
+#: Whether Follow map is on, kept like the address.
+FOLLOW_KEY = "relief_qgis/follow"
 #: How long the map must rest before the camera follows it (ms).
 FOLLOW_DEBOUNCE_MS = 150
 #: How long a slider must rest before the camera turns (ms).
@@ -53,6 +64,8 @@ class ReliefPlugin:
         #: the daemon's file watcher alone takes the edit, after it settles).
         self.reload_on_commit = True
         self.cameras_sent = 0
+        #: Follow map's last word when it could not move the camera ("" when it could).
+        self.follow_problem = ""
         self._camera: dict = {}
         self._follow_serial = 0
         self._turn_serial = 0
@@ -68,9 +81,11 @@ class ReliefPlugin:
         address = str(settings.value(ADDRESS_KEY, DEFAULT_ADDRESS))
         token = str(settings.value(TOKEN_KEY, "") or "")
         ca_file = str(settings.value(CA_FILE_KEY, "") or "")
+        follow = _setting_bool(settings.value(FOLLOW_KEY, False))
         window = self.iface.mainWindow()
         self.link = DaemonLink(address, token=token, ca_file=ca_file)
-        self.dock = ReliefDock(address, window, token=token, ca_file=ca_file)
+        self.dock = ReliefDock(address, window, token=token, ca_file=ca_file, follow=follow)
+        self.dock.show_address_note(self.link.address_note)
         self.iface.addDockWidget(Qt.RightDockWidgetArea, self.dock)
 
         # The dock's own show/hide action: it stays right when the dock is
@@ -82,11 +97,14 @@ class ReliefPlugin:
         link, dock = self.link, self.dock
         link.frame.connect(self._frame)
         link.state.connect(self._state)
-        link.reachable.connect(dock.show_reachable)
+        link.reachable.connect(self._reachable)
         link.failed.connect(dock.show_message)
         dock.address_changed.connect(self._address_changed)
         dock.credentials_changed.connect(self._credentials_changed)
         dock.reload_clicked.connect(lambda: link.reload([], self._state))
+        dock.retry_clicked.connect(link.retry_now)
+        # Frames only while the dock shows (closed, or a tab behind another).
+        dock.visibilityChanged.connect(link.set_frames_wanted)
         dock.frame_size_changed.connect(link.set_frame_size)
         dock.follow_toggled.connect(self._follow_toggled)
         dock.pitch_changed.connect(self._slider_moved)
@@ -141,8 +159,17 @@ class ReliefPlugin:
             # While a slider's change waits to be sent, frames drawn from
             # the camera before it must not move the slider back.
             settling = self._turn_timer.isActive() or self._follow_timer.isActive()
-            self.dock.show_frame(image, generation, {} if settling else camera)
-            self.dock.show_message("")
+            self.dock.show_frame(image, generation, None if settling else camera)
+            self.dock.show_message(self.follow_problem)
+
+    def _reachable(self, up: bool, message: str) -> None:
+        if self.dock is not None:
+            self.dock.show_reachable(up, message)
+        if not up:
+            self.state = {}
+        elif self.dock is not None and self.dock.follow.isChecked():
+            # A daemon that restarted, or another one: its camera is its own.
+            self._follow_now()
 
     def _state(self, state: dict) -> None:
         self.state = state
@@ -153,6 +180,8 @@ class ReliefPlugin:
         QgsSettings().setValue(ADDRESS_KEY, address)
         if self.link is not None:
             self.link.set_address(address)
+            if self.dock is not None:
+                self.dock.show_address_note(self.link.address_note)
 
     def _credentials_changed(self, token: str, ca_file: str) -> None:
         settings = QgsSettings()
@@ -195,6 +224,8 @@ class ReliefPlugin:
     # ------------------------------------------------------------ the camera
 
     def _follow_toggled(self, on: bool) -> None:
+        QgsSettings().setValue(FOLLOW_KEY, on)
+        self.follow_problem = ""
         if on:
             self._follow_now()
 
@@ -213,12 +244,19 @@ class ReliefPlugin:
             return
         self._follow_serial += 1
         serial, pitch = self._follow_serial, self.dock.pitch_deg()
-        fov = float(self._camera.get("verticalFovDeg") or 50.0)
+        fov = pj.number(self._camera, "verticalFovDeg") or 50.0
 
-        def with_ground(ground_m: Optional[float]) -> None:
-            if serial == self._follow_serial and self.link is not None:
-                self.cameras_sent += 1
-                self.link.set_camera(camera_for(view, pitch, ground_m, fov))
+        def with_ground(ground_m: Optional[float], why: str) -> None:
+            if serial != self._follow_serial or self.link is None or self.dock is None:
+                return
+            if ground_m is None:
+                # Never guess the ground: the camera stays where it is.
+                self.follow_problem = f"Follow map: no ground height at the map's centre ({why}); the camera stays"
+                self.dock.show_message(self.follow_problem)
+                return
+            self.follow_problem = ""
+            self.cameras_sent += 1
+            self.link.set_camera(camera_for(view, pitch, ground_m, fov))
 
         self.link.elevation(view.lon_deg, view.lat_deg, with_ground)
 
@@ -241,9 +279,16 @@ class ReliefPlugin:
         def turn(camera: dict) -> None:
             if serial != self._turn_serial or self.link is None:
                 return
-            pitch = want_pitch - float(camera.get("pitchDeg", 0.0))
-            heading = (want_heading - float(camera.get("headingDeg", 0.0)) + 180.0) % 360.0 - 180.0
+            pitch = want_pitch - pj.number(camera, "pitchDeg")
+            heading = (want_heading - pj.number(camera, "headingDeg") + 180.0) % 360.0 - 180.0
             if abs(pitch) > 1e-6 or abs(heading) > 1e-6:
                 self.link.orbit(heading, pitch)
 
         self.link.camera(turn)
+
+
+def _setting_bool(value: Any) -> bool:
+    """A bool from QgsSettings (an ini file gives back "true" or "false")."""
+    if isinstance(value, str):
+        return value.strip().lower() in ("true", "1", "yes")
+    return bool(value)

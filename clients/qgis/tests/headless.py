@@ -114,6 +114,15 @@ def start_plugin(host: Host, address: str, token: str = "", ca_file: str = "") -
     settings.setValue(f"{PLUGIN}/address", address)
     settings.setValue(f"{PLUGIN}/token", token)
     settings.setValue(f"{PLUGIN}/ca_file", ca_file)
+    settings.setValue(f"{PLUGIN}/follow", False)
+    return load_plugin()
+
+
+def load_plugin() -> Any:
+    """Loads and starts the installed plugin as QGIS does, with the
+    settings as they are (a plugin reload, or QGIS started again)."""
+    import qgis.utils
+
     qgis.utils.plugin_paths = [str(PLUGINS_DIR)]
     qgis.utils.updateAvailablePlugins()
     if PLUGIN not in qgis.utils.available_plugins:
