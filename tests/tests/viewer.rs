@@ -236,3 +236,91 @@ async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() 
     drop((tab, other));
     daemon.stop(&[]).unwrap();
 }
+
+/// The ground under a camera, through `/api/elevation`.
+fn ground_at(url: &str, camera: &serde_json::Value) -> f64 {
+    let (lon, lat) = (camera["lonDeg"].as_f64().unwrap_or(0.0), camera["latDeg"].as_f64().unwrap_or(0.0));
+    let reply = relief_tests::http::get(&format!("{url}/api/elevation?points={lon},{lat}")).unwrap();
+    reply.json().unwrap()["samples"][0]["heightM"].as_f64().unwrap_or(0.0)
+}
+
+/// Sets the scene camera over HTTP.
+fn put_camera(url: &str, lon: f64, lat: f64, alt: f64, heading: f64, pitch: f64) {
+    let body = serde_json::json!({
+        "lonDeg": lon, "latDeg": lat, "altitudeM": alt, "headingDeg": heading, "pitchDeg": pitch, "verticalFovDeg": 50.0
+    });
+    let reply = relief_tests::http::request("PUT", &format!("{url}/api/camera"), Some(&body.to_string())).unwrap();
+    assert_eq!(reply.status, 200, "{}", String::from_utf8_lossy(&reply.body));
+}
+
+/// A gesture on the scene camera over HTTP; the camera it leaves.
+fn navigate(url: &str, gesture: &serde_json::Value) -> serde_json::Value {
+    let reply =
+        relief_tests::http::request("POST", &format!("{url}/api/navigate"), Some(&gesture.to_string())).unwrap();
+    assert_eq!(reply.status, 200, "{gesture}: {}", String::from_utf8_lossy(&reply.body));
+    reply.json().unwrap()
+}
+
+/// Above the ground under it and within the hill's extent (10..10.5 E,
+/// 45..45.5 N) plus the margin (half its larger side, about 0.25 degrees).
+fn assert_in_scene(url: &str, camera: &serde_json::Value, what: &str) {
+    let ground = ground_at(url, camera);
+    let f = |k: &str| camera[k].as_f64().unwrap_or(0.0);
+    assert!(
+        f("altitudeM") > ground,
+        "{what}: the eye at {} m is under the ground at {ground} m: {camera}",
+        f("altitudeM")
+    );
+    assert!(
+        (9.7..=10.8).contains(&f("lonDeg")) && (44.7..=45.8).contains(&f("latDeg")),
+        "{what}: left the scene: {camera}"
+    );
+}
+
+#[test]
+fn gestures_keep_the_camera_above_the_ground_and_inside_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let url = daemon.url();
+    let zoom = serde_json::json!({ "zoom": { "factor": 0.85, "x": 0.5, "y": 0.5 } });
+
+    // Issue 39: low over a slope, nearly level, three wheel notches at the
+    // centre sent the camera 100 km off and under the ground.
+    put_camera(&url, 10.25, 45.19, 1700.0, 0.0, -2.2);
+    for notch in 1..=3 {
+        let camera = navigate(&url, &zoom);
+        assert_in_scene(&url, &camera, &format!("zoom notch {notch}"));
+        let moved_m = (camera["latDeg"].as_f64().unwrap() - 45.19).abs() * 111_320.0;
+        assert!(moved_m < 10_000.0, "zoom notch {notch} went {moved_m:.0} m: {camera}");
+    }
+    // A camera already under the ground comes out with its next gesture.
+    put_camera(&url, 10.25, 45.19, 1000.0, 0.0, -2.2);
+    assert_in_scene(&url, &navigate(&url, &zoom), "zoom from under the ground");
+    // Over the sky, a bounded step.
+    put_camera(&url, 10.25, 45.19, 1700.0, 0.0, 30.0);
+    let camera = navigate(&url, &zoom);
+    assert_in_scene(&url, &camera, "zoom into the sky");
+
+    // An orbit about a point on the hill's southern flank swings the eye
+    // round to the north, where the hill is higher than the eye was.
+    put_camera(&url, 10.25, 45.12, 1500.0, 0.0, -10.0);
+    for (heading, pitch) in [(180.0, 0.0), (90.0, 30.0), (-90.0, -40.0)] {
+        let orbit = serde_json::json!({ "orbit": { "headingDeg": heading, "pitchDeg": pitch } });
+        assert_in_scene(&url, &navigate(&url, &orbit), &format!("orbit {heading} {pitch}"));
+    }
+
+    // Moves keep a minimum step: one press (a tenth of the height above
+    // the ground) moves at least 10 m however near the ground the eye is.
+    let ground = ground_at(&url, &serde_json::json!({ "lonDeg": 10.25, "latDeg": 45.19 }));
+    put_camera(&url, 10.25, 45.19, ground + 11.0, 0.0, -10.0);
+    let camera = navigate(&url, &serde_json::json!({ "move": { "forward": 0.1 } }));
+    let moved_m = (camera["latDeg"].as_f64().unwrap() - 45.19) * 111_320.0;
+    assert!(moved_m >= 9.9, "a press moved {moved_m:.2} m");
+    assert_in_scene(&url, &camera, "move");
+    // Far moves stop at the scene's margin.
+    for _ in 0..20 {
+        navigate(&url, &serde_json::json!({ "move": { "forward": 100.0, "up": 100.0 } }));
+    }
+    assert_in_scene(&url, &navigate(&url, &serde_json::json!({ "move": { "forward": 100.0 } })), "far moves");
+    daemon.stop(&[]).unwrap();
+}

@@ -370,6 +370,35 @@ impl ViewCalls {
         Ok(convert::camera_to(&moved))
     }
 
+    /// Back to the scene's default view (the manifest's `[camera]`, its
+    /// gaps filled to frame the height layer): the view's camera, or the
+    /// scene camera when the view follows it (control scope).
+    pub async fn home(&self, scope: Scope, holder: Holder, view_id: &str) -> Result<Camera, Status> {
+        let view = self.hub.views.get(view_id).map_err(|e| status(&e))?;
+        may_steer(&view, scope, holder)?;
+        let follows = view.settings().follow_scene_camera;
+        if follows {
+            scope.require_control("move the scene camera, which this view follows,")?;
+        }
+        let snap = self.scene.snapshot();
+        let home = tokio::task::spawn_blocking(move || {
+            let camera = crate::camera::default_camera(&snap);
+            let kept = crate::camera::pose(&snap, &camera)
+                .map(|p| crate::navigate::keep_in_scene(&snap, &p))
+                .ok()
+                .and_then(|p| crate::camera::camera_of(&snap, &p).ok());
+            kept.unwrap_or(camera)
+        })
+        .await
+        .map_err(|e| Status::internal(format!("the home task failed: {e}")))?;
+        if follows {
+            self.viewer().set_camera(home).map_err(|e| status(&e))?;
+        } else {
+            view.update(|s| s.camera = home);
+        }
+        Ok(convert::camera_to(&home))
+    }
+
     /// The point under a pixel of the view's last frame.
     pub async fn pick(&self, r: &PickRequest) -> Result<PickResponse, Status> {
         let view = self.hub.views.get(&r.view_id).map_err(|e| status(&e))?;
