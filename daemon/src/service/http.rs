@@ -11,7 +11,7 @@ use std::sync::Arc;
 
 use axum::Router;
 use axum::body::Bytes;
-use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::ws::WebSocketUpgrade;
 use axum::extract::{Extension, Path, Query, State};
 use axum::http::{HeaderValue, Method, Uri, header};
 use axum::response::sse::{Event, KeepAlive, Sse};
@@ -28,6 +28,8 @@ use super::auth::{Holder, Scope};
 use super::calls::Calls;
 use super::status::HttpError;
 use super::status::error_body;
+
+mod tab;
 
 type Shared = State<Arc<Calls>>;
 
@@ -236,52 +238,32 @@ async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse,
 /// Frames on a WebSocket, each one binary message (`ws_frame`); the
 /// stream is checked before the upgrade, so a bad request is an HTTP
 /// error. Ends with a text message `{"error": ...}` when the view fails.
+/// With `events=1` (and `from=N`) it is a browser tab's one connection:
+/// scene events and the tab's calls travel on it too (`tab.rs`).
 async fn frames_ws(
     State(c): Shared,
+    Extension(scope): Extension<Scope>,
+    Extension(holder): Extension<Holder>,
     hold: Option<Extension<super::connections::Hold>>,
     Query(q): Params,
     ws: WebSocketUpgrade,
 ) -> Result<Response, HttpError> {
     let request = frames_request(&q, true)?;
+    let with_events = matches!(q.get("events").map(String::as_str), Some("1" | "true"));
+    let events: Option<tab::Events> = if with_events {
+        let from = param(&q, "from")?.unwrap_or(0);
+        Some(Box::pin(c.scene.watch(pb::WatchRequest { from_generation: from })))
+    } else {
+        None
+    };
+    let view_id = request.view_id.clone();
     let frames = c.view.stream_frames(&request)?;
+    let tab = with_events.then(|| tab::Tab { calls: Arc::clone(&c), scope, holder, view_id });
     // The socket keeps its connection's place among the connections.
     Ok(ws.on_upgrade(move |socket| async move {
         let _hold = hold;
-        send_frames(socket, frames).await;
+        tab::serve(socket, frames, events, tab).await;
     }))
-}
-
-/// How long a frame may take to leave on a WebSocket before the socket is
-/// closed (a viewer that stopped reading).
-const WS_SEND: std::time::Duration = std::time::Duration::from_secs(30);
-
-async fn send_frames(
-    mut socket: WebSocket,
-    mut frames: impl Stream<Item = Result<pb::RenderResponse, Status>> + Unpin,
-) {
-    loop {
-        tokio::select! {
-            item = frames.next() => match item {
-                Some(Ok(frame)) => {
-                    let sent = tokio::time::timeout(WS_SEND, socket.send(Message::Binary(ws_frame(frame)))).await;
-                    if !matches!(sent, Ok(Ok(()))) {
-                        return;
-                    }
-                }
-                Some(Err(status)) => {
-                    let body = serde_json::json!({ "error": error_body(&status) }).to_string();
-                    let _ = socket.send(Message::Text(body.into())).await;
-                    let _ = socket.send(Message::Close(None)).await;
-                    return;
-                }
-                None => return,
-            },
-            incoming = socket.recv() => match incoming {
-                None | Some(Err(_) | Ok(Message::Close(_))) => return,
-                Some(Ok(_)) => {}
-            },
-        }
-    }
 }
 
 /// One frame as a binary WebSocket message: the length of a JSON header
@@ -389,8 +371,9 @@ const ROUTES: &[(&str, &str, &str)] = &[
     ),
     (
         "GET",
-        "/api/frames/ws?(as /api/frames; format defaults to live)",
-        "WebSocket of binary frames: u32 LE header length, {\"frame\": RenderResponse} JSON, image bytes",
+        "/api/frames/ws?(as /api/frames; format defaults to live)&events=1&from=N",
+        "WebSocket of binary frames: u32 LE header length, {\"frame\": RenderResponse} JSON, image bytes; \
+         with events=1 also {\"scene\": SceneEvent} and the tab's calls as text",
     ),
     ("POST", "/api/views", "OpenViewRequest -> ViewState"),
     ("PATCH", "/api/views/{id}", "UpdateViewRequest -> ViewState"),
