@@ -31,6 +31,7 @@ bench: setup
 	cargo bench -p relief-daemon --bench render
 	cargo bench -p relief-daemon --bench instances
 	cargo bench -p relief-daemon --bench frames
+	cargo bench -p relief-daemon --bench arcgis
 	cargo bench -p relief-engine --bench geopackage
 	cargo bench -p relief-engine --bench bigdem
 	cargo bench -p relief-daemon --bench warm
