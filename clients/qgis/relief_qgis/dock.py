@@ -57,7 +57,10 @@ class _Frame(QLabel):
         self._settle = QTimer(self)
         self._settle.setSingleShot(True)
         self._settle.setInterval(300)
-        self._settle.timeout.connect(lambda: self.resized.emit(self.wanted_size()))
+        self._settle.timeout.connect(self._settled)
+
+    def _settled(self) -> None:
+        self.resized.emit(self.wanted_size())
 
     def wanted_size(self) -> QSize:
         """The frame size to ask for: the label's width, landscape."""
@@ -146,7 +149,7 @@ class ReliefDock(QDockWidget):
         self.retry_button.hide()
 
         self.frame = _Frame()
-        self.frame.resized.connect(lambda s: self.frame_size_changed.emit(s.width(), s.height()))
+        self.frame.resized.connect(self._frame_resized)
         layout.addWidget(self.frame, 1)
 
         self.generation_label = QLabel("not connected")
@@ -178,8 +181,8 @@ class ReliefDock(QDockWidget):
         self.pitch.valueChanged.connect(self._pitch_moved)
         self.heading.valueChanged.connect(self._heading_moved)
         for slider in (self.pitch, self.heading):
-            slider.sliderPressed.connect(lambda: self.dragging.emit(True))
-            slider.sliderReleased.connect(lambda: self.dragging.emit(False))
+            slider.sliderPressed.connect(self._slider_pressed)
+            slider.sliderReleased.connect(self._slider_released)
         self._label_sliders()
         layout.addLayout(form)
 
@@ -201,7 +204,7 @@ class ReliefDock(QDockWidget):
         self.address.setToolTip(
             "host:port of reliefd (its gRPC port also speaks HTTP), or https://host:port when it serves TLS"
         )
-        self.address.editingFinished.connect(lambda: self.address_changed.emit(self.address.text().strip()))
+        self.address.editingFinished.connect(self._address_edited)
         connection.addRow("reliefd", self.address)
         self.address_note = QLabel()
         self.address_note.setWordWrap(True)
@@ -315,6 +318,18 @@ class ReliefDock(QDockWidget):
         self._label_sliders()
         if not self._quiet:
             self.heading_changed.emit(float(value))
+
+    def _frame_resized(self, size: QSize) -> None:
+        self.frame_size_changed.emit(size.width(), size.height())
+
+    def _address_edited(self) -> None:
+        self.address_changed.emit(self.address.text().strip())
+
+    def _slider_pressed(self) -> None:
+        self.dragging.emit(True)
+
+    def _slider_released(self) -> None:
+        self.dragging.emit(False)
 
     def _credentials_edited(self) -> None:
         self.credentials_changed.emit(self.token.text().strip(), self.ca_file.text().strip())

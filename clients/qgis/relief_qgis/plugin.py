@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any, Callable, Optional
 
 from qgis.core import QgsMapLayer, QgsProject, QgsSettings, QgsVectorLayer
-from qgis.PyQt.QtCore import Qt, QTimer
+from qgis.PyQt.QtCore import QObject, Qt, QTimer
 from qgis.PyQt.QtWidgets import QAction
 
 from . import proto_json as pj
@@ -147,6 +147,11 @@ class ReliefPlugin:
         if self.action is not None:
             self.iface.removePluginMenu("&relief", self.action)
         if self.dock is not None:
+            # Nothing it says once gone reaches the link or the settings
+            # (a line edit losing focus as it goes says "editing finished").
+            self.dock.blockSignals(True)
+            for child in self.dock.findChildren(QObject):
+                child.blockSignals(True)
             self.iface.removeDockWidget(self.dock)
             self.dock.deleteLater()
         self.link = self.dock = self.action = None

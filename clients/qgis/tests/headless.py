@@ -72,7 +72,10 @@ class Host:
         self.window = QMainWindow()
         self.canvas = QgsMapCanvas(self.window)
         self.window.setCentralWidget(self.canvas)
-        self.bridge = QgsLayerTreeMapCanvasBridge(QgsProject.instance().layerTreeRoot(), self.canvas)
+        # A child of the window: it goes with the canvas it feeds (left
+        # behind, it would set layers on a deleted canvas when the next
+        # test's project changes).
+        self.bridge = QgsLayerTreeMapCanvasBridge(QgsProject.instance().layerTreeRoot(), self.canvas, self.window)
         self.menus: dict[str, QMenu] = {}
         self.window.resize(1200, 800)
         self.window.show()
@@ -99,6 +102,7 @@ class Host:
             self.menus[name].removeAction(action)
 
     def close(self) -> None:
+        self.bridge.deleteLater()
         self.window.close()
         self.window.deleteLater()
 
