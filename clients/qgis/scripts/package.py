@@ -15,12 +15,18 @@ from pathlib import Path
 PLUGIN = "relief_qgis"
 #: What goes in: the plugin's own files, never caches.
 KINDS = {".py", ".txt", ".svg"}
+#: Files without a suffix that go in too (the plugin repository wants the licence).
+NAMES = {"LICENSE"}
 
 
 def build(out: Path) -> Path:
     source = Path(__file__).resolve().parent.parent / PLUGIN
     out.parent.mkdir(parents=True, exist_ok=True)
-    files = sorted(p for p in source.rglob("*") if p.is_file() and p.suffix in KINDS and "__pycache__" not in p.parts)
+    files = sorted(
+        p
+        for p in source.rglob("*")
+        if p.is_file() and (p.suffix in KINDS or p.name in NAMES) and "__pycache__" not in p.parts
+    )
     with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
         for path in files:
             z.write(path, f"{PLUGIN}/{path.relative_to(source).as_posix()}")
