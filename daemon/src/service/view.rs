@@ -302,11 +302,17 @@ impl ViewCalls {
         let view = self.hub.views.get(&r.view_id).map_err(|e| status(&e))?;
         may_steer(&view, scope, holder)?;
         let camera = r.camera.as_ref().map(|c| checked_camera(&self.scene.snapshot(), c)).transpose()?;
+        let scene_camera = self.viewer().camera();
         view.update(|s| {
             if let Some(c) = camera {
                 s.camera = c;
             }
             if let Some(f) = r.follow_scene_camera {
+                // A view that stops following keeps the pose it shows, not
+                // the one it had before it followed.
+                if s.follow_scene_camera && !f && camera.is_none() {
+                    s.camera = scene_camera;
+                }
                 s.follow_scene_camera = f;
             }
             if let Some(i) = r.interactive {
