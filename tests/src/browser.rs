@@ -26,14 +26,29 @@ pub fn chromium_path() -> Option<PathBuf> {
     ["/usr/bin/chromium", "/usr/bin/chromium-browser"].into_iter().map(PathBuf::from).find(|p| p.exists())
 }
 
-pub struct Browser {
+/// The Chromium process, killed when its last page goes.
+struct Process {
     child: Child,
     _profile: tempfile::TempDir,
+}
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// One page (tab) of a headless Chromium; `tab` opens another in the same
+/// browser, sharing its connections to a host as a person's tabs do.
+pub struct Browser {
+    _process: Arc<Process>,
     out: mpsc::Sender<String>,
     pending: Pending,
-    next_id: std::sync::atomic::AtomicU64,
+    next_id: Arc<std::sync::atomic::AtomicU64>,
     session: String,
-    /// Exceptions thrown by the page and console.error lines.
+    size: (u32, u32),
+    /// Exceptions thrown by the pages and console.error lines.
     pub errors: Arc<Mutex<Vec<String>>>,
 }
 
@@ -115,29 +130,70 @@ impl Browser {
                 }
             }
         });
-        let mut browser = Self {
-            child,
-            _profile: profile,
+        let browser = Self {
+            _process: Arc::new(Process { child, _profile: profile }),
             out,
             pending,
-            next_id: std::sync::atomic::AtomicU64::new(1),
+            next_id: Arc::new(std::sync::atomic::AtomicU64::new(1)),
             session: String::new(),
+            size: (width, height),
             errors,
         };
-        let target = browser.call("Target.createTarget", json!({ "url": "about:blank" }), false).await?;
+        browser.tab().await
+    }
+
+    /// Another page in the same browser, blank, of the same size, behind
+    /// this one.
+    pub async fn tab(&self) -> anyhow::Result<Self> {
+        self.page(false).await
+    }
+
+    /// Another page in the same browser in a window of its own: shown
+    /// beside the others, not behind them.
+    pub async fn window(&self) -> anyhow::Result<Self> {
+        self.page(true).await
+    }
+
+    async fn page(&self, new_window: bool) -> anyhow::Result<Self> {
+        let mut page = Self {
+            _process: Arc::clone(&self._process),
+            out: self.out.clone(),
+            pending: Arc::clone(&self.pending),
+            next_id: Arc::clone(&self.next_id),
+            session: String::new(),
+            size: self.size,
+            errors: Arc::clone(&self.errors),
+        };
+        let target =
+            page.call("Target.createTarget", json!({ "url": "about:blank", "newWindow": new_window }), false).await?;
         let target_id = target["targetId"].as_str().context("no target id")?.to_owned();
         let attached =
-            browser.call("Target.attachToTarget", json!({ "targetId": target_id, "flatten": true }), false).await?;
-        browser.session = attached["sessionId"].as_str().context("no session id")?.to_owned();
-        browser.send("Page.enable", json!({})).await?;
-        browser.send("Runtime.enable", json!({})).await?;
-        browser
-            .send(
-                "Emulation.setDeviceMetricsOverride",
-                json!({ "width": width, "height": height, "deviceScaleFactor": 1, "mobile": false }),
-            )
-            .await?;
-        Ok(browser)
+            page.call("Target.attachToTarget", json!({ "targetId": target_id, "flatten": true }), false).await?;
+        page.session = attached["sessionId"].as_str().context("no session id")?.to_owned();
+        page.send("Page.enable", json!({})).await?;
+        page.send("Runtime.enable", json!({})).await?;
+        let (width, height) = page.size;
+        page.send(
+            "Emulation.setDeviceMetricsOverride",
+            json!({ "width": width, "height": height, "deviceScaleFactor": 1, "mobile": false }),
+        )
+        .await?;
+        Ok(page)
+    }
+
+    /// Brings this page to the front (the others are hidden behind it).
+    pub async fn bring_to_front(&self) -> anyhow::Result<()> {
+        self.send("Page.bringToFront", json!({})).await?;
+        Ok(())
+    }
+
+    /// Goes back in the page's history (as the Back button does).
+    pub async fn back(&self) -> anyhow::Result<()> {
+        let history = self.send("Page.getNavigationHistory", json!({})).await?;
+        let index = history["currentIndex"].as_i64().context("no history index")?;
+        let entry = &history["entries"][usize::try_from(index - 1).context("no page to go back to")?];
+        self.send("Page.navigateToHistoryEntry", json!({ "entryId": entry["id"] })).await?;
+        Ok(())
     }
 
     async fn call(&self, method: &str, params: Value, in_session: bool) -> anyhow::Result<Value> {
@@ -218,6 +274,17 @@ impl Browser {
         Ok(())
     }
 
+    /// A wheel turn at (x, y): `delta_y` pixels, 100 a notch, negative
+    /// away from the user (zoom in).
+    pub async fn wheel(&self, x: f64, y: f64, delta_y: f64) -> anyhow::Result<()> {
+        self.send(
+            "Input.dispatchMouseEvent",
+            json!({ "type": "mouseWheel", "x": x, "y": y, "deltaX": 0, "deltaY": delta_y }),
+        )
+        .await?;
+        Ok(())
+    }
+
     /// A left-button drag from `from` to `to` in `steps` moves.
     pub async fn drag(&self, from: (f64, f64), to: (f64, f64), steps: u32) -> anyhow::Result<()> {
         self.mouse("mouseMoved", from.0, from.1, "none").await?;
@@ -239,12 +306,5 @@ impl Browser {
 
     pub fn errors(&self) -> Vec<String> {
         self.errors.lock().expect("lock").clone()
-    }
-}
-
-impl Drop for Browser {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
     }
 }

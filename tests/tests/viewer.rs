@@ -121,6 +121,12 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
     assert_ne!(after, before, "the edit shows");
     let change = page.eval("document.getElementById('last-change').textContent").await.unwrap();
     assert!(change.as_str().unwrap().contains("dem"), "{change}");
+    // The change is outlined on the picture (the edit is in front of the camera).
+    page.wait_for("window.relief.dirtyShown >= 1", PAGE_TIMEOUT).await.unwrap();
+    assert!(page.eval("window.relief.dirtyLines").await.unwrap().as_u64().unwrap() >= 1);
+    // The effects say what the frame shown ran: lighting inside the terrain pass.
+    let lighting = page.eval("document.querySelector('tr[data-effect=\"lighting\"]').textContent").await.unwrap();
+    assert!(lighting.as_str().unwrap().contains("in terrain"), "{lighting}");
 
     // A corrupted file: its error in the panel, the image stays (the
     // error is a new generation of the scene's state, drawn from the same
@@ -129,6 +135,12 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
     std::fs::write(dir.path().join("hill.tif"), b"II*\0 this is not a TIFF any more").unwrap();
     let error_cell = "document.querySelector('tr[data-source-id=\"dem\"] td.error').textContent";
     page.wait_for(&format!("{error_cell}.includes('hill.tif')"), PAGE_TIMEOUT).await.unwrap();
+    // A banner names the file, and the status is not a green "live".
+    page.wait_for("document.getElementById('source-errors').textContent.includes('hill.tif')", PAGE_TIMEOUT)
+        .await
+        .unwrap();
+    let status = page.eval("document.querySelector('#status .conn').className").await.unwrap();
+    assert!(!status.as_str().unwrap().split(' ').any(|c| c == "live"), "{status}");
     tokio::time::sleep(Duration::from_millis(500)).await;
     let (_, _, shown_after) = displayed(&page).await;
     let db = psnr(&shown_before, &shown_after);
@@ -203,6 +215,20 @@ async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() 
     let now = tokio::time::timeout(PAGE_TIMEOUT, settled).await.expect("the page shows the scene camera");
     assert!((now.pitch_deg - start.pitch_deg).abs() > 1.0, "{start:?} -> {now:?}");
 
+    // Unticking Follow keeps the pose shown (it used to jump back to the
+    // tab's own pose from before it followed).
+    tab.eval("document.getElementById('follow').click()").await.unwrap();
+    tab.wait_for("document.getElementById('follow').checked === false", PAGE_TIMEOUT).await.unwrap();
+    tab.drag((400.0, 300.0), (410.0, 300.0), 2).await.unwrap();
+    let turned = format!("Math.abs(((({heading}) - {} + 540) % 360) - 180) > 1", now.heading_deg);
+    tab.wait_for(&turned, PAGE_TIMEOUT).await.unwrap();
+    tab.wait_for("window.relief.lastFrame.format === 'IMAGE_FORMAT_PNG'", PAGE_TIMEOUT).await.unwrap();
+    let own = camera_of(&tab.eval("window.relief.lastFrame.camera").await.unwrap());
+    assert!((own.pitch_deg - now.pitch_deg).abs() < 0.5, "the view jumped from {now:?} to {own:?}");
+    let turned = ((own.heading_deg - now.heading_deg + 540.0).rem_euclid(360.0) - 180.0).abs();
+    assert!(turned < 10.0, "the view jumped from {now:?} to {own:?}");
+    assert_eq!(scene_camera(&channel).await, now, "the drag after unticking moved the scene camera");
+
     // The screenshot button saves a PNG of the view at full resolution.
     let downloads = tempfile::tempdir().unwrap();
     tab.allow_downloads(downloads.path()).await.unwrap();
@@ -226,9 +252,26 @@ async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() 
     let saved = image::open(saved.expect("a screenshot saved within 60 s")).unwrap();
     assert!(saved.width() >= w && saved.height() >= h, "{}x{} against a {w}x{h} view", saved.width(), saved.height());
 
-    // Fly to a source.
+    // Fly to a source: its whole extent (10..10.5 E, 45..45.5 N, the
+    // ground at 500 m at its edges) is in the picture.
     tab.eval("document.querySelector('button[data-fly-to=\"tint\"]').click()").await.unwrap();
     tab.wait_for("Math.abs(window.relief.lastFrame.camera.pitchDeg + 35) < 1e-9", PAGE_TIMEOUT).await.unwrap();
+    let corners = tab
+        .eval(
+            "import('/js/dirty.js').then(m => { const f = window.relief.lastFrame;
+               const p = m.projector(f.camera, f.width, f.height);
+               return [[10, 45], [10.5, 45], [10, 45.5], [10.5, 45.5]].map(([lon, lat]) => p([lon, lat, 500]))
+                 .map(q => q && q[0] >= 0 && q[0] <= f.width && q[1] >= 0 && q[1] <= f.height); })",
+        )
+        .await
+        .unwrap();
+    assert_eq!(corners, serde_json::json!([true, true, true, true]), "a corner of the extent is off the picture");
+
+    // Home: back to the manifest's camera.
+    tab.eval("document.getElementById('home').click()").await.unwrap();
+    tab.wait_for("Math.abs(window.relief.lastFrame.camera.pitchDeg + 45) < 1e-9", PAGE_TIMEOUT).await.unwrap();
+    let home = camera_of(&tab.eval("window.relief.lastFrame.camera").await.unwrap());
+    assert!((home.lat_deg - 45.1).abs() < 1e-9 && (home.altitude_m - 9000.0).abs() < 1e-6, "{home:?}");
     for page in [&tab, &other] {
         let errors: Vec<String> = page.errors().into_iter().filter(|e| e.starts_with("exception")).collect();
         assert!(errors.is_empty(), "the page threw: {errors:?}");
@@ -322,5 +365,114 @@ fn gestures_keep_the_camera_above_the_ground_and_inside_the_scene() {
         navigate(&url, &serde_json::json!({ "move": { "forward": 100.0, "up": 100.0 } }));
     }
     assert_in_scene(&url, &navigate(&url, &serde_json::json!({ "move": { "forward": 100.0 } })), "far moves");
+    daemon.stop(&[]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn wheel_notches_in_the_page_keep_the_camera_above_the_ground() {
+    if chromium_path().is_none() {
+        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let url = daemon.url();
+    let page = open(&daemon).await;
+    // The tab's own camera low over the slope, nearly level (issue 39).
+    let set = "import('/js/hooks.js').then(() => fetch('api/views/' + window.relief.viewId, { method: 'PATCH',
+                 headers: { 'content-type': 'application/json' },
+                 body: JSON.stringify({ camera: { lonDeg: 10.25, latDeg: 45.19, altitudeM: 1700, pitchDeg: -2.2, verticalFovDeg: 50 } }) }))
+               .then(r => r.status)";
+    assert_eq!(page.eval(set).await.unwrap(), 200);
+    page.wait_for("Math.abs(window.relief.lastFrame.camera.pitchDeg + 2.2) < 1e-9", PAGE_TIMEOUT).await.unwrap();
+    let frames = page.eval("window.relief.frames").await.unwrap().as_u64().unwrap();
+    for _ in 0..3 {
+        page.wheel(380.0, 320.0, -100.0).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    page.wait_for(
+        &format!("window.relief.frames > {frames} && window.relief.lastFrame.format === 'IMAGE_FORMAT_PNG'"),
+        PAGE_TIMEOUT,
+    )
+    .await
+    .unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let camera = page.eval("window.relief.lastFrame.camera").await.unwrap();
+    assert_in_scene(&url, &camera, "three wheel notches in the page");
+    drop(page);
+    daemon.stop(&[]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn six_tabs_show_frames_and_steer_their_own_cameras_and_back_recovers() {
+    if chromium_path().is_none() {
+        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let start = scene_camera(&channel).await;
+    let first = Browser::start(1000, 640).await.unwrap();
+    let mut tabs = vec![];
+    // Each in a window of its own: six pages shown at once.
+    for _ in 1..6 {
+        tabs.push(first.window().await.unwrap());
+    }
+    tabs.insert(0, first);
+    for tab in &tabs {
+        tab.navigate(&format!("{}/", daemon.url())).await.unwrap();
+    }
+    // Every page shows frames at once, and each turns its own camera.
+    let heading = "window.relief.lastFrame.camera.headingDeg ?? 0";
+    for (i, tab) in tabs.iter().enumerate() {
+        tab.wait_for(
+            "window.relief && window.relief.framesSinceShow > 0 && document.body.dataset.ready === '1'",
+            PAGE_TIMEOUT,
+        )
+        .await
+        .unwrap_or_else(|e| panic!("tab {i}: {e}"));
+        let before = tab.eval(heading).await.unwrap().as_f64().unwrap();
+        tab.drag((400.0, 300.0), (460.0, 300.0), 4).await.unwrap();
+        tab.wait_for(&format!("Math.abs(({heading}) - {before}) > 5"), PAGE_TIMEOUT)
+            .await
+            .unwrap_or_else(|e| panic!("tab {i} did not turn: {e}"));
+    }
+    for (i, tab) in tabs.iter().enumerate() {
+        let shown =
+            tab.eval("document.visibilityState === 'visible' && window.relief.framesSinceShow > 0").await.unwrap();
+        assert_eq!(shown, serde_json::json!(true), "tab {i} is hidden or shows no frame");
+    }
+    assert_eq!(scene_camera(&channel).await, start, "a tab moved the scene camera");
+    let views: std::collections::HashSet<String> = {
+        let mut ids = std::collections::HashSet::new();
+        for tab in &tabs {
+            ids.insert(tab.eval("window.relief.viewId").await.unwrap().as_str().unwrap().to_owned());
+        }
+        ids
+    };
+    assert_eq!(views.len(), 6, "each tab has a view of its own");
+
+    // Leaving the page and coming back (back, then forward and back again)
+    // shows frames again within 2 s.
+    let tab = &tabs[5];
+    tab.bring_to_front().await.unwrap();
+    tab.wait_for("window.relief && window.relief.framesSinceShow > 0", PAGE_TIMEOUT).await.unwrap();
+    for round in 0..2 {
+        tab.navigate(&format!("{}/api", daemon.url())).await.unwrap();
+        tab.wait_for("location.pathname === '/api' && document.readyState === 'complete'", PAGE_TIMEOUT).await.unwrap();
+        let left = std::time::Instant::now();
+        tab.back().await.unwrap();
+        tab.wait_for("!!window.relief && window.relief.framesSinceShow > 0", Duration::from_secs(10))
+            .await
+            .unwrap_or_else(|e| panic!("round {round}: no frame after coming back: {e}"));
+        let took = left.elapsed();
+        assert!(took <= Duration::from_secs(2), "round {round}: frames came back after {took:?}");
+    }
+    for tab in &tabs {
+        let errors: Vec<String> = tab.errors().into_iter().filter(|e| e.starts_with("exception")).collect();
+        assert!(errors.is_empty(), "a page threw: {errors:?}");
+    }
+    drop(tabs);
     daemon.stop(&[]).unwrap();
 }

@@ -1,9 +1,11 @@
 //! The browser viewer's assets, embedded in reliefd.
 //!
-//! `index.html`, `viewer.js` and `viewer.css` are hand-written files beside
+//! `index.html`, `viewer.js` (the entry module), the ES modules it imports
+//! (`js/*.js`), `viewer.css` and `favicon.svg` are hand-written files beside
 //! this crate, taken in whole with `include_str!`: no node, npm or bundler is
-//! needed to build or run the viewer, and the page fetches nothing from
-//! outside the daemon that serves it. The page talks to reliefd's HTTP API
+//! needed to build or run the viewer (the browser loads the modules itself,
+//! each served as JavaScript), and the page fetches nothing from outside the
+//! daemon that serves it. The page talks to reliefd's HTTP API
 //! (`/api/...`, the proto3 JSON mapping of relief.v1) on the same origin.
 //!
 //! This crate owns the bytes and their content types only; serving them is
@@ -22,9 +24,21 @@ pub struct Asset {
 /// Every asset of the viewer; `/` is the page.
 pub const ASSETS: &[Asset] = &[
     Asset { path: "/", content_type: "text/html; charset=utf-8", body: include_str!("../index.html") },
-    Asset { path: "/viewer.js", content_type: "text/javascript; charset=utf-8", body: include_str!("../viewer.js") },
+    Asset { path: "/viewer.js", content_type: JS, body: include_str!("../viewer.js") },
     Asset { path: "/viewer.css", content_type: "text/css; charset=utf-8", body: include_str!("../viewer.css") },
+    Asset { path: "/favicon.svg", content_type: "image/svg+xml", body: include_str!("../favicon.svg") },
+    Asset { path: "/js/util.js", content_type: JS, body: include_str!("../js/util.js") },
+    Asset { path: "/js/hooks.js", content_type: JS, body: include_str!("../js/hooks.js") },
+    Asset { path: "/js/stream.js", content_type: JS, body: include_str!("../js/stream.js") },
+    Asset { path: "/js/panel.js", content_type: JS, body: include_str!("../js/panel.js") },
+    Asset { path: "/js/camera.js", content_type: JS, body: include_str!("../js/camera.js") },
+    Asset { path: "/js/picking.js", content_type: JS, body: include_str!("../js/picking.js") },
+    Asset { path: "/js/dirty.js", content_type: JS, body: include_str!("../js/dirty.js") },
 ];
+
+/// Modules must be served as JavaScript: a browser refuses a module of any
+/// other type.
+const JS: &str = "text/javascript; charset=utf-8";
 
 /// The asset served at `path` (`/index.html` is the page too), if any.
 pub fn asset(path: &str) -> Option<&'static Asset> {
@@ -62,10 +76,32 @@ mod tests {
     }
 
     #[test]
+    fn every_module_imported_is_an_asset_served_as_javascript() {
+        for module in ASSETS.iter().filter(|a| a.path.ends_with(".js")) {
+            assert_eq!(module.content_type, JS, "{}", module.path);
+            for line in module.body.lines().filter(|l| l.starts_with("import ")) {
+                let from = line.rsplit(['"']).nth(1).expect("an import names its module in double quotes");
+                let dir = module.path.rsplit_once('/').map_or("", |(d, _)| d);
+                let path = match from.strip_prefix("./") {
+                    Some(rest) => format!("{dir}/{rest}"),
+                    None => panic!("{}: import '{from}' is not relative to the module", module.path),
+                };
+                assert!(
+                    asset(&path).is_some_and(|a| a.content_type == JS),
+                    "{} imports {path}, not served",
+                    module.path
+                );
+            }
+        }
+    }
+
+    #[test]
     fn assets_fetch_nothing_from_outside_the_daemon() {
         for asset in ASSETS {
+            // The SVG namespace is a name, never fetched.
+            let body = asset.body.replace("xmlns=\"http://www.w3.org/2000/svg\"", "");
             assert!(
-                !asset.body.contains("://"),
+                !body.contains("://"),
                 "{} names an absolute URL; the viewer must load everything from reliefd",
                 asset.path
             );
