@@ -42,7 +42,7 @@ impl Drop for Process {
 /// One page (tab) of a headless Chromium; `tab` opens another in the same
 /// browser, sharing its connections to a host as a person's tabs do.
 pub struct Browser {
-    _process: Arc<Process>,
+    process: Arc<Process>,
     out: mpsc::Sender<String>,
     pending: Pending,
     next_id: Arc<std::sync::atomic::AtomicU64>,
@@ -131,7 +131,7 @@ impl Browser {
             }
         });
         let browser = Self {
-            _process: Arc::new(Process { child, _profile: profile }),
+            process: Arc::new(Process { child, _profile: profile }),
             out,
             pending,
             next_id: Arc::new(std::sync::atomic::AtomicU64::new(1)),
@@ -156,7 +156,7 @@ impl Browser {
 
     async fn page(&self, new_window: bool) -> anyhow::Result<Self> {
         let mut page = Self {
-            _process: Arc::clone(&self._process),
+            process: Arc::clone(&self.process),
             out: self.out.clone(),
             pending: Arc::clone(&self.pending),
             next_id: Arc::clone(&self.next_id),
