@@ -30,6 +30,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 import headless  # noqa: E402  (makes the QgsApplication)
+from relief_qgis import proto_json as pj  # noqa: E402  (the installed copy, on sys.path once headless runs)
 from qgis.core import QgsProject, QgsVectorLayer  # noqa: E402
 
 from relief.testing import Reliefd, write_hill_scene  # noqa: E402
@@ -76,7 +77,7 @@ def main() -> int:
             feature = next(layer.getFeatures())
 
             seen: dict[str, float] = {}
-            link.state.connect(lambda s: seen.setdefault(f"state{int(s.get('generation', 0))}", time.perf_counter()))
+            link.state.connect(lambda s: seen.setdefault(f"state{pj.integer(s, 'generation')}", time.perf_counter()))
             link.frame.connect(lambda _i, g, _c: seen.setdefault(f"frame{g}", time.perf_counter()))
 
             def rounds(n: int) -> tuple[list[float], list[float], int]:
@@ -107,7 +108,7 @@ def main() -> int:
             for reload_on_commit in (True, False):
                 plugin.reload_on_commit = reload_on_commit
                 results[reload_on_commit] = rounds(args.commits)
-            size = f"{link._size[0]}x{link._size[1]}"
+            size = "{}x{}".format(*link.frame_size)
             headless.stop_plugin()
             host.close()
 

@@ -33,7 +33,7 @@ from . import proto_json as pj
 from .address import DEFAULT_ADDRESS, parse_address
 from .credentials import Credentials
 from .replies import error_text, event_message, is_refusal, keep_tls_errors, not_relief
-from .sse import SseParser
+from .stream import EventStream
 
 __all__ = ["DEFAULT_ADDRESS", "Backoff", "DaemonLink"]
 
@@ -65,59 +65,6 @@ class Backoff:
 
     def reset(self) -> None:
         self.next = self.first
-
-
-class _Stream(QObject):
-    """One Server-Sent Events request; `received` for each event, `ended`
-    (with the reason) once when it stops by itself."""
-
-    received = pyqtSignal(str, str)
-    ended = pyqtSignal(str)
-
-    def __init__(self, manager: QNetworkAccessManager, base: str, path: str, credentials: Credentials, parent: QObject) -> None:
-        super().__init__(parent)
-        self._base = base
-        request = credentials.apply(QNetworkRequest(QUrl(base + path)))
-        request.setRawHeader(b"Accept", b"text/event-stream")
-        request.setAttribute(QNetworkRequest.CacheLoadControlAttribute, QNetworkRequest.AlwaysNetwork)
-        self._parser = SseParser()
-        self._closing = False
-        #: The message of an `error` event the daemon sent before ending.
-        self.error = ""
-        #: 401 or 403 when the daemon refused the stream's token.
-        self.refused = 0
-        self._reply = manager.get(request)
-        self._reply.readyRead.connect(self._read)
-        self._reply.finished.connect(self._finished)
-
-    def _read(self) -> None:
-        if self._reply.attribute(QNetworkRequest.HttpStatusCodeAttribute) not in (None, 200):
-            return  # An error body: `finished` reports it.
-        for name, data in self._parser.feed(bytes(self._reply.readAll())):
-            if name == "error":
-                self.error = event_message(data)
-            self.received.emit(name, data)
-
-    def _finished(self) -> None:
-        if self._closing:
-            return
-        self._closing = True
-        failed = self._reply.error() != QNetworkReply.NoError
-        self.refused = is_refusal(self._reply)
-        if self.error:
-            self.ended.emit(f"it answered: {self.error}")
-        elif failed:
-            self.ended.emit(error_text(self._reply, self._base, CALL_TIMEOUT_S))
-        else:
-            self.ended.emit("the daemon ended the stream")
-        self._reply.deleteLater()
-
-    def close(self) -> None:
-        if not self._closing:
-            self._closing = True
-            self._reply.abort()
-            self._reply.deleteLater()
-        self.deleteLater()
 
 
 class DaemonLink(QObject):
@@ -155,7 +102,7 @@ class DaemonLink(QObject):
         #: Whether frames are wanted (the dock is shown): hidden, the frame
         #: stream is closed and the rest (state, heartbeat) goes on.
         self._frames_wanted = True
-        self._streams: dict[str, _Stream] = {}
+        self._streams: dict[str, EventStream] = {}
         self._pending: set[QNetworkReply] = set()
         self._view_id = ""
         #: Bumped on every restart and stop: answers to requests made
@@ -389,12 +336,12 @@ class DaemonLink(QObject):
         old = self._streams.pop(name, None)
         if old is not None:
             old.close()
-        stream = _Stream(self._manager, self.url, path, self._credentials, self)
+        stream = EventStream(self._manager, self.url, path, self._credentials, self)
         stream.received.connect(on_event)
         stream.ended.connect(lambda why, s=stream: self._ended(s, why))
         self._streams[name] = stream
 
-    def _ended(self, stream: _Stream, why: str) -> None:
+    def _ended(self, stream: EventStream, why: str) -> None:
         if stream in self._streams.values():
             if stream.refused == 401:
                 self.refused = 401
