@@ -1,8 +1,11 @@
-//! relief-examples: example scenes made from analytic terrains with known
-//! heights, written through GDAL. The demo, the end-to-end tests and the
-//! benchmarks all use them, so every one of them can check its answers
-//! against the formula the data came from.
+//! relief-examples: example scenes written through GDAL. The analytic
+//! terrains have known heights: the end-to-end tests and the benchmarks use
+//! them (the analytic range of `write_demo_scene` included), so each can
+//! check its answers against the formula the data came from. The demo
+//! people see (`relief-demo-scene`, `make demo`) is real terrain instead:
+//! the committed SRTM crop under `data/` (`write_alps_demo_scene`).
 
+mod alps;
 mod landcover;
 
 use std::path::{Path, PathBuf};
@@ -12,6 +15,10 @@ use gdal::DriverManager;
 use gdal::raster::Buffer;
 use gdal::spatial_ref::SpatialRef;
 
+pub use alps::{
+    ALPS_CAMERA, ALPS_DEM, ALPS_EXTENT, ALPS_LAKE_BOX, ALPS_LAKE_LEVEL_M, ALPS_LAKE_SURFACE_M, ALPS_TOWN_CENTRE,
+    write_alps_demo_scene,
+};
 pub use landcover::{BROADLEAF_FOREST, CONIFER_FOREST, GRASSLAND, NODATA, SHRUBLAND, demo_landcover, write_classes};
 
 /// A north-up raster: origin is the north-west pixel edge.
@@ -193,7 +200,7 @@ pub fn write_rgb(path: &Path, spec: &RasterSpec<'_>, color: impl Fn(f64, f64) ->
     write_geotiff(path, spec, planes)
 }
 
-const DEMO_MANIFEST: &str = r#"# The demo scene: written by relief-demo-scene.
+const DEMO_MANIFEST: &str = r#"# The analytic demo range: written by relief-examples' write_demo_scene.
 [scene]
 name = "demo-range"
 grid = "geodetic"
@@ -314,10 +321,12 @@ heading_deg = 15
 pitch_deg = -25
 "#;
 
-/// Writes the demo scene into `out`: a synthetic mountain range (DEM with a
-/// small nodata void), an "orthophoto" tinted by height, a town, the land
-/// cover a forest grows from, and the manifest.
-/// Returns the manifest's path.
+/// Writes the analytic demo range into `out`: a synthetic mountain range
+/// (DEM with a small nodata void), an "orthophoto" tinted by height, a
+/// town, the land cover a forest grows from, and the manifest. The benches
+/// and `make accuracy` measure against it (its heights are
+/// [`demo_terrain`]); the demo shown to people is
+/// [`write_alps_demo_scene`]. Returns the manifest's path.
 pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let dem = RasterSpec {
