@@ -15,6 +15,7 @@ mod backing;
 mod content;
 pub mod graph;
 pub mod manifest;
+pub mod parameters;
 mod priority;
 mod registry;
 pub mod scene;

@@ -320,9 +320,21 @@ impl Manifest {
     }
 
     pub fn load(path: &Path) -> Result<Self, ManifestError> {
-        let text = relief_source::regular::read_regular_to_string(path)
-            .map_err(|source| ManifestError::Read { path: path.to_path_buf(), source })?;
-        Self::parse(&text, path)
+        Self::parse(&Self::read(path)?, path)
+    }
+
+    /// The manifest's text.
+    pub fn read(path: &Path) -> Result<String, ManifestError> {
+        relief_source::regular::read_regular_to_string(path)
+            .map_err(|source| ManifestError::Read { path: path.to_path_buf(), source })
+    }
+
+    /// The manifest's TOML, as written (for values laid over it).
+    pub fn table(text: &str, path: &Path) -> Result<toml::Table, ManifestError> {
+        toml::from_str(text).map_err(|e| ManifestError::Parse {
+            path: path.to_path_buf(),
+            message: e.to_string().trim().replace('\n', " "),
+        })
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<Self, ManifestError> {

@@ -17,6 +17,7 @@ use crate::backing::redis::RedisTiles;
 use crate::backing::{Backing, Backings};
 use crate::graph::{self, LoadError, SceneSnapshot};
 use crate::manifest::Manifest;
+use crate::parameters::{self, InForce, Overrides, Target};
 use crate::registry::Registry;
 use crate::tiles::{QualityKey, TileStore};
 
@@ -79,6 +80,9 @@ pub struct Scene {
     current: RwLock<Arc<SceneSnapshot>>,
     manifest_path: PathBuf,
     manifest_error: RwLock<Option<String>>,
+    /// The values calls have set (laid over the manifest), and them as the
+    /// state shows them.
+    parameters: RwLock<(Overrides, Vec<InForce>)>,
     /// What else a manifest must pass, read at load and read again.
     check: ManifestCheck,
     registry: Registry,
@@ -152,6 +156,7 @@ impl Scene {
                 check,
                 current: RwLock::new(snapshot),
                 manifest_error: RwLock::new(None),
+                parameters: RwLock::new((Overrides::default(), Vec::new())),
                 registry,
                 store,
                 generation,
@@ -329,14 +334,18 @@ impl Scene {
         let _one_at_a_time = self.refresh_lock.lock().expect("refresh lock is never poisoned");
         let started = Instant::now();
         let old = self.snapshot();
-        let built = Manifest::load(&self.manifest_path)
-            .and_then(|m| (self.check)(&m).map(|()| m))
-            .map_err(|e| vec![LoadError::from(e)])
-            .and_then(|m| graph::build(m, &self.registry, Some(&old)));
-        let (new, open_errors) = match built {
+        // A call's values stay in force over the edit, less those whose
+        // source or effect the edit removed.
+        let overrides = {
+            let held = self.parameters.read().expect("scene lock is never poisoned").0.clone();
+            match Manifest::read(&self.manifest_path).and_then(|t| Manifest::table(&t, &self.manifest_path)) {
+                Ok(table) => held.still_applicable(&table),
+                Err(_) => held,
+            }
+        };
+        let (new, open_errors) = match self.build(&overrides, &old) {
             Ok(b) => b,
-            Err(errors) => {
-                let error = errors.iter().map(ToString::to_string).collect::<Vec<_>>().join("; ");
+            Err(error) => {
                 tracing::warn!("{error}; keeping the scene as it was");
                 *self.manifest_error.write().expect("scene lock is never poisoned") = Some(error.clone());
                 self.send(old.generation, EventKind::ManifestError { error });
@@ -344,6 +353,82 @@ impl Scene {
             }
         };
         *self.manifest_error.write().expect("scene lock is never poisoned") = None;
+        self.keep_parameters(overrides);
+        let reason =
+            if old.manifest.grid == new.manifest.grid { "manifest edited" } else { "manifest edited (new grid)" };
+        self.publish_manifest(&old, new, &open_errors, reason, started)
+    }
+
+    /// Sets `name` of `target` to `value` (TOML, or else a string; None:
+    /// back to the manifest's), as if the manifest said so: checked as the
+    /// manifest is, by building the scene from it, and published as a
+    /// manifest edit is (what changed is dirty, nothing else). Err says
+    /// why it was refused; the scene stays as it was. Blocking.
+    pub fn set_parameter(&self, target: &str, name: &str, value: Option<&str>) -> Result<u64, String> {
+        let _one_at_a_time = self.refresh_lock.lock().expect("refresh lock is never poisoned");
+        let started = Instant::now();
+        let old = self.snapshot();
+        let target = Target::parse(target)?;
+        let held = self.parameters.read().expect("scene lock is never poisoned").0.clone();
+        let next = held.with(target.clone(), name, value.map(parameters::parse_value))?;
+        let (new, open_errors) = self.build(&next, &old)?;
+        if let Target::Source(id) = &target
+            && let Some(e) =
+                open_errors.iter().find(|e| matches!(e, LoadError::Source { source_id, .. } if source_id == id))
+        {
+            return Err(e.to_string());
+        }
+        self.keep_parameters(next);
+        let reason = match value {
+            Some(v) => format!("parameter set: {} {name} = {}", target.name(), relief_source::echo::echoed(v)),
+            None => format!("parameter reset to the manifest's: {} {name}", target.name()),
+        };
+        Ok(self.publish_manifest(&old, new, &open_errors, &reason, started))
+    }
+
+    /// The values calls have set that are in force, with the manifest's.
+    pub fn parameters(&self) -> Vec<InForce> {
+        self.parameters.read().expect("scene lock is never poisoned").1.clone()
+    }
+
+    fn keep_parameters(&self, overrides: Overrides) {
+        let shown = Manifest::read(&self.manifest_path)
+            .and_then(|t| Manifest::table(&t, &self.manifest_path))
+            .map(|table| overrides.in_force(&table))
+            .unwrap_or_default();
+        *self.parameters.write().expect("scene lock is never poisoned") = (overrides, shown);
+    }
+
+    /// The scene the manifest describes with `overrides` laid over it, held
+    /// to the server's check, built over `old` (unchanged sources kept).
+    fn build(&self, overrides: &Overrides, old: &SceneSnapshot) -> Result<(SceneSnapshot, Vec<LoadError>), String> {
+        let path = &self.manifest_path;
+        let text = Manifest::read(path).map_err(|e| e.to_string())?;
+        let manifest = if overrides.is_empty() {
+            Manifest::parse(&text, path).map_err(|e| e.to_string())?
+        } else {
+            let mut table = Manifest::table(&text, path).map_err(|e| e.to_string())?;
+            overrides.apply(&mut table)?;
+            let laid =
+                toml::to_string(&table).map_err(|e| format!("cannot lay the parameters over the manifest: {e}"))?;
+            Manifest::parse(&laid, path).map_err(|e| e.to_string())?
+        };
+        (self.check)(&manifest).map_err(|e| e.to_string())?;
+        graph::build(manifest, &self.registry, Some(old))
+            .map_err(|errors| errors.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))
+    }
+
+    /// Publishes a scene built from the manifest (an edit, or a call's
+    /// parameter): the sources whose spec changed are dirty everywhere,
+    /// those gone are forgotten, the rest keep their tiles.
+    fn publish_manifest(
+        &self,
+        old: &SceneSnapshot,
+        new: SceneSnapshot,
+        open_errors: &[LoadError],
+        reason: &str,
+        started: Instant,
+    ) -> u64 {
         let (was, now) = (&old.manifest, &new.manifest);
         if (was.cache_budget_bytes, &was.disk, &was.redis) != (now.cache_budget_bytes, &now.disk, &now.redis) {
             // The stores are the process's: opened once, when reliefd starts.
@@ -373,9 +458,7 @@ impl Scene {
                 other => EventKind::ManifestError { error: other.to_string() },
             })
             .collect();
-        let reason =
-            if old.manifest.grid == new.manifest.grid { "manifest edited" } else { "manifest edited (new grid)" };
-        self.publish(&old, new, dirt, changed, errors, reason, started)
+        self.publish(old, new, dirt, changed, errors, reason, started)
     }
 
     /// Carries dirt downstream, rebuilds the cached tiles it touches (coarse

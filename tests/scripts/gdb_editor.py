@@ -63,6 +63,15 @@ def add(layer, wkt, attrs):
     return feature.GetFID()
 
 
+def shift(g, dx, dy):
+    """Moves every point of `g`, at any depth (OpenFileGDB gives polygons
+    as multipolygons)."""
+    for i in range(g.GetGeometryCount()):
+        shift(g.GetGeometryRef(i), dx, dy)
+    for i in range(g.GetPointCount()):
+        g.SetPoint_2D(i, g.GetX(i) + dx, g.GetY(i) + dy)
+
+
 def read(layer):
     return [
         {
@@ -99,10 +108,7 @@ def run(path, command):
         moved = [f for _, f in zip(range(command["count"]), layer)]
         for f in moved:
             g = f.GetGeometryRef()
-            for r in range(max(g.GetGeometryCount(), 1)):
-                ring = g.GetGeometryRef(r) if g.GetGeometryCount() else g
-                for i in range(ring.GetPointCount()):
-                    ring.SetPoint_2D(i, ring.GetX(i) + command["dx"], ring.GetY(i) + command["dy"])
+            shift(g, command["dx"], command["dy"])
             f.SetGeometry(g)
             layer.SetFeature(f)
         layer.CommitTransaction()

@@ -78,6 +78,22 @@ enum Command {
     },
     /// Re-read source files now (all, or the named sources).
     Reload { sources: Vec<String> },
+    /// Set a parameter as if the manifest said so (checked as the manifest is;
+    /// a new generation dirties what it touches): a source's option, or a
+    /// knob of "[quality]", "[sun]" or "[effects.NAME]". The value is TOML
+    /// (270, true, [0.8, 1.2]); other text is a string (#ff0000, cubic).
+    Set {
+        /// A source id, "[quality]", "[sun]" or "[effects.NAME]".
+        target: String,
+        /// The option or knob.
+        key: String,
+        /// Its value; left out with --reset.
+        #[arg(required_unless_present = "reset")]
+        value: Option<String>,
+        /// Put the manifest's value back.
+        #[arg(long, conflicts_with = "value")]
+        reset: bool,
+    },
     /// Render a view as a PNG.
     Render {
         /// LON,LAT,ALT,HEADING,PITCH,ROLL (degrees and metres); the current camera when left out.
@@ -299,6 +315,12 @@ async fn run(args: Args) -> anyhow::Result<()> {
         Command::Reload { sources } => {
             let state = rpc(sent, scene.reload(pb::ReloadRequest { source_ids: sources }).await)?;
             output::emit(args.json, &output::state_json(&state), || output::state_text(&state));
+        }
+        Command::Set { target, key, value, reset } => {
+            let request =
+                pb::SetSourceParameterRequest { source_id: target, name: key, value: value.unwrap_or_default(), reset };
+            let state = rpc(sent, scene.set_source_parameter(request).await)?;
+            output::emit(args.json, &output::state_json(&state), || output::parameters_text(&state));
         }
     }
     Ok(())

@@ -46,6 +46,20 @@ pub fn state_json(s: &pb::SceneState) -> Value {
     proto_json(s)
 }
 
+/// The generation, and the parameters calls have set beside the manifest's.
+pub fn parameters_text(s: &pb::SceneState) -> String {
+    let mut out = format!("generation {}\n", s.generation);
+    parameter_lines(&mut out, s);
+    out
+}
+
+fn parameter_lines(out: &mut String, s: &pb::SceneState) {
+    for p in &s.parameters {
+        let manifest = p.manifest_value.as_deref().unwrap_or("its default");
+        let _ = writeln!(out, "  {} {} = {} (set by a call; the manifest: {manifest})", p.target, p.name, p.value);
+    }
+}
+
 pub fn state_text(s: &pb::SceneState) -> String {
     let mut out = format!("scene '{}' at generation {}\n  manifest: {}\n", s.name, s.generation, s.manifest);
     if let Some(g) = &s.grid {
@@ -111,6 +125,7 @@ pub fn state_text(s: &pb::SceneState) -> String {
             c.tiles_generated
         );
     }
+    parameter_lines(&mut out, s);
     out
 }
 

@@ -12,7 +12,7 @@ import pytest
 from PIL import Image
 
 import relief
-from relief.testing import PARCELS, HillScene, hill
+from relief.testing import PARCELS, HillScene, Reliefd, hill, write_hill_scene
 
 PEAK = (10.25, 45.25)
 CAMERA = relief.Camera(lon_deg=10.25, lat_deg=45.12, altitude_m=9000, heading_deg=0, pitch_deg=-45)
@@ -95,9 +95,32 @@ def test_reload_rereads_sources(shared_client: relief.Client) -> None:
     assert shared_client.reload(["dem"]).source("dem").status is relief.SourceStatus.READY
 
 
-def test_set_source_parameter_is_not_offered_by_this_reliefd(shared_client: relief.Client) -> None:
-    with pytest.raises(relief.Unimplemented, match="source 'dem'"):
-        shared_client.set_source_parameter("dem", "brightness", "1.2")
+def test_set_source_parameter_is_checked_as_the_manifest_and_shown_in_the_state(tmp_path: Path) -> None:
+    scene = write_hill_scene(tmp_path / "scene", extra_manifest="[effects]\nlighting = {}\n")
+    with Reliefd(scene.manifest) as daemon, relief.connect(daemon.address) as client:
+        before = client.state()
+        state = client.set_source_parameter("[quality]", "resampling", "cubic")
+        assert state.generation == before.generation + 1
+        assert state.quality["resampling"] == "cubic"
+        assert state.parameters == (relief.Parameter("[quality]", "resampling", '"cubic"', None),)
+        state = client.set_source_parameter("[sun]", "time", "2026-06-21T15:00:00+02:00")
+        assert ("[sun]", "time") in {(p.target, p.name) for p in state.parameters}
+        # A time and a fixed sun together are refused, as in the manifest.
+        with pytest.raises(relief.InvalidArgument, match="not both"):
+            client.set_source_parameter("[sun]", "elevation_deg", 30)
+        # Refused as the manifest would refuse them; the scene stays.
+        with pytest.raises(relief.InvalidArgument, match="chooses what the source reads"):
+            client.set_source_parameter("dem", "path", "other.tif")
+        with pytest.raises(relief.InvalidArgument, match="brightness"):
+            client.set_source_parameter("dem", "brightness", 1.2)
+        with pytest.raises(relief.InvalidArgument, match="resampling"):
+            client.set_source_parameter("[quality]", "resampling", "blurry")
+        with pytest.raises(relief.NotFound, match="'nope'"):
+            client.set_source_parameter("nope", "azimuth_deg", 1)
+        assert client.state().generation == state.generation
+        state = client.set_source_parameter("[quality]", "resampling", reset=True)
+        assert state.quality["resampling"] == "bilinear"
+        assert [p.target for p in state.parameters] == ["[sun]"]
 
 
 # ---------------------------------------------------------------- tiles

@@ -237,6 +237,17 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
         manifest: m.path.display().to_string(),
         manifest_error: manifest_error.unwrap_or_default(),
         passes,
+        parameters: scene
+            .parameters()
+            .into_iter()
+            .map(|p| pb::Parameter {
+                target: p.target,
+                name: p.name,
+                value: p.value,
+                manifest_value: p.manifest_value,
+                origin: "call".into(),
+            })
+            .collect(),
     }
 }
 

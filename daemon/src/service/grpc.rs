@@ -47,7 +47,7 @@ impl SceneService for Grpc {
     }
 
     async fn set_source_parameter(&self, r: Request<pb::SetSourceParameterRequest>) -> Answer<pb::SceneState> {
-        self.0.scene.set_source_parameter(scope(&r), r.get_ref()).map(Response::new)
+        self.0.scene.set_source_parameter(scope(&r), r.into_inner()).await.map(Response::new)
     }
 
     async fn reload(&self, r: Request<pb::ReloadRequest>) -> Answer<pb::SceneState> {

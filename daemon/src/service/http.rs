@@ -150,6 +150,10 @@ async fn reload(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Byt
     reply(c.scene.reload(scope, body(&bytes, "ReloadRequest")?).await)
 }
 
+async fn set_parameter(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::SceneState> {
+    reply(c.scene.set_source_parameter(scope, body(&bytes, "SetSourceParameterRequest")?).await)
+}
+
 async fn get_camera(State(c): Shared) -> Reply<pb::Camera> {
     Ok(axum::Json(c.view.camera()))
 }
@@ -360,6 +364,7 @@ const ROUTES: &[(&str, &str, &str)] = &[
     ("GET", "/api/events?from=N", "SceneEvent stream (Server-Sent Events, event: scene)"),
     ("GET", "/api/wait?generation=N&timeout_ms=T", "SceneState once generation N is served"),
     ("POST", "/api/reload", "ReloadRequest -> SceneState"),
+    ("POST", "/api/parameters", "SetSourceParameterRequest -> SceneState"),
     ("GET", "/api/camera", "the scene Camera"),
     ("PUT", "/api/camera", "Camera -> Camera (SetCamera)"),
     ("GET", "/api/render?camera=lon,lat,alt,heading,pitch,roll&fov=&width=&height=&format=png|rgba", "the image"),
@@ -420,6 +425,7 @@ pub fn router(calls: Arc<Calls>, grpc: Router) -> Router {
         .route("/api/events", get(events))
         .route("/api/wait", get(wait))
         .route("/api/reload", post(reload))
+        .route("/api/parameters", post(set_parameter))
         .route("/api/camera", get(get_camera).put(set_camera))
         .route("/api/render", get(render_image).post(render_json))
         .route("/api/frames", get(frames))

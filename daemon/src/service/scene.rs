@@ -106,13 +106,21 @@ impl SceneCalls {
         }
     }
 
-    #[expect(clippy::unused_self, reason = "a call like the others; sources with parameters will need the scene")]
-    pub fn set_source_parameter(&self, scope: Scope, r: &SetSourceParameterRequest) -> Result<SceneState, Status> {
+    /// Sets a parameter as the manifest would (engine's `set_parameter`);
+    /// the state after the new generation.
+    pub async fn set_source_parameter(&self, scope: Scope, r: SetSourceParameterRequest) -> Result<SceneState, Status> {
         scope.require_control("set a source parameter")?;
-        Err(Status::unimplemented(format!(
-            "SetSourceParameter: source '{}' has no runtime parameters in this reliefd",
-            r.source_id
-        )))
+        let target = r.source_id.trim().to_owned();
+        if !target.starts_with('[') && self.scene.snapshot().index_of(&target).is_none() {
+            return Err(Status::not_found(format!("no source has id '{}'", relief_source::echo::echoed(&target))));
+        }
+        let scene = Arc::clone(&self.scene);
+        let value = (!r.reset).then_some(r.value);
+        let set = tokio::task::spawn_blocking(move || scene.set_parameter(&target, &r.name, value.as_deref()))
+            .await
+            .map_err(|_| Status::internal("the parameter task failed"))?;
+        set.map_err(|e| Status::invalid_argument(format!("parameter refused: {e}")))?;
+        Ok(self.state())
     }
 
     pub async fn reload(&self, scope: Scope, r: ReloadRequest) -> Result<SceneState, Status> {

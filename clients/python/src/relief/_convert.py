@@ -37,6 +37,7 @@ from relief.types import (
     ManifestErrorEvent,
     MaskTile,
     MeshPart,
+    Parameter,
     MeshTile,
     Move,
     Orbit,
@@ -349,6 +350,15 @@ def scene_state(s: pb.SceneState) -> SceneState:
         ),
         manifest=s.manifest,
         manifest_error=s.manifest_error,
+        parameters=tuple(
+            Parameter(
+                target=p.target,
+                name=p.name,
+                value=p.value,
+                manifest_value=p.manifest_value if p.HasField("manifest_value") else None,
+            )
+            for p in s.parameters
+        ),
         passes=pass_states(s.passes),
     )
 
@@ -528,3 +538,25 @@ def _square(data: npt.NDArray[_T], width: int, height: int, what: str) -> npt.ND
             )
         width = height = side
     return data.reshape(height, width)
+
+
+def toml_value(value: object) -> str:
+    """A Python value as the TOML text SetSourceParameter reads (a string
+    that is not TOML is sent as it is, and read as a string)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return value
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_item(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_item(v)}" for k, v in value.items()) + " }"
+    raise TypeError(f"cannot send {type(value).__name__} as a parameter value")
+
+
+def _toml_item(value: object) -> str:
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return toml_value(value)

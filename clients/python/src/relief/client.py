@@ -172,10 +172,30 @@ class Client(_channel.Connection[grpc.Channel]):
         return _convert.scene_state(r)
 
     def set_source_parameter(
-        self, source_id: str, name: str, value: str, *, timeout: float | None = None
+        self,
+        source_id: str,
+        name: str,
+        value: object = None,
+        *,
+        reset: bool = False,
+        timeout: float | None = None,
     ) -> SceneState:
-        """Sets a runtime parameter of a source."""
-        request = pb.SetSourceParameterRequest(source_id=source_id, name=name, value=value)
+        """Sets a parameter as if the manifest said so, checked as the manifest
+        is; the state after the new generation, which dirties what it touches.
+
+        ``source_id`` is a source's id (any option but kind, path, paths,
+        inputs and layer), ``"[quality]"``, ``"[sun]"`` or
+        ``"[effects.NAME]"``. ``value`` is a Python number, bool, string, list
+        or dict (sent as TOML) or TOML text; ``reset=True`` puts the
+        manifest's value back. A refused value raises ``InvalidArgument``.
+        """
+        if reset:
+            text = ""
+        elif value is None:
+            raise ValueError("set_source_parameter needs a value (or reset=True)")
+        else:
+            text = _convert.toml_value(value)
+        request = pb.SetSourceParameterRequest(source_id=source_id, name=name, value=text, reset=reset)
         r: pb.SceneState = self._unary(self._scene.SetSourceParameter, "SetSourceParameter", request, timeout)
         return _convert.scene_state(r)
 

@@ -247,6 +247,19 @@ class Grid:
 
 
 @dataclass(frozen=True)
+class Parameter:
+    """A value a call set (SetSourceParameter), in force over the manifest's."""
+
+    #: The source id, "[quality]", "[sun]" or "[effects.NAME]".
+    target: str
+    name: str
+    #: In force, as TOML text.
+    value: str
+    #: The manifest's own value as TOML text; None where it leaves it to its default.
+    manifest_value: str | None = None
+
+
+@dataclass(frozen=True)
 class SceneState:
     """The whole scene state at one generation."""
 
@@ -266,6 +279,9 @@ class SceneState:
     manifest_error: str
     #: The renderer's passes: built or not, runs and time since start.
     passes: tuple[PassState, ...] = ()
+    #: The parameters calls have set that are in force; the rest is as the
+    #: manifest says.
+    parameters: tuple[Parameter, ...] = ()
 
     def source(self, source_id: str) -> SourceState:
         """The source with this id (KeyError when there is none)."""

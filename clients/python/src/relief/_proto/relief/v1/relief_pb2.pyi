@@ -136,14 +136,16 @@ class WaitForGenerationRequest(_message.Message):
     def __init__(self, min_generation: _Optional[int] = ..., timeout_ms: _Optional[int] = ...) -> None: ...
 
 class SetSourceParameterRequest(_message.Message):
-    __slots__ = ("source_id", "name", "value")
+    __slots__ = ("source_id", "name", "value", "reset")
     SOURCE_ID_FIELD_NUMBER: _ClassVar[int]
     NAME_FIELD_NUMBER: _ClassVar[int]
     VALUE_FIELD_NUMBER: _ClassVar[int]
+    RESET_FIELD_NUMBER: _ClassVar[int]
     source_id: str
     name: str
     value: str
-    def __init__(self, source_id: _Optional[str] = ..., name: _Optional[str] = ..., value: _Optional[str] = ...) -> None: ...
+    reset: bool
+    def __init__(self, source_id: _Optional[str] = ..., name: _Optional[str] = ..., value: _Optional[str] = ..., reset: _Optional[bool] = ...) -> None: ...
 
 class ReloadRequest(_message.Message):
     __slots__ = ("source_ids",)
@@ -321,8 +323,22 @@ class GridInfo(_message.Message):
     level0_rows: int
     def __init__(self, kind: _Optional[str] = ..., crs: _Optional[str] = ..., tile_size: _Optional[int] = ..., extent: _Optional[_Union[Extent, _Mapping]] = ..., level0_columns: _Optional[int] = ..., level0_rows: _Optional[int] = ...) -> None: ...
 
+class Parameter(_message.Message):
+    __slots__ = ("target", "name", "value", "manifest_value", "origin")
+    TARGET_FIELD_NUMBER: _ClassVar[int]
+    NAME_FIELD_NUMBER: _ClassVar[int]
+    VALUE_FIELD_NUMBER: _ClassVar[int]
+    MANIFEST_VALUE_FIELD_NUMBER: _ClassVar[int]
+    ORIGIN_FIELD_NUMBER: _ClassVar[int]
+    target: str
+    name: str
+    value: str
+    manifest_value: str
+    origin: str
+    def __init__(self, target: _Optional[str] = ..., name: _Optional[str] = ..., value: _Optional[str] = ..., manifest_value: _Optional[str] = ..., origin: _Optional[str] = ...) -> None: ...
+
 class SceneState(_message.Message):
-    __slots__ = ("name", "generation", "grid", "sources", "effects", "layers", "quality", "counters", "manifest", "manifest_error", "passes")
+    __slots__ = ("name", "generation", "grid", "sources", "effects", "layers", "quality", "counters", "manifest", "manifest_error", "passes", "parameters")
     class LayersEntry(_message.Message):
         __slots__ = ("key", "value")
         KEY_FIELD_NUMBER: _ClassVar[int]
@@ -348,6 +364,7 @@ class SceneState(_message.Message):
     MANIFEST_FIELD_NUMBER: _ClassVar[int]
     MANIFEST_ERROR_FIELD_NUMBER: _ClassVar[int]
     PASSES_FIELD_NUMBER: _ClassVar[int]
+    PARAMETERS_FIELD_NUMBER: _ClassVar[int]
     name: str
     generation: int
     grid: GridInfo
@@ -359,7 +376,8 @@ class SceneState(_message.Message):
     manifest: str
     manifest_error: str
     passes: _containers.RepeatedCompositeFieldContainer[PassState]
-    def __init__(self, name: _Optional[str] = ..., generation: _Optional[int] = ..., grid: _Optional[_Union[GridInfo, _Mapping]] = ..., sources: _Optional[_Iterable[_Union[SourceState, _Mapping]]] = ..., effects: _Optional[_Iterable[_Union[EffectState, _Mapping]]] = ..., layers: _Optional[_Mapping[str, str]] = ..., quality: _Optional[_Mapping[str, str]] = ..., counters: _Optional[_Union[Counters, _Mapping]] = ..., manifest: _Optional[str] = ..., manifest_error: _Optional[str] = ..., passes: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ...) -> None: ...
+    parameters: _containers.RepeatedCompositeFieldContainer[Parameter]
+    def __init__(self, name: _Optional[str] = ..., generation: _Optional[int] = ..., grid: _Optional[_Union[GridInfo, _Mapping]] = ..., sources: _Optional[_Iterable[_Union[SourceState, _Mapping]]] = ..., effects: _Optional[_Iterable[_Union[EffectState, _Mapping]]] = ..., layers: _Optional[_Mapping[str, str]] = ..., quality: _Optional[_Mapping[str, str]] = ..., counters: _Optional[_Union[Counters, _Mapping]] = ..., manifest: _Optional[str] = ..., manifest_error: _Optional[str] = ..., passes: _Optional[_Iterable[_Union[PassState, _Mapping]]] = ..., parameters: _Optional[_Iterable[_Union[Parameter, _Mapping]]] = ...) -> None: ...
 
 class PassState(_message.Message):
     __slots__ = ("name", "built", "runs", "total_ms")
