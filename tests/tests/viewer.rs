@@ -146,6 +146,12 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
     let db = psnr(&shown_before, &shown_after);
     assert!(db >= MIN_PSNR_DB, "the image changed with the broken file: {db:.1} dB");
 
+    // The controls help opens from its button and closes with Escape.
+    page.eval("document.getElementById('help-button').click()").await.unwrap();
+    page.wait_for("!document.getElementById('help').hidden", PAGE_TIMEOUT).await.unwrap();
+    page.eval("document.dispatchEvent(new KeyboardEvent('keydown', { key: 'Escape' }))").await.unwrap();
+    page.wait_for("document.getElementById('help').hidden", PAGE_TIMEOUT).await.unwrap();
+
     // The cursor readout: longitude, latitude and height under the mouse.
     page.mouse("mouseMoved", 500.0, 400.0, "none").await.unwrap();
     page.wait_for("/\\d+\\.\\d{6}/.test(document.getElementById('cursor').textContent)", PAGE_TIMEOUT).await.unwrap();
@@ -474,5 +480,27 @@ async fn six_tabs_show_frames_and_steer_their_own_cameras_and_back_recovers() {
         assert!(errors.is_empty(), "a page threw: {errors:?}");
     }
     drop(tabs);
+    daemon.stop(&[]).unwrap();
+}
+
+#[test]
+fn the_page_its_modules_and_its_icon_are_served_with_their_types() {
+    let dir = tempfile::tempdir().unwrap();
+    let daemon = Reliefd::start(&scenes::hill(dir.path(), "").unwrap(), &[]).unwrap();
+    let url = daemon.url();
+    let page = relief_tests::http::get(&format!("{url}/")).unwrap();
+    let html = String::from_utf8(page.body).unwrap();
+    assert!(html.contains(r#"<script type="module" src="viewer.js">"#) && html.contains("favicon.svg"), "{html}");
+    for (path, kind) in [
+        ("/viewer.js", "text/javascript"),
+        ("/js/stream.js", "text/javascript"),
+        ("/js/camera.js", "text/javascript"),
+        ("/js/panel.js", "text/javascript"),
+        ("/favicon.svg", "image/svg+xml"),
+    ] {
+        let reply = relief_tests::http::get(&format!("{url}{path}")).unwrap();
+        assert_eq!(reply.status, 200, "{path}");
+        assert!(reply.content_type.starts_with(kind), "{path} is served as {}", reply.content_type);
+    }
     daemon.stop(&[]).unwrap();
 }
