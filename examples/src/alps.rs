@@ -342,3 +342,41 @@ fn alps_landcover(heights: &Heights, lon: f64, lat: f64) -> u8 {
         _ => GRASSLAND,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used, reason = "a test")]
+
+    use super::*;
+
+    #[test]
+    fn demo_scene_tints_the_sea_and_masks_the_lake_from_the_committed_dem() {
+        let dir = tempfile_dir();
+        write_alps_demo_scene(&dir, Path::new(ALPS_DEM)).unwrap();
+        let color = Dataset::open(dir.join("color.tif")).unwrap();
+        let heights = Heights::read(&Dataset::open(dir.join("dem.tif")).unwrap()).unwrap();
+        let pixel = |ds: &Dataset, band: usize, (lon, lat): (f64, f64)| {
+            let t = heights.transform;
+            let (i, j) = (((lon - t[0]) / t[1]) as isize, ((lat - t[3]) / t[5]) as isize);
+            ds.rasterband(band).unwrap().read_as::<u8>((i, j), (1, 1), (1, 1), None).unwrap().data()[0]
+        };
+        // Off Nice the sea is 0 m: the tint's blue, unshaded.
+        let sea = (7.4, 43.6);
+        assert_eq!(heights.at(sea.0, sea.1), Some(0));
+        assert_eq!([1, 2, 3].map(|b| pixel(&color, b, sea)), [24, 64, 104]);
+        // The lake's mask covers its 22 km2 (cells of about 67 x 93 m).
+        let lake = Dataset::open(dir.join("lake.tif")).unwrap();
+        let mask = lake.rasterband(1).unwrap().read_band_as::<u8>().unwrap();
+        let cells: usize = mask.data().iter().map(|&v| usize::from(v)).sum();
+        assert!((2500..6000).contains(&cells), "{cells} lake cells");
+        assert_eq!(pixel(&lake, 1, (6.1713, 43.7706)), 0, "the shore above the lake is dry");
+        assert_eq!(alps_landcover(&heights, 7.4, 43.6), NODATA, "no trees at sea");
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    fn tempfile_dir() -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("relief-alps-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+}
