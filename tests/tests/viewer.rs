@@ -124,6 +124,10 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
     // The change is outlined on the picture (the edit is in front of the camera).
     page.wait_for("window.relief.dirtyShown >= 1", PAGE_TIMEOUT).await.unwrap();
     assert!(page.eval("window.relief.dirtyLines").await.unwrap().as_u64().unwrap() >= 1);
+    if let Ok(out) = std::env::var("RELIEF_TEST_SCREENSHOTS") {
+        std::fs::write(std::path::Path::new(&out).join("viewer-dirty-outline.png"), page.screenshot().await.unwrap())
+            .unwrap();
+    }
     // The effects say what the frame shown ran: lighting inside the terrain pass.
     let lighting = page.eval("document.querySelector('tr[data-effect=\"lighting\"]').textContent").await.unwrap();
     assert!(lighting.as_str().unwrap().contains("in terrain"), "{lighting}");
