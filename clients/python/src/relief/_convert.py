@@ -540,6 +540,15 @@ def _square(data: npt.NDArray[_T], width: int, height: int, what: str) -> npt.ND
     return data.reshape(height, width)
 
 
+def parameter_request(source_id: str, name: str, value: object, reset: bool) -> pb.SetSourceParameterRequest:
+    """The SetSourceParameter request for a value (or a reset)."""
+    if reset:
+        return pb.SetSourceParameterRequest(source_id=source_id, name=name, reset=True)
+    if value is None:
+        raise ValueError("set_source_parameter needs a value (or reset=True)")
+    return pb.SetSourceParameterRequest(source_id=source_id, name=name, value=toml_value(value))
+
+
 def toml_value(value: object) -> str:
     """A Python value as the TOML text SetSourceParameter reads (a string
     that is not TOML is sent as it is, and read as a string)."""

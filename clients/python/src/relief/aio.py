@@ -177,13 +177,7 @@ class AsyncClient(_channel.Connection[grpc.aio.Channel]):
         or dict (sent as TOML) or TOML text; ``reset=True`` puts the
         manifest's value back. A refused value raises ``InvalidArgument``.
         """
-        if reset:
-            text = ""
-        elif value is None:
-            raise ValueError("set_source_parameter needs a value (or reset=True)")
-        else:
-            text = _convert.toml_value(value)
-        request = pb.SetSourceParameterRequest(source_id=source_id, name=name, value=text, reset=reset)
+        request = _convert.parameter_request(source_id, name, value, reset)
         r: pb.SceneState = await self._unary(self._scene.SetSourceParameter, "SetSourceParameter", request, timeout)
         return _convert.scene_state(r)
 
