@@ -6,7 +6,7 @@ Follow map is applied again whenever the daemon becomes reachable (a
 reconnect, a new address): a daemon that restarted has its own camera.
 When the ground height at the map's centre is not known (the lookup
 failed, timed out, or the height layer has no data there), the camera is
-not moved: a guessed ground (0 m, or a height from elsewhere) could put it
+not moved (a scene with no height layer at all has its ground at 0 m): a guessed ground (0 m, or a height from elsewhere) could put it
 under the terrain and draw a black frame. The dock says why, and the next
 map move or reconnect tries again."""
 
@@ -263,6 +263,10 @@ class ReliefPlugin:
             self.cameras_sent += 1
             self.link.set_camera(camera_for(view, pitch, ground_m, fov))
 
+        if self.state and not pj.text(pj.message(self.state, "layers"), "height"):
+            # The scene has no height layer: its ground is its zero.
+            with_ground(0.0, "")
+            return
         self.link.elevation(view.lon_deg, view.lat_deg, with_ground)
 
     def _slider_moved(self, _: float) -> None:

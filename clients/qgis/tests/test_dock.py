@@ -6,12 +6,13 @@ reload of the plugin; landscape frames."""
 
 from __future__ import annotations
 
+import math
 from typing import Any, Optional
 
 from conftest import wait_until
 from headless import load_plugin, stop_plugin
 from qgis.core import QgsSettings
-from test_plugin import look_at, show_hill
+from test_plugin import look_at, radii, show_hill
 
 import relief
 from relief.testing import HillScene, Reliefd, hill_at
@@ -91,6 +92,29 @@ def test_a_failed_height_lookup_leaves_the_camera_above_the_terrain(plugin: Any,
         camera = client.camera()
         assert camera.altitude_m > hill_at(camera.lon_deg, camera.lat_deg)
         wait_until(lambda: dock.message.text() == "", 10, "the message goes")
+
+
+def test_a_scene_without_a_height_layer_is_followed_on_ground_at_0(plugin: Any, daemon: Reliefd, host: Any) -> None:
+    # The state names the scene's layers: without "height" there is no
+    # ground to look up (the daemon would refuse the lookup), it is 0 m.
+    asked: list[tuple[float, float]] = []
+    plugin.link.elevation = lambda lon, lat, callback: asked.append((lon, lat))
+    plugin.link.state.emit({"name": "flat", "generation": "3", "layers": {"color": "map"}})
+    show_hill(host, CENTRE)
+    plugin.dock.follow.setChecked(True)
+    # The map's height fills the field of view, from ground at 0 m.
+    settings = host.canvas.mapSettings()
+    height_m = math.radians(settings.mapUnitsPerPixel() * settings.outputSize().height()) * radii(CENTRE[1])[0]
+    distance = 0.5 * height_m / math.tan(math.radians(0.5 * 50.0))
+    rise = distance * math.sin(math.radians(-plugin.dock.pitch_deg()))
+    with relief.connect(daemon.address) as client:
+        wait_until(lambda: abs(client.camera().altitude_m - rise) < 0.01 * rise, 10, "the camera stands on 0 m")
+        camera = client.camera()
+        # South of the centre by as much as it is high (45 degrees down), looking north.
+        back_deg = math.degrees(rise / radii(CENTRE[1])[0])
+        assert abs(camera.lat_deg - (CENTRE[1] - back_deg)) < 1e-3 and abs(camera.lon_deg - CENTRE[0]) < 1e-6, camera
+    assert asked == [], "no height lookup"
+    assert plugin.dock.message.text() == ""
 
 
 def test_a_heading_of_0_left_out_of_the_json_is_shown_as_0(plugin: Any, daemon: Reliefd) -> None:
