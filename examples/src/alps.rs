@@ -109,34 +109,7 @@ kind = "gdal"
 path = "landcover.tif"
 resampling = "nearest"
 
-# The forest: trees and shrubs scattered over the land cover, each class by
-# its own rule, anchored on the DEM. Grass and rock (4) have no rule.
-[[source]]
-id = "forest"
-kind = "scatter"
-inputs = ["landcover", "dem"]
-seed = 1
-
-[[source.rule]]
-class = 1
-models = { conifer = 0.85, broadleaf = 0.15 }
-density = 21000
-spacing = 2
-scale = [0.7, 1.3]
-
-[[source.rule]]
-class = 2
-models = { broadleaf = 0.8, conifer = 0.1, shrub = 0.1 }
-density = 21000
-spacing = 3
-scale = [0.6, 1.2]
-
-[[source.rule]]
-class = 3
-models = { shrub = 0.9, conifer = 0.1 }
-density = 8000
-scale = [0.5, 1.1]
-
+FOREST_SOURCES
 # The Lac de Sainte-Croix's mask: 1 where SRTM has its flat surface.
 [[source]]
 id = "lake"
@@ -195,6 +168,7 @@ pub const ALPS_CAMERA: [f64; 5] = [6.24, 43.63, 2600.0, 10.0, -26.0];
 fn manifest() -> String {
     let [lon, lat, alt, heading, pitch] = ALPS_CAMERA;
     ALPS_MANIFEST
+        .replace("FOREST_SOURCES\n", crate::FOREST_SOURCES)
         .replace("FOG_DENSITY", &FOG_DENSITY.to_string())
         .replace("CAM_LON", &lon.to_string())
         .replace("CAM_LAT", &lat.to_string())

@@ -200,6 +200,39 @@ pub fn write_rgb(path: &Path, spec: &RasterSpec<'_>, color: impl Fn(f64, f64) ->
     write_geotiff(path, spec, planes)
 }
 
+/// The demo forests' `scatter` source and its rules over the land cover's
+/// classes (1 conifer, 2 broadleaf, 3 shrubs; 4 grass and rock has none),
+/// shared by both demo scenes' manifests.
+pub(crate) const FOREST_SOURCES: &str = r#"# The forest: trees and shrubs scattered over the land cover, each class by
+# its own rule, anchored on the DEM. Grass and rock (4) have no rule.
+[[source]]
+id = "forest"
+kind = "scatter"
+inputs = ["landcover", "dem"]
+seed = 1
+
+[[source.rule]]
+class = 1
+models = { conifer = 0.85, broadleaf = 0.15 }
+density = 21000
+spacing = 2
+scale = [0.7, 1.3]
+
+[[source.rule]]
+class = 2
+models = { broadleaf = 0.8, conifer = 0.1, shrub = 0.1 }
+density = 21000
+spacing = 3
+scale = [0.6, 1.2]
+
+[[source.rule]]
+class = 3
+models = { shrub = 0.9, conifer = 0.1 }
+density = 8000
+scale = [0.5, 1.1]
+
+"#;
+
 const DEMO_MANIFEST: &str = r#"# The analytic demo range: written by relief-examples' write_demo_scene.
 [scene]
 name = "demo-range"
@@ -246,34 +279,7 @@ kind = "gdal"
 path = "landcover.tif"
 resampling = "nearest"
 
-# The forest: trees and shrubs scattered over the land cover, each class by
-# its own rule, anchored on the DEM. Grass and rock (4) have no rule.
-[[source]]
-id = "forest"
-kind = "scatter"
-inputs = ["landcover", "dem"]
-seed = 1
-
-[[source.rule]]
-class = 1
-models = { conifer = 0.85, broadleaf = 0.15 }
-density = 21000
-spacing = 2
-scale = [0.7, 1.3]
-
-[[source.rule]]
-class = 2
-models = { broadleaf = 0.8, conifer = 0.1, shrub = 0.1 }
-density = 21000
-spacing = 3
-scale = [0.6, 1.2]
-
-[[source.rule]]
-class = 3
-models = { shrub = 0.9, conifer = 0.1 }
-density = 8000
-scale = [0.5, 1.1]
-
+FOREST_SOURCES
 # The lake's mask: 1 where there is water (a raster; a rasterized polygon
 # layer's coverage would do as well).
 [[source]]
@@ -361,7 +367,7 @@ pub fn write_demo_scene(out: &Path) -> anyhow::Result<PathBuf> {
     write_classes(&out.join("landcover.tif"), &cover, demo_landcover)?;
     let lake = RasterSpec { nodata: None, ..cover };
     write_dem(&out.join("lake.tif"), &lake, |lon, lat| if in_demo_lake(lon, lat) { 1.0 } else { 0.0 })?;
-    write_manifest(out, DEMO_MANIFEST)
+    write_manifest(out, &DEMO_MANIFEST.replace("FOREST_SOURCES\n", FOREST_SOURCES))
 }
 
 /// Where the demo's town is (lon, lat) and how many buildings it has.
