@@ -33,6 +33,9 @@ ASPECT = 16 / 9
 
 #: How each relief.v1.SourceStatus reads in the list.
 STATUS_TEXT = {
+    # The enum's 0, which proto3 JSON leaves out ("" here).
+    "": "unspecified",
+    "SOURCE_STATUS_UNSPECIFIED": "unspecified",
     "SOURCE_STATUS_READY": "ready",
     "SOURCE_STATUS_ERROR": "error (last good version shown)",
     "SOURCE_STATUS_FAILED": "failed (nothing to show)",
@@ -253,6 +256,8 @@ class ReliefDock(QDockWidget):
             self.frame.clear_image("disconnected: no frame")
             self.sources.clear()
             self.show_message("")
+        elif self.frame.image().isNull():
+            self.frame.clear_image("connected: waiting for the first frame")
 
     def show_address_note(self, note: str) -> None:
         """What was assumed of the address typed (a default port), or why it

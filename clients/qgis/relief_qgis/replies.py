@@ -9,6 +9,8 @@ import json
 
 from qgis.PyQt.QtNetwork import QNetworkReply, QNetworkRequest
 
+from . import proto_json as pj
+
 #: The reply property holding why Qt did not trust the daemon's certificate.
 TLS_ERRORS = "relief_tls_errors"
 #: Qt 5 reports a transfer timeout as a cancel; Qt 6 has its own code.
@@ -22,8 +24,7 @@ def daemon_message(body: bytes) -> str:
         answer = json.loads(body.decode("utf-8"))
     except (ValueError, UnicodeDecodeError):
         return ""
-    message = answer.get("message") if isinstance(answer, dict) else None
-    return str(message) if message else ""
+    return pj.text(answer, "message")
 
 
 def not_relief(url: str, what: str) -> str:
@@ -69,5 +70,4 @@ def event_message(data: str) -> str:
         answer = json.loads(data)
     except ValueError:
         return data
-    message = answer.get("message") if isinstance(answer, dict) else None
-    return str(message) if message is not None else data
+    return pj.text(answer, "message") or data
