@@ -262,7 +262,7 @@ class DaemonLink(QObject):
             self._down(refusal)
             return
         self.probes += 1
-        self._get("/api/state", self._probed, on_error=self._down, timeout_s=ANSWER_TIMEOUT_S)
+        self._get("/api/state", self._probed, on_error=lambda why, _: self._down(why), timeout_s=ANSWER_TIMEOUT_S)
 
     def _probed(self, state: dict) -> None:
         if not self._running:
@@ -272,8 +272,9 @@ class DaemonLink(QObject):
             self._down(not_relief(self.url, "its /api/state is not a relief scene state"))
             return
         self.refused = 0
-        self._set_up(True, "")
+        # The state first: what listens to `reachable` may read it.
         self.state.emit(state)
+        self._set_up(True, "")
         # The dock's own view of the scene camera: its frames carry depth, so
         # the sliders turn the camera about the ground drawn at their centre.
         self._send("POST", "/api/views", {"followSceneCamera": True}, self._view_opened)
@@ -295,9 +296,10 @@ class DaemonLink(QObject):
         def answered(_: dict) -> None:
             self._beating = False
 
-        def unanswered(why: str) -> None:
+        def unanswered(why: str, status: int) -> None:
             self._beating = False
-            self._down(why)
+            if not status:  # An answer, even an error, is a daemon alive.
+                self._down(why)
 
         self._get("/api/camera", answered, on_error=unanswered, timeout_s=ANSWER_TIMEOUT_S)
 
@@ -425,7 +427,7 @@ class DaemonLink(QObject):
 
         query = urlencode({"points": f"{lon_deg!r},{lat_deg!r}"})
         self._get(
-            "/api/elevation?" + query, done, on_error=lambda why: callback(None, why), timeout_s=ELEVATION_TIMEOUT_S
+            "/api/elevation?" + query, done, on_error=lambda why, _: callback(None, why), timeout_s=ELEVATION_TIMEOUT_S
         )
 
     # ------------------------------------------------------------ plumbing
@@ -440,7 +442,7 @@ class DaemonLink(QObject):
         self,
         path: str,
         callback: Callable[[dict], None],
-        on_error: Optional[Callable[[str], None]] = None,
+        on_error: Optional[Callable[[str, int], None]] = None,
         timeout_s: float = CALL_TIMEOUT_S,
     ) -> None:
         self._track(self._manager.get(self._request(path, timeout_s)), timeout_s, callback, on_error)
@@ -457,7 +459,7 @@ class DaemonLink(QObject):
         reply: QNetworkReply,
         timeout_s: float,
         callback: Optional[Callable[[dict], None]],
-        on_error: Optional[Callable[[str], None]],
+        on_error: Optional[Callable[[str, int], None]],
     ) -> None:
         # Held until it ends: PyQt would let the garbage collector take a
         # reply only its own slot refers to, and the request with it.
@@ -475,7 +477,7 @@ class DaemonLink(QObject):
                     self.refused = 401
                 why = error_text(reply, url, timeout_s)
                 if on_error is not None:
-                    on_error(why)
+                    on_error(why, int(status or 0))
                 elif not status:
                     self._down(why)  # Not answered: the daemon is down.
                 else:
@@ -486,7 +488,7 @@ class DaemonLink(QObject):
             except (ValueError, UnicodeDecodeError):
                 why = not_relief(url, "its answer is not JSON")
                 if on_error is not None:
-                    on_error(why)
+                    on_error(why, int(status or 200))
                 else:
                     self.failed.emit(why)
                 return

@@ -6,9 +6,10 @@ Follow map is applied again whenever the daemon becomes reachable (a
 reconnect, a new address): a daemon that restarted has its own camera.
 When the ground height at the map's centre is not known (the lookup
 failed, timed out, or the height layer has no data there), the camera is
-not moved (a scene with no height layer at all has its ground at 0 m): a guessed ground (0 m, or a height from elsewhere) could put it
+not moved: a guessed ground (0 m, or a height from elsewhere) could put it
 under the terrain and draw a black frame. The dock says why, and the next
-map move or reconnect tries again."""
+map move or reconnect tries again. (A scene whose state names no height
+layer has its ground at 0 m: there is nothing to look up.)"""
 
 from __future__ import annotations
 
