@@ -35,24 +35,35 @@ def test_follow_is_applied_again_when_the_daemon_comes_back(plugin: Any, daemon:
     with relief.connect(daemon.address) as client:
         wait_until(lambda: follows(client), 10, "the camera follows the map")
     address = daemon.address
-    daemon.stop()
-    wait_until(plugin.dock.banner.isVisible, 20, "the banner shows")
-    sent = plugin.cameras_sent
-    daemon.listen = address
-    daemon.start()  # A new process: the manifest's camera, not the map's.
-    with relief.connect(daemon.address) as client:
-        wait_until(lambda: follows(client), 30, "the camera follows the map again after the reconnect")
-    assert plugin.cameras_sent > sent
+    # The map stays still: no map signal (the banner resizing the window's
+    # canvas would send one here) may stand in for the reconnect.
+    host.canvas.blockSignals(True)
+    try:
+        daemon.stop()
+        wait_until(plugin.dock.banner.isVisible, 20, "the banner shows")
+        sent = plugin.cameras_sent
+        daemon.listen = address
+        daemon.start()  # A new process: the manifest's camera, not the map's.
+        with relief.connect(daemon.address) as client:
+            wait_until(lambda: follows(client), 30, "the camera follows the map again after the reconnect")
+        assert plugin.cameras_sent > sent
+    finally:
+        host.canvas.blockSignals(False)
 
 
 def test_follow_is_applied_to_a_new_address(plugin: Any, host: Any, scene: HillScene) -> None:
     show_hill(host, CENTRE)
     plugin.dock.follow.setChecked(True)
-    with Reliefd(scene.manifest) as other, relief.connect(other.address) as client:
-        assert not follows(client), "the other daemon starts from its manifest's camera"
-        plugin.dock.address.setText(other.address)
-        plugin.dock.address.editingFinished.emit()
-        wait_until(lambda: follows(client), 30, "the new daemon's camera follows the map")
+    wait_until(lambda: plugin.cameras_sent > 0, 10, "the camera follows the map")
+    host.canvas.blockSignals(True)  # As above: only the new address may move it.
+    try:
+        with Reliefd(scene.manifest) as other, relief.connect(other.address) as client:
+            assert not follows(client), "the other daemon starts from its manifest's camera"
+            plugin.dock.address.setText(other.address)
+            plugin.dock.address.editingFinished.emit()
+            wait_until(lambda: follows(client), 30, "the new daemon's camera follows the map")
+    finally:
+        host.canvas.blockSignals(False)
 
 
 def test_a_failed_height_lookup_leaves_the_camera_above_the_terrain(plugin: Any, daemon: Reliefd, host: Any) -> None:
