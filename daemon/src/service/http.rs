@@ -239,7 +239,7 @@ async fn frames(State(c): Shared, Query(q): Params) -> Result<impl IntoResponse,
     Ok(sse("frame", c.view.stream_frames(&request)?))
 }
 
-/// Frames on a WebSocket, each one binary message (`ws_frame`); the
+/// Frames on a WebSocket, each one binary message (`tab::ws_frame`); the
 /// stream is checked before the upgrade, so a bad request is an HTTP
 /// error. Ends with a text message `{"error": ...}` when the view fails.
 /// With `events=1` (and `from=N`) it is a browser tab's one connection:
@@ -268,21 +268,6 @@ async fn frames_ws(
         let _hold = hold;
         tab::serve(socket, frames, events, tab).await;
     }))
-}
-
-/// One frame as a binary WebSocket message: the length of a JSON header
-/// (4 bytes, little-endian), the header `{"frame": RenderResponse}` in
-/// the proto3 JSON mapping without its image, then the image's bytes
-/// (PNG, JPEG or RGBA8 as `frame.format` says). A header that names
-/// another member than "frame" may follow on the same connection.
-pub fn ws_frame(mut frame: pb::RenderResponse) -> Bytes {
-    let image = std::mem::take(&mut frame.image);
-    let header = serde_json::json!({ "frame": frame }).to_string();
-    let mut out = Vec::with_capacity(4 + header.len() + image.len());
-    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
-    out.extend_from_slice(header.as_bytes());
-    out.extend_from_slice(&image);
-    Bytes::from(out)
 }
 
 async fn open_view(State(c): Shared, Extension(holder): Extension<Holder>, bytes: Bytes) -> Reply<pb::ViewState> {

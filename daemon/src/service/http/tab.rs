@@ -16,6 +16,7 @@
 
 use std::sync::Arc;
 
+use axum::body::Bytes;
 use axum::extract::ws::{Message, WebSocket};
 use relief_proto::v1 as pb;
 use serde_json::{Value, json};
@@ -25,7 +26,6 @@ use tonic::Status;
 use super::super::auth::{Holder, Scope};
 use super::super::calls::Calls;
 use super::super::status::error_body;
-use super::ws_frame;
 
 /// How long a message may take to leave before the socket is closed (a
 /// viewer that stopped reading).
@@ -141,4 +141,19 @@ async fn call(tab: &Tab, message: &Value) -> Result<(&'static str, Value), Statu
         return encoded("state", &tab.calls.scene.state());
     }
     Err(Status::invalid_argument("unknown message on the socket: navigate, update, pick, home or state"))
+}
+
+/// One frame as a binary WebSocket message: the length of a JSON header
+/// (4 bytes, little-endian), the header `{"frame": RenderResponse}` in
+/// the proto3 JSON mapping without its image, then the image's bytes
+/// (PNG, JPEG or RGBA8 as `frame.format` says). A header that names
+/// another member than "frame" may follow on the same connection.
+pub fn ws_frame(mut frame: pb::RenderResponse) -> Bytes {
+    let image = std::mem::take(&mut frame.image);
+    let header = serde_json::json!({ "frame": frame }).to_string();
+    let mut out = Vec::with_capacity(4 + header.len() + image.len());
+    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    out.extend_from_slice(&image);
+    Bytes::from(out)
 }
