@@ -1,0 +1,15 @@
+/// Why a standard tile cannot be made.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StandardTileError {
+    #[error("cannot mesh height tile: {samples} samples is not (2^k+1)^2 with k >= 1")]
+    NotPowerOfTwoPlusOne { samples: usize },
+    #[error("cannot mesh height tile: {samples} samples, but size {size} needs {expected}")]
+    WrongSampleCount { size: usize, samples: usize, expected: usize },
+    #[error("cannot encode quantized-mesh: the format is EPSG:4326 or EPSG:3857 only, and the scene's grid is {crs}")]
+    NotGeodetic { crs: String },
+    #[error("cannot encode quantized-mesh: tile {key} is not in the grid")]
+    KeyOutsideGrid { key: relief_source::TileKey },
+    #[error("cannot encode quantized-mesh: the mesh has no triangles")]
+    EmptyMesh,
+}

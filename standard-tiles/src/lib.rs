@@ -1,0 +1,37 @@
+//! relief's terrain in the standard tile formats that 3D clients already read.
+//!
+//! This first piece serves CesiumJS and Cesium-native: height tiles become
+//! quantized-mesh-1.0 terrain.
+//!
+//! - `rtin.rs`: [`Rtin`], the right-triangulated irregular network (Evans et
+//!   al. 2001, as in Mapbox's Martini) over a height tile's (2^k+1)^2 samples,
+//!   with one accuracy knob, `terrain_mesh_error_m`, held exactly (every
+//!   sample within it of the mesh).
+//! - `quantized_mesh.rs`: [`encode_quantized_mesh`], the quantized-mesh-1.0
+//!   encoder (header, vertices, high-water-mark indices, edge lists, the
+//!   `octvertexnormals` extension) and [`gzip`].
+//! - `tms.rs`: relief's tile keys (y from the north) and quantized-mesh's TMS
+//!   rows (y from the south).
+//! - `stats.rs`: [`mesh_stats`], triangles, bytes and measured error of one
+//!   tile at one knob, for benches and `make accuracy`.
+//!
+//! **Architecture invariant:** depends on relief-source only (its grid,
+//! payloads and geodesy) of relief's crates; never on GDAL, the engine or the
+//! renderer.
+
+mod error;
+mod quantized_mesh;
+mod rtin;
+mod stats;
+mod tms;
+
+#[cfg(test)]
+mod decode;
+
+pub use error::StandardTileError;
+pub use quantized_mesh::{
+    EncodeOptions, QuantizedMeshHeader, encode_quantized_mesh, gzip, horizon_occlusion_point, oct_encode,
+};
+pub use rtin::{EdgeVertices, Rtin, TerrainMesh};
+pub use stats::{MeshStats, mesh_stats};
+pub use tms::{key_from_tms, tms_from_key};
