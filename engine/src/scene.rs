@@ -336,14 +336,13 @@ impl Scene {
         let old = self.snapshot();
         // A call's values stay in force over the edit, less those whose
         // source or effect the edit removed.
-        let overrides = {
-            let held = self.parameters.read().expect("scene lock is never poisoned").0.clone();
-            match Manifest::read(&self.manifest_path).and_then(|t| Manifest::table(&t, &self.manifest_path)) {
-                Ok(table) => held.still_applicable(&table),
-                Err(_) => held,
-            }
-        };
-        let (new, open_errors) = match self.build(&overrides, &old) {
+        let held = self.parameters.read().expect("scene lock is never poisoned").0.clone();
+        let built = self.read_manifest().and_then(|(text, table)| {
+            let overrides = held.still_applicable(&table);
+            let built = self.build(&text, &table, &overrides, &old)?;
+            Ok((built, overrides, table))
+        });
+        let ((new, open_errors), overrides, table) = match built {
             Ok(b) => b,
             Err(error) => {
                 tracing::warn!("{error}; keeping the scene as it was");
@@ -353,7 +352,7 @@ impl Scene {
             }
         };
         *self.manifest_error.write().expect("scene lock is never poisoned") = None;
-        self.keep_parameters(overrides);
+        self.keep_parameters(overrides, &table);
         let reason =
             if old.manifest.grid == new.manifest.grid { "manifest edited" } else { "manifest edited (new grid)" };
         self.publish_manifest(&old, new, &open_errors, reason, started)
@@ -371,14 +370,15 @@ impl Scene {
         let target = Target::parse(target)?;
         let held = self.parameters.read().expect("scene lock is never poisoned").0.clone();
         let next = held.with(target.clone(), name, value.map(parameters::parse_value))?;
-        let (new, open_errors) = self.build(&next, &old)?;
+        let (text, table) = self.read_manifest()?;
+        let (new, open_errors) = self.build(&text, &table, &next, &old)?;
         if let Target::Source(id) = &target
             && let Some(e) =
                 open_errors.iter().find(|e| matches!(e, LoadError::Source { source_id, .. } if source_id == id))
         {
             return Err(e.to_string());
         }
-        self.keep_parameters(next);
+        self.keep_parameters(next, &table);
         let reason = match value {
             Some(v) => format!("parameter set: {} {name} = {}", target.name(), relief_source::echo::echoed(v)),
             None => format!("parameter reset to the manifest's: {} {name}", target.name()),
@@ -391,23 +391,34 @@ impl Scene {
         self.parameters.read().expect("scene lock is never poisoned").1.clone()
     }
 
-    fn keep_parameters(&self, overrides: Overrides) {
-        let shown = Manifest::read(&self.manifest_path)
-            .and_then(|t| Manifest::table(&t, &self.manifest_path))
-            .map(|table| overrides.in_force(&table))
-            .unwrap_or_default();
+    /// Keeps `overrides`, shown beside the manifest's values (`table`).
+    fn keep_parameters(&self, overrides: Overrides, table: &toml::Table) {
+        let shown = overrides.in_force(table);
         *self.parameters.write().expect("scene lock is never poisoned") = (overrides, shown);
+    }
+
+    /// The manifest's text and its TOML, read once for a rebuild.
+    fn read_manifest(&self) -> Result<(String, toml::Table), String> {
+        let path = &self.manifest_path;
+        let text = Manifest::read(path).map_err(|e| e.to_string())?;
+        let table = Manifest::table(&text, path).map_err(|e| e.to_string())?;
+        Ok((text, table))
     }
 
     /// The scene the manifest describes with `overrides` laid over it, held
     /// to the server's check, built over `old` (unchanged sources kept).
-    fn build(&self, overrides: &Overrides, old: &SceneSnapshot) -> Result<(SceneSnapshot, Vec<LoadError>), String> {
+    fn build(
+        &self,
+        text: &str,
+        table: &toml::Table,
+        overrides: &Overrides,
+        old: &SceneSnapshot,
+    ) -> Result<(SceneSnapshot, Vec<LoadError>), String> {
         let path = &self.manifest_path;
-        let text = Manifest::read(path).map_err(|e| e.to_string())?;
         let manifest = if overrides.is_empty() {
-            Manifest::parse(&text, path).map_err(|e| e.to_string())?
+            Manifest::parse(text, path).map_err(|e| e.to_string())?
         } else {
-            let mut table = Manifest::table(&text, path).map_err(|e| e.to_string())?;
+            let mut table = table.clone();
             overrides.apply(&mut table)?;
             let laid =
                 toml::to_string(&table).map_err(|e| format!("cannot lay the parameters over the manifest: {e}"))?;

@@ -18,6 +18,15 @@ use tokio_tungstenite::tungstenite::Message;
 
 type Pending = Arc<Mutex<HashMap<u64, oneshot::Sender<Value>>>>;
 
+/// True when Chromium is here; else a note on stderr, and the test skips.
+pub fn available() -> bool {
+    let found = chromium_path().is_some();
+    if !found {
+        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+    }
+    found
+}
+
 /// Where Debian puts Chromium; `RELIEF_CHROMIUM` overrides it.
 pub fn chromium_path() -> Option<PathBuf> {
     if let Ok(p) = std::env::var("RELIEF_CHROMIUM") {

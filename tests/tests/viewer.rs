@@ -11,7 +11,7 @@ use std::time::Duration;
 use base64::Engine as _;
 use relief_proto::v1 as pb;
 use relief_proto::v1::view_service_client::ViewServiceClient;
-use relief_tests::browser::{Browser, chromium_path};
+use relief_tests::browser::{self, Browser};
 use relief_tests::daemon::Reliefd;
 use relief_tests::{edit, scenes};
 use tonic::transport::Channel;
@@ -71,8 +71,7 @@ async fn open(daemon: &Reliefd) -> Browser {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
-    if chromium_path().is_none() {
-        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+    if !browser::available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -173,8 +172,7 @@ async fn the_page_shows_frames_edits_and_errors_as_the_daemon_serves_them() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_drag_moves_the_tabs_own_camera_and_the_scene_camera_in_follow_mode() {
-    if chromium_path().is_none() {
-        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+    if !browser::available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -380,8 +378,7 @@ fn gestures_keep_the_camera_above_the_ground_and_inside_the_scene() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn wheel_notches_in_the_page_keep_the_camera_above_the_ground() {
-    if chromium_path().is_none() {
-        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+    if !browser::available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -415,8 +412,7 @@ async fn wheel_notches_in_the_page_keep_the_camera_above_the_ground() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn six_tabs_show_frames_and_steer_their_own_cameras_and_back_recovers() {
-    if chromium_path().is_none() {
-        eprintln!("SKIPPED: no chromium (scripts/setup.sh installs it; CI has it)");
+    if !browser::available() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -5,9 +5,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use notify::event::{AccessKind, AccessMode, EventKind, ModifyKind, RenameMode};
-use relief_source::files::{
-    Member, WHOLE_FOLDER_LOCK, dataset_key, is_repack_marker, is_sqlite, is_write_lock, member,
-};
+use relief_source::files::{Member, dataset_key, is_repack_marker, is_sqlite, member, write_lock_holds};
 
 use crate::manifest::WatchSettings;
 
@@ -177,9 +175,7 @@ pub(super) fn busy(dir: &Path, stems: &std::collections::BTreeSet<&str>) -> Busy
             busy.repacking |= is_repack_marker(&p);
             busy.journal |= member(&p) == Member::SqliteJournal;
         }
-        if stems.contains(stem.as_str()) || stem == WHOLE_FOLDER_LOCK {
-            busy.locked |= is_write_lock(&p);
-        }
+        busy.locked |= write_lock_holds(&p, |s| stems.contains(s));
     }
     busy
 }

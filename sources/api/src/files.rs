@@ -45,6 +45,14 @@ pub fn is_write_lock(path: &Path) -> bool {
     lower.ends_with(".lock") && !lower.ends_with(".sr.lock") && !lower.ends_with(".rd.lock")
 }
 
+/// True when `path` is an editor's write lock (`is_write_lock`) on a
+/// dataset `held` says is of interest (by its lower-case stem), or on every
+/// dataset of its folder (`WHOLE_FOLDER_LOCK`): the one rule the watcher
+/// waits by and a source reports by.
+pub fn write_lock_holds(path: &Path, held: impl Fn(&str) -> bool) -> bool {
+    is_write_lock(path) && dataset_key(path).is_some_and(|(_, stem)| stem == WHOLE_FOLDER_LOCK || held(&stem))
+}
+
 /// The part a file plays in its dataset.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Member {

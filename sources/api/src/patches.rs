@@ -302,11 +302,11 @@ impl PatchCounts {
 /// for the renderer to set on the ground.
 pub fn mesh<'a>(features: impl Iterator<Item = &'a Feature>, geodetic: bool, style: &PatchStyle) -> MeshTile {
     let mut mesh = MeshTile::default();
+    let relative = style.z == ZPolicy::Relative;
     for feature in features {
         let Geometry::Polygons(polygons) = &feature.geometry else { continue };
         let first_index = mesh.indices.len() as u32;
         for polygon in polygons {
-            let relative = style.z == ZPolicy::Relative;
             let t = match triangulate(polygon, geodetic) {
                 Ok(t) if !relative && t.points.iter().any(|p| p[2].is_nan()) => {
                     Err("a patch without heights (z), drawn at absolute heights")
@@ -326,13 +326,7 @@ pub fn mesh<'a>(features: impl Iterator<Item = &'a Feature>, geodetic: bool, sty
         let index_count = mesh.indices.len() as u32 - first_index;
         if index_count > 0 {
             let color = feature_color(feature, style.color_by.as_deref(), style.color);
-            mesh.parts.push(MeshPart {
-                feature_id: feature.id,
-                first_index,
-                index_count,
-                color,
-                on_ground: style.z == ZPolicy::Relative,
-            });
+            mesh.parts.push(MeshPart { feature_id: feature.id, first_index, index_count, color, on_ground: relative });
         }
     }
     mesh

@@ -45,8 +45,9 @@ pub trait VectorFormat: Send + Sync + std::fmt::Debug + 'static {
     /// The manifest kind.
     const KIND: &'static str;
 
-    /// Reads the dataset whose primary file is `path`. Options are checked here.
-    fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError>;
+    /// Reads the dataset whose primary file is `path`; `stamped` is what
+    /// `Self::stamped` named for this read. Options are checked here.
+    fn read(spec: &SourceSpec, path: &Path, stamped: &[PathBuf]) -> Result<VectorRead, SourceError>;
 
     /// The files whose datasets (`files::dataset_files`) a read of `path`
     /// depends on: stamped before and after each read, and compared by a
@@ -89,7 +90,7 @@ impl<F: VectorFormat> VectorSource<F> {
         };
         let stamped = F::stamped(spec, path)?;
         let fingerprint = Fingerprint::of_each(&stamped, F::KIND)?;
-        let mut read = F::read(spec, path)?;
+        let mut read = F::read(spec, path, &stamped)?;
         if Fingerprint::of_each(&stamped, F::KIND)? != fingerprint {
             return Err(SourceError::Changing { path: path.clone() });
         }

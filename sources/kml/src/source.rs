@@ -20,7 +20,7 @@ pub type KmlSource = VectorSource<Kml>;
 impl VectorFormat for Kml {
     const KIND: &'static str = KIND;
 
-    fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
+    fn read(spec: &SourceSpec, path: &Path, _stamped: &[std::path::PathBuf]) -> Result<VectorRead, SourceError> {
         spec.only_options(&[])?;
         let text = text(path, &Limits::default())?;
         let tidied = tidy(&text, path)?;

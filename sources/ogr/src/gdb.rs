@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use gdal::vector::LayerAccess;
 use gdal::{Dataset, DatasetOptions, GdalOpenFlags};
 use relief_source::SourceError;
-use relief_source::files::{WHOLE_FOLDER_LOCK, is_write_lock};
+use relief_source::files::write_lock_holds;
 
 /// The catalog's own table.
 const CATALOG: &str = "a00000001.gdbtable";
@@ -96,11 +96,7 @@ pub(crate) fn write_locks(table: &Path) -> Vec<String> {
     let mut locks: Vec<String> = entries
         .flatten()
         .filter_map(|e| e.file_name().to_str().map(str::to_owned))
-        .filter(|name| {
-            let owner = name.split('.').next().unwrap_or_default();
-            is_write_lock(Path::new(name))
-                && (owner.eq_ignore_ascii_case(stem) || owner.eq_ignore_ascii_case(WHOLE_FOLDER_LOCK))
-        })
+        .filter(|name| write_lock_holds(Path::new(name), |s| s.eq_ignore_ascii_case(stem)))
         .collect();
     locks.sort();
     locks

@@ -76,7 +76,7 @@ fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
 impl VectorFormat for Ogr {
     const KIND: &'static str = KIND;
 
-    fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
+    fn read(spec: &SourceSpec, path: &Path, stamped: &[PathBuf]) -> Result<VectorRead, SourceError> {
         spec.only_options(&[&["layer", "crs"], relief_source::patches::OPTIONS].concat())?;
         let wanted = spec.text("layer")?;
         let crs_option = spec.text("crs")?;
@@ -87,9 +87,9 @@ impl VectorFormat for Ogr {
             // meanwhile. Nothing is written; dropping it rolls nothing back.
             let snapshot =
                 ds.start_transaction().map_err(|e| failure(e, path, wanted, "cannot start a read transaction"))?;
-            read_dataset(&snapshot, wanted, crs_option, path)
+            read_dataset(&snapshot, wanted, crs_option, path, stamped)
         } else {
-            read_dataset(&ds, wanted, crs_option, path)
+            read_dataset(&ds, wanted, crs_option, path, stamped)
         }
     }
 
@@ -115,6 +115,7 @@ fn read_dataset(
     wanted: Option<&str>,
     crs_option: Option<&str>,
     path: &Path,
+    stamped: &[PathBuf],
 ) -> Result<VectorRead, SourceError> {
     let driver = ds.driver().short_name();
     let names: Vec<String> = ds.layers().map(|l| l.name()).collect();
@@ -137,9 +138,9 @@ fn read_dataset(
     };
     let stable_fids = STABLE_FID_DRIVERS.contains(&driver.as_str());
     let geodatabase = gdb::is_gdb(path);
-    // A geodatabase layer's files: its table's (named in errors) and the catalog's.
-    let stamped = if geodatabase { gdb::stamped(path, Some(&layer.name()))? } else { Vec::new() };
-    let table = stamped.first().filter(|t| stamped.len() > 1 && t.exists());
+    // A geodatabase layer's files, as `stamped` found them: its table's
+    // (named in errors) and the catalog's.
+    let table = stamped.first().filter(|t| geodatabase && stamped.len() > 1 && t.exists());
     let read = read_layer(&mut layer, stable_fids, table.map_or(path, PathBuf::as_path))?;
     let surfaces = read.surfaces
         || (geodatabase && gdb::is_multipatch(ds, &layer.name()))

@@ -106,7 +106,8 @@ fn spec(path: &Path, options: &[(&str, &str)]) -> SourceSpec {
 }
 
 fn read(path: &Path, options: &[(&str, &str)]) -> Result<VectorRead, SourceError> {
-    Ogr::read(&spec(path, options), path)
+    let spec = spec(path, options);
+    Ogr::read(&spec, path, &Ogr::stamped(&spec, path)?)
 }
 
 /// A geometry with NaN (no z) made comparable.
@@ -254,7 +255,8 @@ fn a_shapefile_reads_as_the_shapefile_source_reads_it() {
     let path = write("ESRI Shapefile", &dir.path().join("parcels.shp"), &[layer]);
     let via_ogr = read(&path, &[]).expect("read through OGR");
     let spec = SourceSpec { kind: "shapefile".into(), ..spec(&path, &[]) };
-    let via_shapefile = relief_source_shapefile::Shapefile::read(&spec, &path).expect("read by the shapefile crate");
+    let via_shapefile = relief_source_shapefile::Shapefile::read(&spec, &path, std::slice::from_ref(&path))
+        .expect("read by the shapefile crate");
     assert_eq!(via_ogr.details["driver"], "ESRI Shapefile");
     assert_eq!(via_ogr.details["ids"], "read order");
     assert_features(&via_ogr.features, &via_shapefile.features);

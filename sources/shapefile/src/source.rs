@@ -30,7 +30,7 @@ impl VectorFormat for Shapefile {
     /// `path` is a .shp, or a .zip holding one (the `layer` option names
     /// it when the zip holds several). The zip is the file watched: an edit
     /// of it reloads the source.
-    fn read(spec: &SourceSpec, path: &Path) -> Result<VectorRead, SourceError> {
+    fn read(spec: &SourceSpec, path: &Path, _stamped: &[std::path::PathBuf]) -> Result<VectorRead, SourceError> {
         spec.only_options(&[&["crs", "layer"], relief_source::patches::OPTIONS].concat())?;
         let layer = spec.text("layer")?;
         let (dataset, zip_member) = if has_extension(path, "zip") {
