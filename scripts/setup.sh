@@ -3,7 +3,10 @@
 # the tests of the browser viewer and the HTTP transport; python3-venv for the
 # Python client's tests; qgis and python3-qgis for the QGIS plugin's tests,
 # which run PyQGIS headless; redis-server for the replicas' shared tile
-# cache, which the tests start on a private socket). Safe to run again: it only
+# cache, which the tests start on a private socket; nodejs and npm for the
+# standard-tiles tests, which read relief's tiles with CesiumJS, MapLibre and
+# gltf-validator installed by `npm ci` from tests/npm's lockfile; a Node.js
+# already here, with its npm, is used as it is). Safe to run again: it only
 # calls apt-get when something is missing. Retries once, because an install on
 # this kind of machine has been seen to fail half way (STACK.md).
 set -euo pipefail
@@ -16,6 +19,11 @@ packages=(
   qgis python3-qgis
   redis-server
 )
+# A Node.js from elsewhere (NodeSource's carries npm) stays; Debian's
+# otherwise.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

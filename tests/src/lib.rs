@@ -9,6 +9,7 @@ pub mod browser;
 pub mod daemon;
 pub mod edit;
 pub mod http;
+pub mod npm;
 pub mod probe;
 pub mod qgis;
 pub mod redis;
