@@ -34,6 +34,9 @@ pub const ASSETS: &[Asset] = &[
     Asset { path: "/js/camera.js", content_type: JS, body: include_str!("../js/camera.js") },
     Asset { path: "/js/picking.js", content_type: JS, body: include_str!("../js/picking.js") },
     Asset { path: "/js/dirty.js", content_type: JS, body: include_str!("../js/dirty.js") },
+    // Not the viewer's: the helper that keeps CesiumJS and MapLibre GL JS
+    // views of the standard tiles (/tiles/) live, for pages of their own.
+    Asset { path: "/js/relief-tiles.js", content_type: JS, body: include_str!("../js/relief-tiles.js") },
 ];
 
 /// Modules must be served as JavaScript: a browser refuses a module of any
