@@ -17,5 +17,6 @@ pub mod navigate;
 pub mod picture;
 pub mod scene_tiles;
 pub mod service;
+pub mod standard;
 pub mod sun;
 pub mod view;

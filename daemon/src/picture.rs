@@ -22,6 +22,11 @@ pub const DEFAULT_INTERACTIVE_SCALE: f64 = 0.5;
 /// bytes and encode time).
 pub const DEFAULT_FRAME_JPEG_QUALITY: u8 = 80;
 
+/// Default of `[quality] terrain_mesh_error_m`: the quantized-mesh
+/// terrain's largest vertical error at its finest level, metres (`make
+/// accuracy` shows its error against time and bytes per tile).
+pub const DEFAULT_TERRAIN_MESH_ERROR_M: f64 = 1.0;
+
 /// Checks a JPEG quality knob: 1 to 100.
 pub fn jpeg_quality(q: u32) -> Result<u8, String> {
     u8::try_from(q).ok().filter(|q| (1..=100).contains(q)).ok_or_else(|| format!("{q} is not from 1 to 100"))
@@ -43,6 +48,9 @@ pub struct Picture {
     /// The instances layer's distance bands and where models give way to
     /// billboards.
     pub bands: InstanceBands,
+    /// The quantized-mesh terrain's largest vertical error at its finest
+    /// level, metres; each coarser level allows twice its child's.
+    pub terrain_mesh_error_m: f64,
     pub camera: RawCamera,
     /// Where the sun is (`[sun]`): what lighting follows.
     pub sun: Sun,
@@ -114,6 +122,10 @@ impl Picture {
             .frame_jpeg_quality
             .map_or(Ok(DEFAULT_FRAME_JPEG_QUALITY), jpeg_quality)
             .map_err(|message| field("quality.frame_jpeg_quality", message))?;
+        let terrain_mesh_error_m = knobs.terrain_mesh_error_m.unwrap_or(DEFAULT_TERRAIN_MESH_ERROR_M);
+        if !(terrain_mesh_error_m.is_finite() && (0.0..=1000.0).contains(&terrain_mesh_error_m)) {
+            return Err(field("quality.terrain_mesh_error_m", format!("{terrain_mesh_error_m} is not from 0 to 1000 m")));
+        }
         let raw_sun = &section.sun;
         let time = match &raw_sun.time {
             None => None,
@@ -130,7 +142,16 @@ impl Picture {
                 format!("no declared effect follows the sun (declare one of {})", SUNLIT.join(", ")),
             ));
         }
-        Ok(Self { effect_settings, clipmap, interactive_scale, frame_jpeg_quality, bands, camera: section.camera, sun })
+        Ok(Self {
+            effect_settings,
+            clipmap,
+            interactive_scale,
+            frame_jpeg_quality,
+            bands,
+            terrain_mesh_error_m,
+            camera: section.camera,
+            sun,
+        })
     }
 
     /// The picture of a served manifest, parsed once per manifest (the
@@ -161,6 +182,7 @@ impl Picture {
             interactive_scale: DEFAULT_INTERACTIVE_SCALE,
             frame_jpeg_quality: DEFAULT_FRAME_JPEG_QUALITY,
             bands: InstanceBands::default(),
+            terrain_mesh_error_m: DEFAULT_TERRAIN_MESH_ERROR_M,
             camera: manifest.picture.camera,
             sun: Sun::default(),
         }

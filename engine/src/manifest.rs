@@ -167,6 +167,7 @@ struct RawQuality {
     shadow_cascades: Option<u32>,
     shadow_map_size: Option<u32>,
     detail_octaves: Option<u32>,
+    terrain_mesh_error_m: Option<f64>,
 }
 
 /// The `[quality]` knobs of the picture (the renderer's), as written.
@@ -185,6 +186,9 @@ pub struct PictureKnobs {
     pub shadow_cascades: Option<u32>,
     pub shadow_map_size: Option<u32>,
     pub detail_octaves: Option<u32>,
+    /// The quantized-mesh terrain's largest vertical error at its finest
+    /// level, metres (each coarser level allows twice its child's).
+    pub terrain_mesh_error_m: Option<f64>,
 }
 
 /// What the manifest says of the picture, as written: the declared
@@ -549,6 +553,7 @@ impl Manifest {
                     shadow_cascades: raw.quality.shadow_cascades,
                     shadow_map_size: raw.quality.shadow_map_size,
                     detail_octaves: raw.quality.detail_octaves,
+                    terrain_mesh_error_m: raw.quality.terrain_mesh_error_m,
                 },
                 camera: raw.camera.unwrap_or_default(),
                 sun: raw.sun,

@@ -12,4 +12,6 @@ pub enum StandardTileError {
     KeyOutsideGrid { key: relief_source::TileKey },
     #[error("cannot encode quantized-mesh: the mesh has no triangles")]
     EmptyMesh,
+    #[error("cannot encode quantized-mesh: a water mask has {cells} cells, not 256 x 256")]
+    WaterMaskSize { cells: usize },
 }

@@ -30,7 +30,7 @@ mod decode;
 
 pub use error::StandardTileError;
 pub use quantized_mesh::{
-    EncodeOptions, QuantizedMeshHeader, encode_quantized_mesh, gzip, horizon_occlusion_point, oct_encode,
+    EncodeOptions, QuantizedMeshHeader, WATER_MASK_SIZE, encode_quantized_mesh, gzip, horizon_occlusion_point, oct_encode,
 };
 pub use rtin::{EdgeVertices, Rtin, TerrainMesh};
 pub use stats::{MeshStats, mesh_stats};

@@ -29,11 +29,19 @@ use crate::{StandardTileError, TerrainMesh};
 const MAX_QUANTIZED: f64 = 32767.0;
 /// The extension id of oct-encoded per-vertex normals.
 const OCT_VERTEX_NORMALS: u8 = 1;
+/// The extension id of the water mask.
+const WATER_MASK: u8 = 2;
+/// Cells a side of a full water mask.
+pub const WATER_MASK_SIZE: usize = 256;
 
 /// Which optional parts to write (the client's `Accept` extensions).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct EncodeOptions {
+pub struct EncodeOptions<'a> {
     pub octvertexnormals: bool,
+    /// The `watermask` extension: 0 land to 255 water per cell,
+    /// [`WATER_MASK_SIZE`] a side from the north-west corner, row by row
+    /// (written as one byte when every cell is the same).
+    pub watermask: Option<&'a [u8]>,
 }
 
 /// The quantized-mesh header, in the order the file holds it.
@@ -74,7 +82,7 @@ pub fn encode_quantized_mesh(
     mesh: &TerrainMesh,
     grid: &TileGrid,
     key: TileKey,
-    options: EncodeOptions,
+    options: EncodeOptions<'_>,
 ) -> Result<Vec<u8>, StandardTileError> {
     if !grid.is_geodetic() {
         return Err(StandardTileError::NotGeodetic { crs: grid.crs().to_owned() });
@@ -215,6 +223,19 @@ pub fn encode_quantized_mesh(
             };
             out.push(x);
             out.push(y);
+        }
+    }
+    if let Some(mask) = options.watermask {
+        if mask.len() != WATER_MASK_SIZE * WATER_MASK_SIZE {
+            return Err(StandardTileError::WaterMaskSize { cells: mask.len() });
+        }
+        out.push(WATER_MASK);
+        if mask.iter().all(|&m| m == mask[0]) {
+            out.extend_from_slice(&1u32.to_le_bytes());
+            out.push(mask[0]);
+        } else {
+            out.extend_from_slice(&(mask.len() as u32).to_le_bytes());
+            out.extend_from_slice(mask);
         }
     }
     Ok(out)
@@ -477,7 +498,7 @@ mod tests {
         for knob in [0.0, 0.5, 5.0, 100.0] {
             let mesh = rtin.mesh(knob);
             for octvertexnormals in [false, true] {
-                let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals }).unwrap();
+                let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals, watermask: None }).unwrap();
                 let d = check_round_trip(&mesh, &grid, key, &bytes);
                 assert_eq!(d.extensions.len(), usize::from(octvertexnormals));
                 if octvertexnormals {
@@ -492,6 +513,26 @@ mod tests {
     }
 
     #[test]
+    fn a_water_mask_follows_the_normals_whole_or_as_one_byte() {
+        let grid = grid();
+        let key = TileKey::new(3, 10, 6);
+        let mesh = Rtin::new(&global_tile(CELLS, key, hill)).unwrap().mesh(5.0);
+        let mixed: Vec<u8> = (0..WATER_MASK_SIZE * WATER_MASK_SIZE).map(|k| if k % 7 == 0 { 255 } else { 0 }).collect();
+        let all_water = vec![255u8; WATER_MASK_SIZE * WATER_MASK_SIZE];
+        for (mask, written) in [(&mixed[..], &mixed[..]), (&all_water[..], &[255u8][..])] {
+            let options = EncodeOptions { octvertexnormals: true, watermask: Some(mask) };
+            let d = check_round_trip(&mesh, &grid, key, &encode_quantized_mesh(&mesh, &grid, key, options).unwrap());
+            assert_eq!(d.extensions.iter().map(|(id, _)| *id).collect::<Vec<_>>(), [1, 2]);
+            assert_eq!(d.extensions[1].1, written);
+        }
+        let short = EncodeOptions { octvertexnormals: false, watermask: Some(&mixed[..100]) };
+        assert!(matches!(
+            encode_quantized_mesh(&mesh, &grid, key, short),
+            Err(StandardTileError::WaterMaskSize { cells: 100 })
+        ));
+    }
+
+    #[test]
     fn more_than_65536_vertices_take_32_bit_indices_after_padding() {
         let grid = TileGrid::geodetic(256).unwrap();
         let key = TileKey::new(6, 40, 20);
@@ -500,7 +541,7 @@ mod tests {
         let rtin = Rtin::new(&tile).unwrap();
         let mesh = rtin.mesh(0.0);
         assert_eq!(mesh.vertices.len(), 257 * 257);
-        let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true }).unwrap();
+        let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true, watermask: None }).unwrap();
         // 88 + 4 + 6 * 66049 is 2 past a multiple of 4: two bytes of padding.
         assert_eq!(&bytes[88 + 4 + 6 * 66049..][..2], &[0, 0]);
         check_round_trip(&mesh, &grid, key, &bytes);
@@ -556,7 +597,7 @@ mod tests {
         {
             let rtin = Rtin::new(&global_tile(CELLS, key, f)).unwrap();
             let mesh = rtin.mesh(0.0);
-            let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true }).unwrap();
+            let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true, watermask: None }).unwrap();
             let d = decode(&bytes);
             let normals = &d.extensions[0].1;
             for (k, (x, y, _)) in dequantized(&d, CELLS).into_iter().enumerate() {

@@ -26,7 +26,7 @@ pub fn mesh_stats(
 ) -> Result<MeshStats, StandardTileError> {
     let rtin = Rtin::with_edges(tile, edges)?;
     let mesh = rtin.mesh(terrain_mesh_error_m);
-    let bytes = encode_quantized_mesh(&mesh, grid, key, EncodeOptions { octvertexnormals: true })?;
+    let bytes = encode_quantized_mesh(&mesh, grid, key, EncodeOptions { octvertexnormals: true, watermask: None })?;
     Ok(MeshStats {
         triangles: mesh.triangles.len(),
         vertices: mesh.vertices.len(),

@@ -121,7 +121,8 @@ fn same_bytes(a: &[u8], b: &[u8]) -> bool {
 
 /// The GET calls that take their token as an `access_token` query
 /// parameter (a browser's EventSource, WebSocket and image requests cannot
-/// set headers): streams and images, which only read.
+/// set headers): streams and images, which only read; and every standard
+/// tile under `/tiles/` (tile clients build their URLs from templates).
 const QUERY_TOKEN_PATHS: [&str; 4] = ["/api/events", "/api/frames", "/api/frames/ws", "/api/render"];
 
 /// The bearer token of a request, and whether it came in the query: the
@@ -133,7 +134,9 @@ fn bearer(request: &Request) -> Option<(String, bool)> {
         let (kind, token) = text.split_once(' ')?;
         return kind.eq_ignore_ascii_case("bearer").then(|| (token.trim().to_owned(), false));
     }
-    let streams = request.method() == axum::http::Method::GET && QUERY_TOKEN_PATHS.contains(&request.uri().path());
+    let path = request.uri().path();
+    let streams = request.method() == axum::http::Method::GET
+        && (QUERY_TOKEN_PATHS.contains(&path) || path.starts_with("/tiles/"));
     if !streams {
         return None;
     }

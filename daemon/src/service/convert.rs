@@ -6,6 +6,7 @@ use relief_source::{Extent, PayloadKind, Quality, TileGrid, TileKey};
 use tonic::Status;
 
 use crate::frames::FrameHub;
+use crate::standard::StandardTiles;
 use crate::manifest::EFFECTS;
 use crate::scene::{EventKind, Scene, SceneEvent};
 use crate::service::status::invalid_field;
@@ -94,7 +95,7 @@ fn grid_info(grid: &TileGrid) -> pb::GridInfo {
 }
 
 /// The whole state of `scene` at its current generation.
-pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
+pub fn scene_state(scene: &Scene, hub: &FrameHub, standard: &StandardTiles) -> pb::SceneState {
     let snap = &*scene.snapshot();
     let store = &scene.store;
     let manifest_error = scene.manifest_error();
@@ -185,6 +186,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
             ("instance_bands_m".to_string(), join(&picture.bands.edges_m)),
             ("instance_band_densities".to_string(), join(&picture.bands.densities)),
             ("instance_model_distance_m".to_string(), picture.bands.model_distance_m.to_string()),
+            ("terrain_mesh_error_m".to_string(), picture.terrain_mesh_error_m.to_string()),
         ]
         .into_iter()
         .chain(picture.effect_settings.quality())
@@ -218,6 +220,7 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub) -> pb::SceneState {
                 .chain(std::iter::once(("frames held for streams".to_owned(), hub.held_bytes())))
                 .map(|(name, bytes)| pb::MemoryUse { name, bytes })
                 .collect(),
+            standard_tiles: Some(standard.state()),
             renderer_caches: Some({
                 let w = hub.viewer().cache_work();
                 pb::CacheWork {

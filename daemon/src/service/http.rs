@@ -30,6 +30,7 @@ use super::status::HttpError;
 use super::status::error_body;
 
 mod tab;
+mod tiles;
 
 type Shared = State<Arc<Calls>>;
 
@@ -379,6 +380,7 @@ async fn routes() -> axum::Json<serde_json::Value> {
     axum::Json(serde_json::json!(
         ROUTES
             .iter()
+            .chain(tiles::ROUTES)
             .map(|(m, p, what)| serde_json::json!({"method": m, "path": p, "answer": what}))
             .collect::<Vec<_>>()
     ))
@@ -421,7 +423,8 @@ pub fn router(calls: Arc<Calls>, grpc: Router) -> Router {
         .route("/api/navigate", post(navigate_scene))
         .route("/api/views/{id}/pick", get(pick))
         .route("/api/elevation", get(elevation_get).post(elevation_post))
-        .route("/api/tiles/{source}/{level}/{x}/{y}", get(tile));
+        .route("/api/tiles/{source}/{level}/{x}/{y}", get(tile))
+        .merge(tiles::routes());
     for a in relief_web::ASSETS {
         router = router.route(a.path, get(asset));
     }

@@ -19,6 +19,7 @@ use crate::scene::Scene;
 use crate::service::auth::Scope;
 use crate::service::convert;
 use crate::service::metrics::StreamGauge;
+use crate::standard::StandardTiles;
 
 /// The longest a WaitForGeneration call may wait.
 const MAX_WAIT: Duration = Duration::from_secs(600);
@@ -26,6 +27,7 @@ const MAX_WAIT: Duration = Duration::from_secs(600);
 pub struct SceneCalls {
     scene: Arc<Scene>,
     hub: Arc<FrameHub>,
+    standard: Arc<StandardTiles>,
     shutdown: CancellationToken,
     reloads: Reloads,
 }
@@ -43,12 +45,17 @@ struct Reloads {
 }
 
 impl SceneCalls {
-    pub fn new(scene: Arc<Scene>, hub: Arc<FrameHub>, shutdown: CancellationToken) -> Self {
-        Self { scene, hub, shutdown, reloads: Reloads::default() }
+    pub fn new(
+        scene: Arc<Scene>,
+        hub: Arc<FrameHub>,
+        standard: Arc<StandardTiles>,
+        shutdown: CancellationToken,
+    ) -> Self {
+        Self { scene, hub, standard, shutdown, reloads: Reloads::default() }
     }
 
     pub fn state(&self) -> SceneState {
-        convert::scene_state(&self.scene, &self.hub)
+        convert::scene_state(&self.scene, &self.hub, &self.standard)
     }
 
     /// The current state, then one event per change after `from_generation`.
@@ -57,12 +64,12 @@ impl SceneCalls {
         // Subscribe before taking the snapshot, so no event falls between.
         let mut events = self.scene.events();
         let (tx, rx) = mpsc::channel(16);
-        let (scene, hub) = (Arc::clone(&self.scene), Arc::clone(&self.hub));
+        let (scene, hub, standard) = (Arc::clone(&self.scene), Arc::clone(&self.hub), Arc::clone(&self.standard));
         let shutdown = self.shutdown.clone();
         tokio::spawn(async move {
             let _open = StreamGauge::open("events");
             let snapshot = |scene: &Scene| {
-                let state = convert::scene_state(scene, &hub);
+                let state = convert::scene_state(scene, &hub, &standard);
                 SceneEvent { generation: state.generation, event: Some(scene_event::Event::Snapshot(state)) }
             };
             if tx.send(Ok(snapshot(&scene))).await.is_err() {

@@ -86,7 +86,8 @@ fn refused(status: Status) -> Response {
 }
 
 /// The layer: a request from another site is refused (403), one with a
-/// body that is not JSON too (415).
+/// body that is not JSON too (415); an allowed page's answer says it may
+/// read it (`Access-Control-Allow-Origin`).
 pub async fn check(State(site): State<Arc<Site>>, request: Request, next: Next) -> Response {
     if is_grpc(&request) {
         return next.run(request).await;
@@ -109,8 +110,8 @@ pub async fn check(State(site): State<Arc<Site>>, request: Request, next: Next) 
             site.listen.map_or_else(String::new, |l| l.to_string())
         )));
     }
-    if let Some(origin) = request.headers().get(header::ORIGIN).and_then(|v| v.to_str().ok())
-        && origin != "null"
+    let origin = request.headers().get(header::ORIGIN).filter(|v| v.as_bytes() != b"null").cloned();
+    if let Some(origin) = origin.as_ref().and_then(|v| v.to_str().ok())
         && !site.origin_allowed(origin, host.as_deref())
     {
         return refused(Status::permission_denied(format!(
@@ -135,7 +136,19 @@ pub async fn check(State(site): State<Arc<Site>>, request: Request, next: Next) 
             return response;
         }
     }
-    next.run(request).await
+    let mut response = next.run(request).await;
+    // A page the daemon lets call may read the answer (CORS), and the
+    // standard tiles' cache headers.
+    if let Some(origin) = origin {
+        let headers = response.headers_mut();
+        headers.insert(header::ACCESS_CONTROL_ALLOW_ORIGIN, origin);
+        headers.append(header::VARY, header::HeaderValue::from_static("Origin"));
+        headers.insert(
+            header::ACCESS_CONTROL_EXPOSE_HEADERS,
+            header::HeaderValue::from_static("etag, x-relief-version, x-relief-generation"),
+        );
+    }
+    response
 }
 
 #[cfg(test)]

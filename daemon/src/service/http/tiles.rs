@@ -1,0 +1,146 @@
+//! The standard tiles under `/tiles/` (`crate::standard`), as HTTP: tile
+//! bytes with an ETag, gzip when the client takes it, and a cache time
+//! that follows the URL's version; descriptions as JSON to ask for each
+//! time; change notices as Server-Sent Events. Errors are
+//! `{"code": ..., "message": ...}` with 400, 404, 406 or 503.
+
+use std::convert::Infallible;
+use std::sync::Arc;
+
+use axum::Router;
+use axum::extract::{Path, Query, State};
+use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
+use axum::response::sse::{Event, KeepAlive, Sse};
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use tokio_stream::{Stream, StreamExt};
+
+use super::{Params, Shared};
+use crate::service::calls::Calls;
+use crate::standard::{Answer, CacheRule, StandardError};
+
+/// The routes, for `http::router`, and what each answers, for `GET /api`.
+pub const ROUTES: &[(&str, &str, &str)] = &[
+    ("GET", "/tiles/terrain/layer.json", "quantized-mesh-1.0 layer (CesiumJS CesiumTerrainProvider)"),
+    ("GET", "/tiles/terrain/{z}/{x}/{y}.terrain?v=VERSION", "quantized-mesh tile (TMS rows; Accept: extensions)"),
+    ("GET", "/tiles/changes", "Server-Sent Events: versions, then changes (the tiles each generation changed)"),
+];
+
+pub fn routes() -> Router<Arc<Calls>> {
+    Router::new()
+        .route("/tiles/terrain/layer.json", get(layer_json))
+        .route("/tiles/terrain/{z}/{x}/{file}", get(terrain_tile))
+        .route("/tiles/changes", get(changes))
+}
+
+/// A standard-tiles error as HTTP.
+struct TileError(StandardError);
+
+impl IntoResponse for TileError {
+    fn into_response(self) -> Response {
+        let (status, code) = match &self.0 {
+            StandardError::NotFound(_) => (StatusCode::NOT_FOUND, "NOT_FOUND"),
+            StandardError::NotAcceptable(_) => (StatusCode::NOT_ACCEPTABLE, "NOT_ACCEPTABLE"),
+            StandardError::Invalid(_) => (StatusCode::BAD_REQUEST, "INVALID_ARGUMENT"),
+            StandardError::Unavailable(_) => (StatusCode::SERVICE_UNAVAILABLE, "UNAVAILABLE"),
+        };
+        (status, axum::Json(serde_json::json!({"code": code, "message": self.0.to_string()}))).into_response()
+    }
+}
+
+impl From<StandardError> for TileError {
+    fn from(e: StandardError) -> Self {
+        Self(e)
+    }
+}
+
+/// A description: JSON to ask for again each time.
+fn description(value: serde_json::Value) -> Response {
+    ([(header::CACHE_CONTROL, "no-cache")], axum::Json(value)).into_response()
+}
+
+async fn layer_json(State(c): Shared) -> Result<Response, TileError> {
+    Ok(description(c.standard.layer_json()?))
+}
+
+/// A number in a tile's address, or 400 naming it.
+fn number<T: std::str::FromStr>(what: &str, text: &str) -> Result<T, StandardError> {
+    text.parse().map_err(|_| {
+        StandardError::Invalid(format!("the tile's {what} '{}' is not a number", relief_source::echo::echoed(text)))
+    })
+}
+
+async fn terrain_tile(
+    State(c): Shared,
+    Path((z, x, file)): Path<(String, String, String)>,
+    Query(q): Params,
+    headers: HeaderMap,
+) -> Result<Response, TileError> {
+    let y = file.strip_suffix(".terrain").ok_or_else(|| {
+        StandardError::NotFound(format!(
+            "'{}' is not a terrain tile: ask for {{z}}/{{x}}/{{y}}.terrain",
+            relief_source::echo::echoed(&file)
+        ))
+    })?;
+    let z: u8 = number("level", &z)?;
+    if z > relief_source::MAX_LEVEL {
+        return Err(StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into());
+    }
+    let (x, y) = (number("column", &x)?, number("row", y)?);
+    let accept = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok());
+    let answer = c.standard.terrain_tile(z, x, y, q.get("v").map(String::as_str), accept).await?;
+    Ok(tile_response(&c, &answer, &headers))
+}
+
+/// A tile's answer: 304 when the client's ETag is the tile's, else the
+/// bytes (gzipped when accepted), with its cache rule.
+fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
+    let cache = match answer.cache {
+        CacheRule::Immutable => "public, max-age=31536000, immutable",
+        CacheRule::Short => "public, max-age=10",
+        CacheRule::Revalidate => "no-cache",
+    };
+    let e = &answer.encoded;
+    let mut headers = HeaderMap::new();
+    headers.insert(header::CACHE_CONTROL, HeaderValue::from_static(cache));
+    headers.insert(header::VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
+    let text = [
+        (header::ETAG, e.etag.clone()),
+        (header::HeaderName::from_static("x-relief-version"), answer.version.clone()),
+        (header::HeaderName::from_static("x-relief-generation"), answer.generation.to_string()),
+    ];
+    for (name, value) in text {
+        if let Ok(v) = HeaderValue::from_str(&value) {
+            headers.insert(name, v);
+        }
+    }
+    let matches = request
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|tags| tags.split(',').any(|t| t.trim() == e.etag || t.trim() == "*"));
+    if matches {
+        c.standard.count_not_modified();
+        return (StatusCode::NOT_MODIFIED, headers).into_response();
+    }
+    headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(e.content_type));
+    let gzip = request
+        .get(header::ACCEPT_ENCODING)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.split(',').any(|enc| enc.split(';').next().is_some_and(|n| n.trim() == "gzip")));
+    if gzip {
+        headers.insert(header::CONTENT_ENCODING, HeaderValue::from_static("gzip"));
+        (headers, e.gzipped()).into_response()
+    } else {
+        (headers, e.bytes.clone()).into_response()
+    }
+}
+
+async fn changes(State(c): Shared) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
+    let events = c.standard.changes().map(|(name, value)| {
+        Ok(Event::default()
+            .event(name)
+            .json_data(value)
+            .unwrap_or_else(|e| Event::default().event("error").data(format!("cannot encode: {e}"))))
+    });
+    Sse::new(events).keep_alive(KeepAlive::default())
+}
