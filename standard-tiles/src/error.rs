@@ -14,4 +14,8 @@ pub enum StandardTileError {
     EmptyMesh,
     #[error("cannot encode quantized-mesh: a water mask has {cells} cells, not 256 x 256")]
     WaterMaskSize { cells: usize },
+    #[error("cannot encode png tile: {pixels} pixels, but a 256 x 256 tile has {expected}")]
+    WrongPixelCount { pixels: usize, expected: usize },
+    #[error("cannot encode png tile")]
+    Png(#[source] image::ImageError),
 }

@@ -14,6 +14,13 @@
 //!   rows (y from the south).
 //! - `stats.rs`: [`mesh_stats`], triangles, bytes and measured error of one
 //!   tile at one knob, for benches and `make accuracy`.
+//! - `xyz.rs`: the Web Mercator XYZ grid that MapLibre GL JS and deck.gl read
+//!   ([`xyz_extent`], [`xyz_range`]) and the geodetic level that feeds a zoom
+//!   ([`geodetic_level_for`]).
+//! - `resample.rs`: geodetic tiles read at an XYZ tile's pixel centres
+//!   ([`source_keys`], [`resample_heights`], [`resample_colors`]).
+//! - `xyz_png.rs`: those pixels as PNG, heights in Mapzen's Terrarium
+//!   encoding ([`terrarium_png`]) and imagery as RGBA ([`rgba_png`]).
 //!
 //! **Architecture invariant:** depends on relief-source only (its grid,
 //! payloads and geodesy) of relief's crates; never on GDAL, the engine or the
@@ -21,9 +28,12 @@
 
 mod error;
 mod quantized_mesh;
+mod resample;
 mod rtin;
 mod stats;
 mod tms;
+mod xyz;
+mod xyz_png;
 
 #[cfg(test)]
 mod decode;
@@ -32,6 +42,12 @@ pub use error::StandardTileError;
 pub use quantized_mesh::{
     EncodeOptions, QuantizedMeshHeader, WATER_MASK_SIZE, encode_quantized_mesh, gzip, horizon_occlusion_point, oct_encode,
 };
+pub use resample::{resample_colors, resample_heights, source_keys};
 pub use rtin::{EdgeVertices, Rtin, TerrainMesh};
 pub use stats::{MeshStats, mesh_stats};
 pub use tms::{key_from_tms, tms_from_key};
+pub use xyz::{
+    MERCATOR_MAX_LAT, XYZ_MAX_ZOOM, XYZ_TILE_SIZE, XyzRange, geodetic_level_for, xyz_extent, xyz_pixel_lonlat,
+    xyz_range,
+};
+pub use xyz_png::{rgba_png, terrarium_png, terrarium_rgb};
