@@ -156,6 +156,40 @@ impl TerrainMesh {
     }
 }
 
+impl TerrainMesh {
+    /// The mesh's height at every sample of the tile, row-major from the
+    /// north-west (NaN at a sample no triangle covers, which a mesh from
+    /// [`Rtin::mesh`] never leaves).
+    pub fn surface_heights(&self) -> Vec<f64> {
+        let size = self.cells + 1;
+        let mut out = vec![f64::NAN; size * size];
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|v| {
+                let [i, j] = self.vertices[v as usize];
+                [i64::from(i), i64::from(j)]
+            });
+            let [ha, hb, hc] = t.map(|v| self.heights[v as usize]);
+            let mut area2 = cross(a, b, c);
+            let sign = if area2 < 0 { -1 } else { 1 };
+            area2 *= sign;
+            if area2 == 0 {
+                continue;
+            }
+            for y in a[1].min(b[1]).min(c[1])..=a[1].max(b[1]).max(c[1]) {
+                for x in a[0].min(b[0]).min(c[0])..=a[0].max(b[0]).max(c[0]) {
+                    let p = [x, y];
+                    let (wa, wb, wc) = (sign * cross(b, c, p), sign * cross(c, a, p), sign * cross(a, b, p));
+                    if wa >= 0 && wb >= 0 && wc >= 0 {
+                        out[y as usize * size + x as usize] =
+                            (wa as f64 * ha + wb as f64 * hb + wc as f64 * hc) / area2 as f64;
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
 fn cross(a: [i64; 2], b: [i64; 2], c: [i64; 2]) -> i64 {
     (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
 }
@@ -376,6 +410,11 @@ pub(crate) mod tests {
                 last = mesh.triangles.len();
                 // The triangles tile the square exactly once.
                 assert_eq!(area_sum(&mesh), 2 * 64 * 64, "{name}: knob {knob}");
+                // The surface at every sample agrees with the reference's worst.
+                let surface = mesh.surface_heights();
+                let worst = surface.iter().zip(rtin.heights()).map(|(m, h)| (m - h).abs()).fold(0.0, f64::max);
+                assert!(surface.iter().all(|h| h.is_finite()), "{name}: every sample covered");
+                assert!((worst - error).abs() < 1e-9, "{name}: knob {knob}: surface {worst} m, reference {error} m");
             }
         }
     }

@@ -17,6 +17,7 @@ mod precision;
 mod reprojection;
 mod resampling;
 mod shadows;
+mod terrain_mesh;
 mod tile_size;
 
 use std::path::PathBuf;
@@ -44,6 +45,7 @@ pub const ALL: &[(&str, Run)] = &[
     ("detail", detail::run),
     ("bands", bands::run),
     ("frame_codec", frame_codec::run),
+    ("terrain_mesh", terrain_mesh::run),
 ];
 
 /// What every knob's sweep may use.

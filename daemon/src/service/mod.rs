@@ -257,7 +257,7 @@ pub async fn serve(
         tasks.spawn(async move {
             let hold = Hold::new(Arc::new(admitted));
             let activity = Activity::new();
-            let service = tracked(router, Arc::clone(&activity), hold);
+            let service = tracked(router, Arc::clone(&activity), hold, Secure(tls.is_some()));
             let ended = match tls {
                 None => serve_one(&builder, TokioIo::new(stream), service, &activity, limits, &shutdown).await,
                 Some(tls) => {
@@ -277,13 +277,20 @@ pub async fn serve(
     Ok(())
 }
 
+/// Whether a request came over TLS (its connection's), for the URLs an
+/// answer names (a TileJSON's tiles).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Secure(pub bool);
+
 /// The router as one connection's service: each request, and its
 /// response's body (a stream's whole life), counted as under way, and
-/// holding the connection's place (`hold`) among the connections.
+/// holding the connection's place (`hold`) among the connections; each
+/// says whether its connection is `secure`.
 fn tracked(
     router: axum::Router,
     activity: Arc<Activity>,
     hold: Hold,
+    secure: Secure,
 ) -> TowerToHyperService<
     impl tower::Service<
         hyper::Request<hyper::body::Incoming>,
@@ -296,6 +303,7 @@ fn tracked(
     TowerToHyperService::new(tower::service_fn(move |mut request: hyper::Request<hyper::body::Incoming>| {
         let (mut router, under_way) = (router.clone(), activity.begin());
         request.extensions_mut().insert(hold.clone());
+        request.extensions_mut().insert(secure);
         async move {
             let response = tower::Service::call(&mut router, request).await?;
             Ok(response.map(|body| Held::body(body, under_way)))

@@ -13,7 +13,8 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 
 use super::layer::{TileRange, covering, tms_rows};
-use super::{StandardTiles, TerrainLayer};
+use super::{StandardTiles, TerrainLayer, XyzKind, XyzLayer};
+use relief_standard_tiles::XyzRange;
 use crate::graph::SceneSnapshot;
 use crate::scene::{DirtyRegion, EventKind};
 
@@ -23,6 +24,10 @@ pub struct Schemes {
     pub generation: u64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub terrain: Option<Versioned>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub terrarium: Option<Versioned>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub imagery: Option<Versioned>,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -37,11 +42,15 @@ pub struct Notice {
     pub generation: u64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub terrain: Option<Change>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub terrarium: Option<Change<XyzRange>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub imagery: Option<Change<XyzRange>>,
 }
 
 /// The changed tiles of one format.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
-pub struct Change {
+pub struct Change<R = TileRange> {
     /// The format's new version (its URLs' `v`).
     pub version: String,
     /// Every tile changed (an option of all of them, or notices missed):
@@ -49,12 +58,12 @@ pub struct Change {
     pub all: bool,
     /// Inclusive ranges, in the format's own rows (TMS for terrain).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub tiles: Vec<TileRange>,
+    pub tiles: Vec<R>,
 }
 
 impl Notice {
     pub fn is_empty(&self) -> bool {
-        self.terrain.is_none()
+        self.terrain.is_none() && self.terrarium.is_none() && self.imagery.is_none()
     }
 }
 
@@ -103,9 +112,12 @@ fn with_neighbours(grid: &TileGrid, r: TileRange) -> Vec<TileRange> {
 impl StandardTiles {
     /// The versions `snap` offers.
     pub fn schemes(&self, snap: &SceneSnapshot) -> Schemes {
+        let xyz = |kind| XyzLayer::of(snap, self.boot, kind).ok().map(|l| Versioned { version: l.version });
         Schemes {
             generation: snap.generation,
             terrain: TerrainLayer::of(snap, self.boot).ok().map(|l| Versioned { version: l.version }),
+            terrarium: xyz(XyzKind::Terrarium),
+            imagery: xyz(XyzKind::Imagery),
         }
     }
 
@@ -119,6 +131,20 @@ impl StandardTiles {
         {
             let tiles = dirty.map(|d| terrain_tiles(&layer, snap, d)).unwrap_or_default();
             notice.terrain = Some(Change { version: t.version.clone(), all: tiles.is_empty(), tiles });
+        }
+        for kind in [XyzKind::Terrarium, XyzKind::Imagery] {
+            let (was, is) = match kind {
+                XyzKind::Terrarium => (&before.terrarium, &now.terrarium),
+                XyzKind::Imagery => (&before.imagery, &now.imagery),
+            };
+            let Some(v) = is.as_ref().filter(|v| was.as_ref() != Some(*v)) else { continue };
+            let Ok(layer) = XyzLayer::of(snap, self.boot, kind) else { continue };
+            let tiles = dirty.map(|d| super::xyz::dirty_tiles(&layer, snap, d)).unwrap_or_default();
+            let change = Some(Change { version: v.version.clone(), all: tiles.is_empty(), tiles });
+            match kind {
+                XyzKind::Terrarium => notice.terrarium = change,
+                XyzKind::Imagery => notice.imagery = change,
+            }
         }
         (now, notice)
     }

@@ -5,6 +5,8 @@
 //! - `terrain.rs`: quantized-mesh-1.0 terrain (CesiumJS, Cesium-native)
 //!   from the height layer, meshed to `[quality] terrain_mesh_error_m`,
 //!   and its `layer.json` (`layer.rs`: levels, availability, version);
+//! - `xyz.rs`: Web Mercator XYZ tiles (MapLibre GL JS, deck.gl): heights
+//!   as Terrarium PNG and the colour layer as PNG, and their TileJSON;
 //! - `changes.rs`: for each generation, which tiles of each format it
 //!   changed (the `/tiles/changes` notices).
 //!
@@ -16,6 +18,7 @@
 mod changes;
 mod layer;
 mod terrain;
+mod xyz;
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -26,6 +29,7 @@ use tokio_util::sync::CancellationToken;
 
 pub use changes::{Notice, Schemes};
 pub use layer::TerrainLayer;
+pub use xyz::{XyzKind, XyzLayer};
 
 use crate::scene::Scene;
 
@@ -102,6 +106,8 @@ pub struct Answer {
 struct Counters {
     terrain_built: AtomicU64,
     terrain_served: AtomicU64,
+    terrarium_built: AtomicU64,
+    imagery_built: AtomicU64,
     not_modified: AtomicU64,
     notices_sent: AtomicU64,
     change_streams: AtomicU64,
@@ -135,6 +141,8 @@ impl StandardTiles {
         pb::StandardTiles {
             terrain_tiles_built: c.terrain_built.load(Ordering::Relaxed),
             terrain_tiles_served: c.terrain_served.load(Ordering::Relaxed),
+            terrarium_tiles_built: c.terrarium_built.load(Ordering::Relaxed),
+            imagery_tiles_built: c.imagery_built.load(Ordering::Relaxed),
             not_modified: c.not_modified.load(Ordering::Relaxed),
             change_notices_sent: c.notices_sent.load(Ordering::Relaxed),
             change_streams: c.change_streams.load(Ordering::Relaxed),

@@ -8,7 +8,7 @@ use std::convert::Infallible;
 use std::sync::Arc;
 
 use axum::Router;
-use axum::extract::{Path, Query, State};
+use axum::extract::{Extension, Path, Query, State};
 use axum::http::{HeaderMap, HeaderValue, StatusCode, header};
 use axum::response::sse::{Event, KeepAlive, Sse};
 use axum::response::{IntoResponse, Response};
@@ -17,12 +17,17 @@ use tokio_stream::{Stream, StreamExt};
 
 use super::{Params, Shared};
 use crate::service::calls::Calls;
-use crate::standard::{Answer, CacheRule, StandardError};
+use crate::service::Secure;
+use crate::standard::{Answer, CacheRule, StandardError, XyzKind};
 
 /// The routes, for `http::router`, and what each answers, for `GET /api`.
 pub const ROUTES: &[(&str, &str, &str)] = &[
     ("GET", "/tiles/terrain/layer.json", "quantized-mesh-1.0 layer (CesiumJS CesiumTerrainProvider)"),
     ("GET", "/tiles/terrain/{z}/{x}/{y}.terrain?v=VERSION", "quantized-mesh tile (TMS rows; Accept: extensions)"),
+    ("GET", "/tiles/terrarium.json", "TileJSON 3.0.0 of the heights, Terrarium-encoded (MapLibre raster-dem)"),
+    ("GET", "/tiles/terrarium/{z}/{x}/{y}.png?v=VERSION", "Terrarium PNG (Web Mercator XYZ)"),
+    ("GET", "/tiles/imagery.json", "TileJSON 3.0.0 of the colour layer (MapLibre raster)"),
+    ("GET", "/tiles/imagery/{z}/{x}/{y}.png?v=VERSION", "RGBA PNG (Web Mercator XYZ)"),
     ("GET", "/tiles/changes", "Server-Sent Events: versions, then changes (the tiles each generation changed)"),
 ];
 
@@ -30,6 +35,10 @@ pub fn routes() -> Router<Arc<Calls>> {
     Router::new()
         .route("/tiles/terrain/layer.json", get(layer_json))
         .route("/tiles/terrain/{z}/{x}/{file}", get(terrain_tile))
+        .route("/tiles/terrarium.json", get(tilejson::<TERRARIUM>))
+        .route("/tiles/imagery.json", get(tilejson::<IMAGERY>))
+        .route("/tiles/terrarium/{z}/{x}/{file}", get(xyz_tile::<TERRARIUM>))
+        .route("/tiles/imagery/{z}/{x}/{file}", get(xyz_tile::<IMAGERY>))
         .route("/tiles/changes", get(changes))
 }
 
@@ -89,6 +98,59 @@ async fn terrain_tile(
     let (x, y) = (number("column", &x)?, number("row", y)?);
     let accept = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok());
     let answer = c.standard.terrain_tile(z, x, y, q.get("v").map(String::as_str), accept).await?;
+    Ok(tile_response(&c, &answer, &headers))
+}
+
+/// This daemon as the request reached it (`http://host:port`), for the
+/// URLs a TileJSON names: MapLibre takes them as they are written.
+fn base_url(headers: &HeaderMap, uri: &axum::http::Uri, secure: bool) -> String {
+    let host = headers
+        .get(header::HOST)
+        .and_then(|v| v.to_str().ok())
+        .map(str::to_owned)
+        .or_else(|| uri.authority().map(|a| a.as_str().to_owned()))
+        .unwrap_or_else(|| "localhost".into());
+    format!("{}://{host}", if secure { "https" } else { "http" })
+}
+
+/// The XYZ kinds, as route parameters.
+const TERRARIUM: u8 = 0;
+const IMAGERY: u8 = 1;
+
+fn xyz_kind(kind: u8) -> XyzKind {
+    if kind == TERRARIUM { XyzKind::Terrarium } else { XyzKind::Imagery }
+}
+
+async fn tilejson<const KIND: u8>(
+    State(c): Shared,
+    headers: HeaderMap,
+    uri: axum::http::Uri,
+    secure: Option<Extension<Secure>>,
+) -> Result<Response, TileError> {
+    let secure = secure.is_some_and(|Extension(s)| s.0);
+    Ok(description(c.standard.tilejson(xyz_kind(KIND), &base_url(&headers, &uri, secure))?))
+}
+
+async fn xyz_tile<const KIND: u8>(
+    State(c): Shared,
+    Path((z, x, file)): Path<(String, String, String)>,
+    Query(q): Params,
+    headers: HeaderMap,
+) -> Result<Response, TileError> {
+    let kind = xyz_kind(KIND);
+    let y = file.strip_suffix(".png").ok_or_else(|| {
+        StandardError::NotFound(format!(
+            "'{}' is not a {} tile: ask for {{z}}/{{x}}/{{y}}.png",
+            relief_source::echo::echoed(&file),
+            kind.name()
+        ))
+    })?;
+    let z: u8 = number("zoom", &z)?;
+    if z > relief_standard_tiles::XYZ_MAX_ZOOM {
+        return Err(StandardError::Invalid(format!("zoom {z} is past the deepest, {}", relief_standard_tiles::XYZ_MAX_ZOOM)).into());
+    }
+    let (x, y) = (number("column", &x)?, number("row", y)?);
+    let answer = c.standard.xyz_tile(kind, z, x, y, q.get("v").map(String::as_str)).await?;
     Ok(tile_response(&c, &answer, &headers))
 }
 
