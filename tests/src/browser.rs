@@ -27,6 +27,12 @@ pub fn available() -> bool {
     found
 }
 
+/// Flags that keep Chromium off every network but loopback: each other
+/// address goes to a proxy on the discard port, which refuses it (loopback
+/// bypasses a proxy by default), and no host name resolves.
+pub const LOOPBACK_ONLY: &[&str] =
+    &["--proxy-server=127.0.0.1:9", "--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE localhost, EXCLUDE 127.0.0.1"];
+
 /// Where Debian puts Chromium; `RELIEF_CHROMIUM` overrides it.
 pub fn chromium_path() -> Option<PathBuf> {
     if let Ok(p) = std::env::var("RELIEF_CHROMIUM") {
@@ -65,6 +71,11 @@ impl Browser {
     /// Starts Chromium headless with a `width` x `height` window and one
     /// blank page attached.
     pub async fn start(width: u32, height: u32) -> anyhow::Result<Self> {
+        Self::start_with(width, height, &[]).await
+    }
+
+    /// `start` with more command-line `flags` (`LOOPBACK_ONLY`, say).
+    pub async fn start_with(width: u32, height: u32, flags: &[&str]) -> anyhow::Result<Self> {
         let path = chromium_path().context("no chromium: apt-get install chromium (scripts/setup.sh does)")?;
         let profile = tempfile::tempdir()?;
         let mut child = Command::new(&path)
@@ -81,6 +92,7 @@ impl Browser {
                 "--remote-debugging-port=0",
                 &format!("--window-size={width},{height}"),
             ])
+            .args(flags)
             .arg(format!("--user-data-dir={}", profile.path().display()))
             .arg("about:blank")
             .stdout(Stdio::null())

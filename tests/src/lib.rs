@@ -6,10 +6,12 @@
 pub mod arcgis;
 pub mod bench;
 pub mod browser;
+pub mod consumers;
 pub mod daemon;
 pub mod edit;
 pub mod http;
 pub mod npm;
+pub mod pages;
 pub mod probe;
 pub mod qgis;
 pub mod redis;
