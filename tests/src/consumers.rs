@@ -62,6 +62,12 @@ pub async fn open(pages: &Pages, page: &str, relief: &str, (width, height): (u32
     Ok(browser)
 }
 
+/// Starts reliefd on `manifest` letting `pages`' origin call it: a page
+/// from another origin is refused unless named (`--allow-origin`).
+pub fn reliefd(manifest: &Path, pages: &Pages) -> anyhow::Result<crate::daemon::Reliefd> {
+    crate::daemon::Reliefd::start(manifest, &["--allow-origin", &pages.url("")])
+}
+
 /// reliefd's heights at `points` (lon, lat) from `GET /api/elevation`, and
 /// the generation it read them in. A missing height (nodata) is an error.
 pub fn elevations(relief: &str, points: &[(f64, f64)]) -> anyhow::Result<(u64, Vec<f64>)> {

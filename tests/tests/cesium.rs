@@ -1,9 +1,10 @@
 //! relief's standard tiles in CesiumJS (issue 40), in a real headless
-//! Chromium with no network but loopback: the terrain (quantized-mesh-1.0
-//! from /tiles/terrain/) and the buildings' 3D tileset load with no tile
-//! failing; Cesium's heights equal reliefd's `/api/elevation` within the
-//! mesh's stated error; a DEM edited in place reaches the page through
-//! `/tiles/changes` and relief-tiles.js, with no reload; the buildings show.
+//! Chromium with no network but loopback (Cesium itself from loopback, no
+//! ion): the terrain (quantized-mesh-1.0 from /tiles/terrain/) and the
+//! buildings' 3D tileset load with no tile failing; Cesium's heights equal
+//! reliefd's `/api/elevation` within the mesh's stated error; a DEM edited
+//! in place reaches the page through `/tiles/changes` and relief-tiles.js,
+//! with no reload; the buildings show.
 
 #![allow(clippy::unwrap_used, reason = "tests: a failed unwrap is a failed test")]
 
@@ -11,7 +12,6 @@ use std::time::{Duration, Instant};
 
 use relief_tests::browser::Browser;
 use relief_tests::consumers::{self, PAGE_TIMEOUT};
-use relief_tests::daemon::Reliefd;
 use relief_tests::{edit, http};
 use serde_json::json;
 
@@ -78,16 +78,17 @@ async fn cesium_runs_offline_from_loopback() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn cesium_shows_relief_terrain_and_buildings_and_follows_an_edit() {
-    let Some(pages) = consumers::pages("cesium_shows_relief_terrain_and_buildings_and_follows_an_edit") else {
+async fn cesium_terrain_equals_relief_heights_and_follows_an_edit_without_a_reload() {
+    let Some(pages) = consumers::pages("cesium_terrain_equals_relief_heights_and_follows_an_edit_without_a_reload")
+    else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let (manifest, dem) = consumers::hill_and_town(dir.path()).unwrap();
-    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let daemon = consumers::reliefd(&manifest, &pages).unwrap();
     let relief = daemon.url();
     let page = consumers::open(&pages, "/cesium.html", &relief, (960, 600)).await.unwrap();
-    let started = page.eval("page.start({terrain: true, tileset: true})").await.unwrap();
+    let started = page.eval("page.start({terrain: true})").await.unwrap();
     let tolerance = mesh_error_m(&relief, &started["layer"]) + RESAMPLING_M;
 
     // Heights at 20 points over the hill, from the most detailed tiles.
@@ -98,28 +99,15 @@ async fn cesium_shows_relief_terrain_and_buildings_and_follows_an_edit() {
         assert!((c - r).abs() <= tolerance, "at {p:?}: Cesium {c} m, reliefd {r} m (tolerance {tolerance} m)");
     }
 
-    // The buildings show: the same view with and without the tileset.
-    let (lon, lat) = consumers::TOWN;
-    page.eval(&format!("page.look({lon}, {}, 2400, 0, -35)", lat - 0.012)).await.unwrap();
-    page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
-    tokio::time::sleep(Duration::from_millis(500)).await;
-    let with = page.screenshot().await.unwrap();
-    page.eval("page.showTileset(false)").await.unwrap();
-    page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
-    tokio::time::sleep(Duration::from_millis(500)).await;
-    let without = page.screenshot().await.unwrap();
-    page.eval("page.showTileset(true)").await.unwrap();
-    if let Some(out) = std::env::var_os("RELIEF_TEST_SCREENSHOTS") {
-        std::fs::write(std::path::Path::new(&out).join("cesium-town.png"), &with).unwrap();
-        std::fs::write(std::path::Path::new(&out).join("cesium-town-without.png"), &without).unwrap();
-    }
-    let changed = differing(&with, &without, 24);
-    assert!(changed > 2000, "the buildings changed only {changed} pixels of the view");
-
     // An edit in place, as an editor saves it: the page gives the new
     // height within the deadline, without reloading.
     page.eval("window.stayed = 'this page'").await.unwrap();
     let (_, before) = consumers::elevations(&relief, &[PROBE]).unwrap();
+    // The page has the probe's tile under the version before the edit (in
+    // the browser's cache for good: immutable), so only a change followed
+    // gives the new height.
+    let shown = sample(&page, &[PROBE]).await.unwrap()[0];
+    assert!((shown - before[0]).abs() <= tolerance, "Cesium {shown} m at {PROBE:?}, reliefd {} m", before[0]);
     let want = before[0] + f64::from(RAISE_M);
     let (x, y, w, h) = consumers::window(EDITED);
     let written = Instant::now();
@@ -142,11 +130,45 @@ async fn cesium_shows_relief_terrain_and_buildings_and_follows_an_edit() {
     assert_eq!(page.eval("window.stayed").await.unwrap(), "this page", "the page reloaded");
     let changes = page.eval("page.changes").await.unwrap();
     assert!(
-        changes.as_array().unwrap().iter().any(|c| c["applied"].to_string().contains("terrain")),
+        changes.to_string().contains("terrain: provider replaced"),
         "the helper applied no terrain change: {changes}"
     );
 
+    page.eval(&format!("page.look({}, {}, 6000, 0, -45)", PROBE.0, PROBE.1 - 0.05)).await.unwrap();
     page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
+    assert_eq!(consumers::page_errors(&page).await.unwrap(), Vec::<String>::new());
+    drop(page);
+    daemon.stop(&[]).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cesium_shows_the_buildings_tileset_on_relief_terrain() {
+    let Some(pages) = consumers::pages("cesium_shows_the_buildings_tileset_on_relief_terrain") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (manifest, _) = consumers::hill_and_town(dir.path()).unwrap();
+    let daemon = consumers::reliefd(&manifest, &pages).unwrap();
+    let page = consumers::open(&pages, "/cesium.html", &daemon.url(), (960, 600)).await.unwrap();
+    page.eval("page.start({terrain: true, tileset: true})").await.unwrap();
+
+    // The same view with and without the tileset.
+    let (lon, lat) = consumers::TOWN;
+    page.eval(&format!("page.look({lon}, {}, 2400, 0, -35)", lat - 0.012)).await.unwrap();
+    page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let with = page.screenshot().await.unwrap();
+    page.eval("page.showTileset(false)").await.unwrap();
+    page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let without = page.screenshot().await.unwrap();
+    if let Some(out) = std::env::var_os("RELIEF_TEST_SCREENSHOTS") {
+        std::fs::write(std::path::Path::new(&out).join("cesium-town.png"), &with).unwrap();
+        std::fs::write(std::path::Path::new(&out).join("cesium-town-without.png"), &without).unwrap();
+    }
+    let changed = differing(&with, &without, 24);
+    assert!(changed > 2000, "the buildings changed only {changed} pixels of the view");
+
     assert_eq!(consumers::page_errors(&page).await.unwrap(), Vec::<String>::new());
     drop(page);
     daemon.stop(&[]).unwrap();
