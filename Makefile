@@ -36,4 +36,5 @@ bench: setup
 	cargo bench -p relief-engine --bench bigdem
 	cargo bench -p relief-daemon --bench warm
 	cargo bench -p relief-daemon --bench soak
+	cargo bench -p relief-daemon --bench standard_tiles
 	bash clients/qgis/scripts/bench.sh
