@@ -32,12 +32,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pytest
+from quantized_mesh_tile import TerrainTile
 
 from relief.testing import Reliefd
 
-quantized_mesh_tile = pytest.importorskip("quantized_mesh_tile")
-from quantized_mesh_tile import TerrainTile  # noqa: E402
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 # The bump and its DEM.
 PEAK_M = 1200.0
@@ -97,7 +99,7 @@ def resampling_tolerance_m(level: int) -> float:
     the formula either: the bound is capped there (levels 0 to 4). 1 cm
     covers float32 rounding of the pixels and the bump's 5 mm at the
     DEM's edge."""
-    step = 180.0 / 2**level / 256
+    step = 180.0 / 256 / (1 << level)
     return min(0.6 * step * step * PEAK_M / SIGMA_DEG**2, PEAK_M) + 0.01
 
 
@@ -130,14 +132,14 @@ class Tile:
     raw: bytes
     mesh: Any  # TerrainTile
     bounds: tuple[float, float, float, float]  # west, south, east, north
-    u: np.ndarray
-    v: np.ndarray
-    lon: np.ndarray
-    lat: np.ndarray
-    height: np.ndarray
+    u: IntArray
+    v: IntArray
+    lon: FloatArray
+    lat: FloatArray
+    height: FloatArray
     step_m: float  # the height quantization step
 
-    def edge(self, side: str) -> np.ndarray:
+    def edge(self, side: str) -> IntArray:
         """Indices of the vertices on one edge, sorted along it."""
         if side in ("west", "east"):
             on = np.flatnonzero(self.u == (0 if side == "west" else QMAX))
@@ -152,7 +154,7 @@ def geodetic_bounds(z: int, x: int, y: int) -> tuple[float, float, float, float]
     return (-180.0 + x * span, -90.0 + y * span, -180.0 + (x + 1) * span, -90.0 + (y + 1) * span)
 
 
-def ecef(lon: np.ndarray, lat: np.ndarray, h: np.ndarray) -> np.ndarray:
+def ecef(lon: FloatArray, lat: FloatArray, h: FloatArray) -> FloatArray:
     lo, la = np.radians(lon), np.radians(lat)
     n = A_M / np.sqrt(1 - E2 * np.sin(la) ** 2)
     return np.stack(
@@ -275,7 +277,7 @@ def test_edge_lists_and_normals_are_whole(terrain: Any) -> None:
         assert (facing[~polar] > 0.5).all(), f"{z}/{x}/{y}: a normal faces down or sideways"
 
 
-def up(lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
+def up(lon: FloatArray, lat: FloatArray) -> FloatArray:
     """The ellipsoid's unit normal (geodetic up) in ECEF."""
     lo, la = np.radians(lon), np.radians(lat)
     return np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)], axis=-1)
@@ -302,7 +304,7 @@ def test_normals_at_the_poles_face_up(terrain: Any) -> None:
     assert not failures, "\n".join(failures)
 
 
-def on_polyline(along: np.ndarray, heights: np.ndarray, at: np.ndarray) -> np.ndarray:
+def on_polyline(along: IntArray, heights: FloatArray, at: IntArray) -> FloatArray:
     """The polyline (along, heights), sorted by `along`, at `at`."""
     return np.interp(at, along, heights)
 
