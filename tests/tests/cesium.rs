@@ -40,6 +40,29 @@ fn differing(a: &[u8], b: &[u8], threshold: u8) -> usize {
     a.pixels().zip(b.pixels()).filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > threshold)).count()
 }
 
+/// Multiplies every footprint's `height` in the shapefile at `path` by
+/// `factor` through GDAL in update mode, as a GIS saves an attribute edit;
+/// returns how many it changed.
+fn heighten_every_building(path: &std::path::Path, factor: f64) -> anyhow::Result<usize> {
+    use gdal::vector::LayerAccess;
+    let options = gdal::DatasetOptions {
+        open_flags: gdal::GdalOpenFlags::GDAL_OF_UPDATE | gdal::GdalOpenFlags::GDAL_OF_VECTOR,
+        ..gdal::DatasetOptions::default()
+    };
+    let ds = gdal::Dataset::open_ex(path, options)?;
+    let mut layer = ds.layer(0)?;
+    let field = layer.defn().field_index("height")?;
+    let fids: Vec<u64> = layer.features().filter_map(|f| f.fid()).collect();
+    for &fid in &fids {
+        let mut feature = layer.feature(fid).ok_or_else(|| anyhow::anyhow!("feature {fid} is gone"))?;
+        let height = feature.field_as_double(field)?.unwrap_or(0.0);
+        feature.set_field_double(field, height * factor)?;
+        layer.set_feature(feature)?;
+    }
+    ds.close()?;
+    Ok(fids.len())
+}
+
 async fn sample(page: &Browser, points: &[(f64, f64)]) -> anyhow::Result<Vec<f64>> {
     let list: Vec<[f64; 2]> = points.iter().map(|&(lon, lat)| [lon, lat]).collect();
     Ok(serde_json::from_value(page.eval(&format!("page.sample({})", json!(list))).await?)?)
@@ -148,6 +171,7 @@ async fn cesium_shows_the_buildings_tileset_on_relief_terrain() {
     };
     let dir = tempfile::tempdir().unwrap();
     let (manifest, _) = consumers::hill_and_town(dir.path()).unwrap();
+    let town = dir.path().join("town.shp");
     let daemon = consumers::reliefd(&manifest, &pages).unwrap();
     let page = consumers::open(&pages, "/cesium.html", &daemon.url(), (960, 600)).await.unwrap();
     page.eval("page.start({terrain: true, tileset: true})").await.unwrap();
@@ -168,6 +192,26 @@ async fn cesium_shows_the_buildings_tileset_on_relief_terrain() {
     }
     let changed = differing(&with, &without, 24);
     assert!(changed > 2000, "the buildings changed only {changed} pixels of the view");
+
+    // The town's buildings three times as tall, saved as an editor saves
+    // the attribute table: relief-tiles.js reloads the changed contents or
+    // swaps the tileset, and the view shows the taller town.
+    page.eval("page.showTileset(true)").await.unwrap();
+    page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
+    let edited = heighten_every_building(&town, 3.0).unwrap();
+    assert_eq!(edited, 64);
+    page.wait_for("page.changes.some((c) => c.applied.some((a) => a.startsWith('tileset:')))", PAGE_TIMEOUT)
+        .await
+        .unwrap();
+    page.wait_for("page.settled()", PAGE_TIMEOUT).await.unwrap();
+    tokio::time::sleep(Duration::from_millis(500)).await;
+    let taller = page.screenshot().await.unwrap();
+    if let Some(out) = std::env::var_os("RELIEF_TEST_SCREENSHOTS") {
+        std::fs::write(std::path::Path::new(&out).join("cesium-town-taller.png"), &taller).unwrap();
+    }
+    let grown = differing(&taller, &with, 24);
+    assert!(grown > 500, "the taller town changed only {grown} pixels of the view");
+    eprintln!("the helper applied: {}", page.eval("JSON.stringify(page.changes)").await.unwrap());
 
     assert_eq!(consumers::page_errors(&page).await.unwrap(), Vec::<String>::new());
     drop(page);
