@@ -148,6 +148,7 @@ async fn cesium_terrain_equals_relief_heights_and_follows_an_edit_without_a_relo
         "{EDIT_DEADLINE:?} after the edit the page gives {got} m at {PROBE:?}, not {want} m; changes: {}",
         page.eval("JSON.stringify(page.changes)").await.unwrap()
     );
+    eprintln!("the page gave the new height {:?} after the write", written.elapsed());
     let (_, after) = consumers::elevations(&relief, &[PROBE]).unwrap();
     assert!((after[0] - want).abs() <= 1e-3, "reliefd gives {} m after the edit, not {want} m", after[0]);
     assert_eq!(page.eval("window.stayed").await.unwrap(), "this page", "the page reloaded");
