@@ -314,11 +314,23 @@ pub fn horizon_occlusion_point(direction_ecef: [f64; 3], points_ecef: &[[f64; 3]
 
 /// Per-vertex unit normals in ECEF: each the area-weighted sum of its
 /// triangles' normals (triangles counter-clockwise from above point out).
+/// Degenerate triangles count for nothing: a triangle with two corners at a
+/// pole (the same point, to rounding: cos 90 degrees is 6e-17) has a face
+/// normal that is rounding noise, in any direction. A vertex of only such
+/// triangles gets none (the caller puts the ellipsoid's up there).
 fn vertex_normals(points: &[[f64; 3]], triangles: &[[u32; 3]]) -> Vec<[f64; 3]> {
     let mut normals = vec![[0.0; 3]; points.len()];
     for t in triangles {
         let [a, b, c] = t.map(|v| points[v as usize]);
-        let face = cross([0, 1, 2].map(|k| b[k] - a[k]), [0, 1, 2].map(|k| c[k] - a[k]));
+        let (ab, ac) = ([0, 1, 2].map(|k| b[k] - a[k]), [0, 1, 2].map(|k| c[k] - a[k]));
+        let bc = [0, 1, 2].map(|k| c[k] - b[k]);
+        let face = cross(ab, ac);
+        // Twice the area against the longest side squared: below 1e-9 is a
+        // sliver no real surface makes (a 1 mm rise over 1000 km).
+        let longest = dot(ab, ab).max(dot(ac, ac)).max(dot(bc, bc));
+        if dot(face, face) <= 1e-18 * longest * longest {
+            continue;
+        }
         for &v in t {
             let n = &mut normals[v as usize];
             for k in 0..3 {
@@ -508,6 +520,26 @@ mod tests {
                 let mut unzipped = Vec::new();
                 flate2::read::GzDecoder::new(&gzip(&bytes)[..]).read_to_end(&mut unzipped).unwrap();
                 assert_eq!(unzipped, bytes);
+            }
+        }
+    }
+
+    #[test]
+    fn normals_at_the_poles_face_up() {
+        let grid = grid();
+        // Level 0's tiles: each has its whole top row at the north pole and
+        // its bottom row at the south pole; a flat tile.
+        for key in [TileKey::new(0, 0, 0), TileKey::new(0, 1, 0)] {
+            let mesh = Rtin::new(&global_tile(CELLS, key, |_, _| 0.0)).unwrap().mesh(1.0);
+            let options = EncodeOptions { octvertexnormals: true, watermask: None };
+            let d = check_round_trip(&mesh, &grid, key, &encode_quantized_mesh(&mesh, &grid, key, options).unwrap());
+            let normals = &d.extensions[0].1;
+            for k in 0..d.u.len() {
+                let lat = -90.0 + 180.0 * f64::from(d.v[k]) / MAX_QUANTIZED;
+                let lon = grid.tile_extent(key).min_x + 180.0 * f64::from(d.u[k]) / MAX_QUANTIZED;
+                let up = enu_axes(lon, lat)[2];
+                let got = oct_decode(normals[2 * k], normals[2 * k + 1]);
+                assert!(dot(got, up) > 0.99, "{key} vertex at ({lon}, {lat}): normal {got:?}, up {up:?}");
             }
         }
     }

@@ -283,13 +283,6 @@ def up(lon: FloatArray, lat: FloatArray) -> FloatArray:
     return np.stack([np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)], axis=-1)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="relief bug: standard-tiles' vertex_normals sums the faces of triangles that are degenerate in ECEF "
-    "(two corners on a pole, 1e-10 m apart) and normalizes the remainder, instead of taking the ellipsoid's up "
-    "as it does for exactly zero sums: a pole's vertices of a flat tile get (0, -1, 0) or (0, 1, 0), 90 degrees "
-    "off (0, 0, +-1); the two level 0 tiles are all such vertices",
-)
 def test_normals_at_the_poles_face_up(terrain: Any) -> None:
     _, tiles, _ = terrain
     failures = []
