@@ -14,6 +14,14 @@ pub enum StandardTileError {
     EmptyMesh,
     #[error("cannot encode quantized-mesh: a water mask has {cells} cells, not 256 x 256")]
     WaterMaskSize { cells: usize },
+    #[error("cannot write glTF: {reason}")]
+    BadMesh { reason: String },
+    #[error("cannot write glTF: instance of feature {feature_id}: {reason}")]
+    BadInstance { feature_id: u64, reason: String },
+    #[error("cannot write glTF: model '{model}': {reason}")]
+    BadModel { model: String, reason: String },
+    #[error("cannot write glTF: {what} is {size} bytes, past the 4 GiB a GLB can hold")]
+    TooLarge { what: &'static str, size: u64 },
     #[error("cannot encode png tile: {pixels} pixels, but a 256 x 256 tile has {expected}")]
     WrongPixelCount { pixels: usize, expected: usize },
     #[error("cannot encode png tile")]

@@ -12,6 +12,9 @@
 //!   `octvertexnormals` extension) and [`gzip`].
 //! - `tms.rs`: relief's tile keys (y from the north) and quantized-mesh's TMS
 //!   rows (y from the south).
+//! - `gltf/`: [`buildings_glb`] and [`instances_glb`], mesh and instance
+//!   tiles as 3D Tiles 1.1 glTF content (GLB, ECEF offsets, y-up, feature
+//!   ids); `tileset.rs`: [`tileset_json`] over them.
 //! - `stats.rs`: [`mesh_stats`], triangles, bytes and measured error of one
 //!   tile at one knob, for benches and `make accuracy`.
 //! - `xyz.rs`: the Web Mercator XYZ grid that MapLibre GL JS and deck.gl read
@@ -27,10 +30,12 @@
 //! renderer.
 
 mod error;
+mod gltf;
 mod quantized_mesh;
 mod resample;
 mod rtin;
 mod stats;
+mod tileset;
 mod tms;
 mod xyz;
 mod xyz_png;
@@ -39,12 +44,14 @@ mod xyz_png;
 mod decode;
 
 pub use error::StandardTileError;
+pub use gltf::{Glb, InstancesGlb, ModelMesh, buildings_glb, instances_glb};
 pub use quantized_mesh::{
     EncodeOptions, QuantizedMeshHeader, WATER_MASK_SIZE, encode_quantized_mesh, gzip, horizon_occlusion_point, oct_encode,
 };
 pub use resample::{resample_colors, resample_heights, source_keys};
 pub use rtin::{EdgeVertices, Rtin, TerrainMesh};
 pub use stats::{MeshStats, mesh_stats};
+pub use tileset::{TilesetEntry, geometric_error_for_level, tileset_json};
 pub use tms::{key_from_tms, tms_from_key};
 pub use xyz::{
     MERCATOR_MAX_LAT, XYZ_MAX_ZOOM, XYZ_TILE_SIZE, XyzRange, geodetic_level_for, xyz_extent, xyz_pixel_lonlat,
