@@ -13,7 +13,7 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 
 use super::layer::{TileRange, covering, tms_rows};
-use super::{StandardTiles, TerrainLayer, XyzKind, XyzLayer};
+use super::{StandardTiles, TerrainLayer, TilesetLayers, XyzKind, XyzLayer};
 use relief_standard_tiles::XyzRange;
 use crate::graph::SceneSnapshot;
 use crate::scene::{DirtyRegion, EventKind};
@@ -28,6 +28,8 @@ pub struct Schemes {
     pub terrarium: Option<Versioned>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub imagery: Option<Versioned>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tileset: Option<Versioned>,
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize)]
@@ -46,6 +48,19 @@ pub struct Notice {
     pub terrarium: Option<Change<XyzRange>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub imagery: Option<Change<XyzRange>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tileset: Option<ContentChange>,
+}
+
+/// The changed content of the 3D tileset.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+pub struct ContentChange {
+    /// The tileset's new `asset.tilesetVersion`.
+    pub version: String,
+    pub all: bool,
+    /// Content URIs, relative to `tileset.json`.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub content: Vec<String>,
 }
 
 /// The changed tiles of one format.
@@ -63,7 +78,7 @@ pub struct Change<R = TileRange> {
 
 impl Notice {
     pub fn is_empty(&self) -> bool {
-        self.terrain.is_none() && self.terrarium.is_none() && self.imagery.is_none()
+        self.terrain.is_none() && self.terrarium.is_none() && self.imagery.is_none() && self.tileset.is_none()
     }
 }
 
@@ -118,6 +133,7 @@ impl StandardTiles {
             terrain: TerrainLayer::of(snap, self.boot).ok().map(|l| Versioned { version: l.version }),
             terrarium: xyz(XyzKind::Terrarium),
             imagery: xyz(XyzKind::Imagery),
+            tileset: TilesetLayers::of(snap, self.boot).ok().map(|l| Versioned { version: l.version }),
         }
     }
 
@@ -145,6 +161,12 @@ impl StandardTiles {
                 XyzKind::Terrarium => notice.terrarium = change,
                 XyzKind::Imagery => notice.imagery = change,
             }
+        }
+        if let Some(v) = now.tileset.as_ref().filter(|v| before.tileset.as_ref() != Some(*v))
+            && let Ok(layers) = TilesetLayers::of(snap, self.boot)
+        {
+            let content = dirty.map(|d| layers.dirty_content(snap, d)).unwrap_or_default();
+            notice.tileset = Some(ContentChange { version: v.version.clone(), all: content.is_empty(), content });
         }
         (now, notice)
     }

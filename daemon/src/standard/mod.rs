@@ -7,6 +7,8 @@
 //!   and its `layer.json` (`layer.rs`: levels, availability, version);
 //! - `xyz.rs`: Web Mercator XYZ tiles (MapLibre GL JS, deck.gl): heights
 //!   as Terrarium PNG and the colour layer as PNG, and their TileJSON;
+//! - `tileset.rs`: 3D Tiles 1.1 (`tileset.json` over GLB content) of the
+//!   buildings and instances layers;
 //! - `changes.rs`: for each generation, which tiles of each format it
 //!   changed (the `/tiles/changes` notices).
 //!
@@ -18,6 +20,7 @@
 mod changes;
 mod layer;
 mod terrain;
+mod tileset;
 mod xyz;
 
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -29,6 +32,7 @@ use tokio_util::sync::CancellationToken;
 
 pub use changes::{Notice, Schemes};
 pub use layer::TerrainLayer;
+pub use tileset::{Content, TilesetLayers};
 pub use xyz::{XyzKind, XyzLayer};
 
 use crate::scene::Scene;
@@ -108,6 +112,7 @@ struct Counters {
     terrain_served: AtomicU64,
     terrarium_built: AtomicU64,
     imagery_built: AtomicU64,
+    glb_built: AtomicU64,
     not_modified: AtomicU64,
     notices_sent: AtomicU64,
     change_streams: AtomicU64,
@@ -143,6 +148,7 @@ impl StandardTiles {
             terrain_tiles_served: c.terrain_served.load(Ordering::Relaxed),
             terrarium_tiles_built: c.terrarium_built.load(Ordering::Relaxed),
             imagery_tiles_built: c.imagery_built.load(Ordering::Relaxed),
+            glb_tiles_built: c.glb_built.load(Ordering::Relaxed),
             not_modified: c.not_modified.load(Ordering::Relaxed),
             change_notices_sent: c.notices_sent.load(Ordering::Relaxed),
             change_streams: c.change_streams.load(Ordering::Relaxed),

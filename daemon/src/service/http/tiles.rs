@@ -18,12 +18,15 @@ use tokio_stream::{Stream, StreamExt};
 use super::{Params, Shared};
 use crate::service::calls::Calls;
 use crate::service::Secure;
-use crate::standard::{Answer, CacheRule, StandardError, XyzKind};
+use crate::standard::{Answer, CacheRule, Content, StandardError, XyzKind};
 
 /// The routes, for `http::router`, and what each answers, for `GET /api`.
 pub const ROUTES: &[(&str, &str, &str)] = &[
     ("GET", "/tiles/terrain/layer.json", "quantized-mesh-1.0 layer (CesiumJS CesiumTerrainProvider)"),
     ("GET", "/tiles/terrain/{z}/{x}/{y}.terrain?v=VERSION", "quantized-mesh tile (TMS rows; Accept: extensions)"),
+    ("GET", "/tiles/3d/tileset.json", "3D Tiles 1.1 of the buildings and instances layers (GLB content)"),
+    ("GET", "/tiles/3d/{buildings|instances}/{z}/{x}/{y}.json", "a group's tileset (external tileset of tileset.json)"),
+    ("GET", "/tiles/3d/{buildings|instances}/{z}/{x}/{y}.glb", "glTF 2.0 content (GLB)"),
     ("GET", "/tiles/terrarium.json", "TileJSON 3.0.0 of the heights, Terrarium-encoded (MapLibre raster-dem)"),
     ("GET", "/tiles/terrarium/{z}/{x}/{y}.png?v=VERSION", "Terrarium PNG (Web Mercator XYZ)"),
     ("GET", "/tiles/imagery.json", "TileJSON 3.0.0 of the colour layer (MapLibre raster)"),
@@ -35,6 +38,8 @@ pub fn routes() -> Router<Arc<Calls>> {
     Router::new()
         .route("/tiles/terrain/layer.json", get(layer_json))
         .route("/tiles/terrain/{z}/{x}/{file}", get(terrain_tile))
+        .route("/tiles/3d/tileset.json", get(tileset))
+        .route("/tiles/3d/{layer}/{z}/{x}/{file}", get(tileset_content))
         .route("/tiles/terrarium.json", get(tilejson::<TERRARIUM>))
         .route("/tiles/imagery.json", get(tilejson::<IMAGERY>))
         .route("/tiles/terrarium/{z}/{x}/{file}", get(xyz_tile::<TERRARIUM>))
@@ -151,6 +156,47 @@ async fn xyz_tile<const KIND: u8>(
     }
     let (x, y) = (number("column", &x)?, number("row", y)?);
     let answer = c.standard.xyz_tile(kind, z, x, y, q.get("v").map(String::as_str)).await?;
+    Ok(tile_response(&c, &answer, &headers))
+}
+
+async fn tileset(State(c): Shared) -> Result<Response, TileError> {
+    Ok(description(c.standard.tileset().await?))
+}
+
+async fn tileset_content(
+    State(c): Shared,
+    Path((layer, z, x, file)): Path<(String, String, String, String)>,
+    Query(q): Params,
+    headers: HeaderMap,
+) -> Result<Response, TileError> {
+    let content = match layer.as_str() {
+        "buildings" => Content::Buildings,
+        "instances" => Content::Instances,
+        other => {
+            return Err(StandardError::NotFound(format!(
+                "'{}' is not a layer of the tileset (buildings or instances)",
+                relief_source::echo::echoed(other)
+            ))
+            .into());
+        }
+    };
+    let (y, glb) = match (file.strip_suffix(".glb"), file.strip_suffix(".json")) {
+        (Some(y), _) => (y, true),
+        (_, Some(y)) => (y, false),
+        _ => {
+            return Err(StandardError::NotFound(format!(
+                "'{}' is not part of the tileset: ask for {{z}}/{{x}}/{{y}}.glb or .json",
+                relief_source::echo::echoed(&file)
+            ))
+            .into());
+        }
+    };
+    let z: u8 = number("level", &z)?;
+    if z > relief_source::MAX_LEVEL {
+        return Err(StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into());
+    }
+    let key = relief_source::TileKey::new(z, number("column", &x)?, number("row", y)?);
+    let answer = c.standard.tileset_part(content, key, glb, q.get("v").map(String::as_str)).await?;
     Ok(tile_response(&c, &answer, &headers))
 }
 

@@ -266,7 +266,7 @@ class Counters(_message.Message):
     def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., source_reads: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ..., stream_frames_carried_over: _Optional[int] = ..., renderer_caches: _Optional[_Union[CacheWork, _Mapping]] = ..., memory: _Optional[_Iterable[_Union[MemoryUse, _Mapping]]] = ..., standard_tiles: _Optional[_Union[StandardTiles, _Mapping]] = ...) -> None: ...
 
 class StandardTiles(_message.Message):
-    __slots__ = ("terrain_tiles_built", "terrain_tiles_served", "not_modified", "change_notices_sent", "change_streams", "encoded_bytes", "terrarium_tiles_built", "imagery_tiles_built")
+    __slots__ = ("terrain_tiles_built", "terrain_tiles_served", "not_modified", "change_notices_sent", "change_streams", "encoded_bytes", "terrarium_tiles_built", "imagery_tiles_built", "glb_tiles_built")
     TERRAIN_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
     TERRAIN_TILES_SERVED_FIELD_NUMBER: _ClassVar[int]
     NOT_MODIFIED_FIELD_NUMBER: _ClassVar[int]
@@ -275,6 +275,7 @@ class StandardTiles(_message.Message):
     ENCODED_BYTES_FIELD_NUMBER: _ClassVar[int]
     TERRARIUM_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
     IMAGERY_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
+    GLB_TILES_BUILT_FIELD_NUMBER: _ClassVar[int]
     terrain_tiles_built: int
     terrain_tiles_served: int
     not_modified: int
@@ -283,7 +284,8 @@ class StandardTiles(_message.Message):
     encoded_bytes: int
     terrarium_tiles_built: int
     imagery_tiles_built: int
-    def __init__(self, terrain_tiles_built: _Optional[int] = ..., terrain_tiles_served: _Optional[int] = ..., not_modified: _Optional[int] = ..., change_notices_sent: _Optional[int] = ..., change_streams: _Optional[int] = ..., encoded_bytes: _Optional[int] = ..., terrarium_tiles_built: _Optional[int] = ..., imagery_tiles_built: _Optional[int] = ...) -> None: ...
+    glb_tiles_built: int
+    def __init__(self, terrain_tiles_built: _Optional[int] = ..., terrain_tiles_served: _Optional[int] = ..., not_modified: _Optional[int] = ..., change_notices_sent: _Optional[int] = ..., change_streams: _Optional[int] = ..., encoded_bytes: _Optional[int] = ..., terrarium_tiles_built: _Optional[int] = ..., imagery_tiles_built: _Optional[int] = ..., glb_tiles_built: _Optional[int] = ...) -> None: ...
 
 class MemoryUse(_message.Message):
     __slots__ = ("name", "bytes")

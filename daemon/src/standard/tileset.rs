@@ -1,0 +1,440 @@
+//! 3D Tiles 1.1 of the scene's buildings and instances, in two steps so
+//! that nothing is built before a client comes near it:
+//!
+//! - `tileset.json`: one child per *group* (a scene tile [`GROUP_LEVELS`]
+//!   levels above the content's) that the layer's data overlaps, its
+//!   region from the ground's heights there, its content an external
+//!   tileset `{layer}/{z}/{x}/{y}.json`;
+//! - a group's tileset: one leaf per content tile in the group that has
+//!   anything to draw, GLB at `{layer}/{z}/{x}/{y}.glb`, built when the
+//!   group is asked for.
+//!
+//! Content tiles are the scene tiles at the level the layer's source makes
+//! them (a building source's `min_level`, at least [`BUILDING_LEVEL`]; an
+//! instance source's `level`). Geometric errors are those levels' ground
+//! sizes: a group is opened within some tens of kilometres, as the renderer
+//! draws buildings and trees. Each GLB is kept by what it is made of (its
+//! tile's content hash, and the ground under `on_ground` buildings), so an
+//! edit elsewhere costs nothing again.
+
+use std::collections::HashMap;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+
+use relief_source::{Payload, TileKey};
+use relief_standard_tiles::{
+    Glb, ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
+};
+
+use super::layer::covering;
+use super::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
+use crate::graph::SceneSnapshot;
+use crate::scene_tiles::ModelCache;
+use crate::tiles::TileStore;
+
+/// The level of building content unless the source asks for a finer one:
+/// tiles about 1.2 km tall, what the renderer draws buildings at near the
+/// camera.
+pub const BUILDING_LEVEL: u8 = 14;
+
+/// Levels between a group and its content: up to 8 x 8 content tiles in
+/// one group's tileset.
+pub const GROUP_LEVELS: u8 = 3;
+
+/// Most groups `tileset.json` lists for a layer: a larger layer is refused
+/// with a message (every answer has a limit).
+pub const MAX_GROUPS: u64 = 4096;
+
+/// Room above the ground in a group's region: the tallest building or
+/// tree relief expects (a region too tall only culls a little later).
+const HEADROOM_M: f64 = 1000.0;
+
+/// Which layer a tile of content draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Content {
+    Buildings,
+    Instances,
+}
+
+impl Content {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Buildings => "buildings",
+            Self::Instances => "instances",
+        }
+    }
+}
+
+/// The 3D layers a scene has: for each, its slot and content level.
+#[derive(Debug, Clone)]
+pub struct TilesetLayers {
+    pub layers: Vec<(Content, usize, u8)>,
+    /// The height layer's slot (the ground under `on_ground` buildings).
+    height: Option<usize>,
+    pub version: String,
+}
+
+impl TilesetLayers {
+    pub fn of(snap: &SceneSnapshot, boot: u64) -> Result<Self, StandardError> {
+        let grid = &snap.grid;
+        if !grid.is_geodetic() {
+            return Err(StandardError::NotFound(format!(
+                "this scene is a local projected one ({}): 3D Tiles are placed on the globe (ECEF), so it has none",
+                grid.crs()
+            )));
+        }
+        let slot = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
+        let mut layers = Vec::new();
+        if let Some(i) = slot("buildings") {
+            let info = snap.slots[i].source.as_ref().map(|s| s.info()).unwrap_or_default();
+            let min: u8 = info.details.get("min_level").and_then(|l| l.parse().ok()).unwrap_or(0);
+            layers.push((Content::Buildings, i, min.max(BUILDING_LEVEL)));
+        }
+        if let Some(i) = slot("instances") {
+            let info = snap.slots[i].source.as_ref().map(|s| s.info()).unwrap_or_default();
+            let level = info
+                .details
+                .get("level")
+                .and_then(|l| l.split_whitespace().next()?.parse().ok())
+                .unwrap_or_else(|| relief_source_ops::scatter_default_level(grid));
+            layers.push((Content::Instances, i, level));
+        }
+        if layers.is_empty() {
+            return Err(StandardError::NotFound(
+                "the scene has no buildings or instances layer, so it has no 3D Tiles".into(),
+            ));
+        }
+        let height = slot("height");
+        let mut made_of = vec![boot];
+        made_of.extend(layers.iter().map(|&(_, i, _)| snap.slots[i].effective_version));
+        made_of.extend(height.map(|h| snap.slots[h].effective_version));
+        let bytes: Vec<u8> = made_of.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let version = format!("{:012x}", xxhash_rust::xxh3::xxh3_64(&bytes) >> 16);
+        Ok(Self { layers, height, version })
+    }
+
+    fn layer(&self, content: Content) -> Option<(usize, u8)> {
+        self.layers.iter().find(|(c, ..)| *c == content).map(|&(_, i, l)| (i, l))
+    }
+
+    /// The groups of one layer that its source's data overlaps (rows from
+    /// the north), and the layer's content level.
+    fn groups(&self, snap: &SceneSnapshot, content: Content) -> Result<Vec<TileKey>, StandardError> {
+        let Some((slot, level)) = self.layer(content) else { return Ok(Vec::new()) };
+        let grid = &snap.grid;
+        let extent = data_extent(snap, slot, 0).unwrap_or_else(|| grid.extent());
+        let group_level = level.saturating_sub(GROUP_LEVELS);
+        let Some(r) = covering(grid, group_level, &extent) else { return Ok(Vec::new()) };
+        let count = u64::from(r.x[1] - r.x[0] + 1) * u64::from(r.y[1] - r.y[0] + 1);
+        if count > MAX_GROUPS {
+            return Err(StandardError::Unavailable(format!(
+                "the {} layer spans {count} tiles at level {group_level}, past the {MAX_GROUPS} one tileset lists",
+                content.name()
+            )));
+        }
+        Ok((r.y[0]..=r.y[1]).flat_map(|y| (r.x[0]..=r.x[1]).map(move |x| TileKey::new(group_level, x, y))).collect())
+    }
+
+    /// The content tiles of `group` that the layer's data overlaps.
+    fn contents(&self, snap: &SceneSnapshot, content: Content, group: TileKey) -> Vec<TileKey> {
+        let Some((slot, level)) = self.layer(content) else { return Vec::new() };
+        let grid = &snap.grid;
+        let extent = data_extent(snap, slot, 0).unwrap_or_else(|| grid.extent());
+        let Some(area) = extent.intersection(&grid.tile_extent(group)) else { return Vec::new() };
+        let Some(r) = covering(grid, level, &area) else { return Vec::new() };
+        (r.y[0]..=r.y[1]).flat_map(|y| (r.x[0]..=r.x[1]).map(move |x| TileKey::new(level, x, y))).collect()
+    }
+
+    /// The URIs (relative to `tileset.json`) of the content tiles `dirty`
+    /// changes, and of their groups' tilesets: tiles over a dirty extent of
+    /// a layer's source, or of the ground under its buildings.
+    pub fn dirty_content(&self, snap: &SceneSnapshot, dirty: &[crate::scene::DirtyRegion]) -> Vec<String> {
+        let mut out = Vec::new();
+        for &(content, slot, level) in &self.layers {
+            let mut ids = vec![snap.slots[slot].spec.id.as_str()];
+            if content == Content::Buildings {
+                ids.extend(self.height.map(|h| snap.slots[h].spec.id.as_str()));
+            }
+            for extent in dirty.iter().filter(|d| ids.contains(&d.source_id.as_str())).flat_map(|d| &d.extents) {
+                let Some(r) = covering(&snap.grid, level, extent) else { continue };
+                for y in r.y[0]..=r.y[1] {
+                    for x in r.x[0]..=r.x[1] {
+                        let key = TileKey::new(level, x, y);
+                        let group = TileKey::new(level.saturating_sub(GROUP_LEVELS), x >> GROUP_LEVELS, y >> GROUP_LEVELS);
+                        for uri in [uri(content, group, "json"), uri(content, key, "glb")] {
+                            if !out.contains(&uri) && out.len() < 4 * MAX_GROUPS as usize {
+                                out.push(uri);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Where a source has data: its own extent, else where all its inputs
+/// have data (an extrusion draws where its footprints and its ground are).
+fn data_extent(snap: &SceneSnapshot, slot: usize, depth: usize) -> Option<relief_source::Extent> {
+    let s = &snap.slots[slot];
+    if let Some(e) = s.source.as_ref().and_then(|src| src.info().extent) {
+        return Some(e);
+    }
+    if depth > 16 {
+        return None;
+    }
+    let mut extents = s.inputs.iter().filter_map(|&i| data_extent(snap, i, depth + 1));
+    let first = extents.next()?;
+    extents.try_fold(first, |a, b| a.intersection(&b))
+}
+
+/// A group's tileset (`json`) or a content tile (`glb`), relative to
+/// `tileset.json`.
+fn uri(content: Content, key: TileKey, extension: &str) -> String {
+    format!("{}/{}/{}/{}.{extension}", content.name(), key.level, key.x, key.y)
+}
+
+/// The identity, for a group's tile (its content places itself).
+const IDENTITY: [f64; 16] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+
+/// Heights of the ground for `on_ground` buildings: the height layer's
+/// tiles at `level` (the content's, or the DEM's own if coarser), read
+/// bilinearly, each tile fetched once.
+struct Ground<'a> {
+    store: &'a TileStore,
+    snap: &'a SceneSnapshot,
+    slot: Option<usize>,
+    level: u8,
+    tiles: Mutex<HashMap<TileKey, Option<Arc<Payload>>>>,
+    /// The content hashes of the tiles read, for the GLB's address.
+    read: Mutex<Vec<u64>>,
+}
+
+impl Ground<'_> {
+    fn height(&self, lon: f64, lat: f64) -> f64 {
+        let Some(slot) = self.slot else { return f64::NAN };
+        let grid = &self.snap.grid;
+        let (gx, gy) = grid.sample_coords(self.level, lon, lat);
+        let (x0, y0) = (gx.floor() as i64, gy.floor() as i64);
+        let (fx, fy) = (gx - x0 as f64, gy - y0 as f64);
+        let sample = |dx: i64, dy: i64| -> f64 {
+            let (key, i, j) = grid.corner_sample(self.level, x0 + dx, y0 + dy);
+            let mut tiles = self.tiles.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let tile = tiles.entry(key).or_insert_with(|| {
+                let t = self.store.tile(self.snap, slot, key, &self.snap.manifest.quality).ok();
+                if let Some(t) = &t {
+                    self.read.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(t.content_hash);
+                }
+                t.map(|t| Arc::clone(&t.payload))
+            });
+            match tile.as_deref() {
+                Some(Payload::Height(h)) => f64::from(h.get(i, j)),
+                _ => f64::NAN,
+            }
+        };
+        let (a, b, c, d) = (sample(0, 0), sample(1, 0), sample(0, 1), sample(1, 1));
+        (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy
+    }
+}
+
+/// What one content tile is: its GLB (None: nothing to draw) and entry.
+struct Made {
+    glb: Option<Glb>,
+    encoded: Option<Arc<Encoded>>,
+}
+
+impl StandardTiles {
+    fn tileset_layers(&self) -> Result<(Arc<SceneSnapshot>, TilesetLayers), StandardError> {
+        let snap = self.scene.snapshot();
+        let layers = TilesetLayers::of(&snap, self.boot)?;
+        Ok((snap, layers))
+    }
+
+    /// Builds (or finds) the GLB of `content` tile `key`: blocking, on the
+    /// pool.
+    fn content_tile(
+        &self,
+        snap: &SceneSnapshot,
+        layers: &TilesetLayers,
+        content: Content,
+        key: TileKey,
+        models: &ModelCache,
+    ) -> Result<Made, StandardError> {
+        let (slot, _) = layers.layer(content).ok_or_else(|| {
+            StandardError::NotFound(format!("the scene has no {} layer", content.name()))
+        })?;
+        let store = &self.scene.store;
+        let failed = |e: &dyn std::fmt::Display| {
+            StandardError::Unavailable(format!("3D Tiles {} tile {key}: {e}", content.name()))
+        };
+        let tile = store.tile(snap, slot, key, &snap.manifest.quality).map_err(|e| failed(&e))?;
+        let glb = match (content, &*tile.payload) {
+            (Content::Buildings, Payload::Mesh(mesh)) => {
+                let height_level = layers.height.and_then(|h| {
+                    let r = snap.slots[h].source.as_ref()?.info().resolution?;
+                    Some((0..key.level).find(|&l| snap.grid.sample_step(l) <= r).unwrap_or(key.level))
+                });
+                let ground = Ground {
+                    store,
+                    snap,
+                    slot: layers.height,
+                    level: height_level.unwrap_or(key.level),
+                    tiles: Mutex::new(HashMap::new()),
+                    read: Mutex::new(Vec::new()),
+                };
+                let glb = buildings_glb(mesh, &snap.grid, key, &|lon, lat| ground.height(lon, lat)).map_err(|e| failed(&e))?;
+                let mut made_of = vec![tile.content_hash];
+                made_of.extend(ground.read.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner));
+                (glb, made_of)
+            }
+            (Content::Instances, Payload::Instances(instances)) => {
+                let scene_models = crate::scene_tiles::SceneInstances::new(store, snap, snap.manifest.quality, models);
+                let model = |name: &str| {
+                    use relief_renderer::InstanceTiles as _;
+                    let m = scene_models.as_ref()?.model(name)?;
+                    Some(ModelMesh {
+                        positions: m.positions.clone(),
+                        normals: m.normals.clone(),
+                        colors: m.colors.clone(),
+                        indices: m.indices.clone(),
+                    })
+                };
+                let made = instances_glb(instances, &model, &snap.grid, key).map_err(|e| failed(&e))?;
+                (made.glb, vec![tile.content_hash])
+            }
+            (_, other) => {
+                return Err(failed(&format!("the layer's source gave a {} tile", other.kind().name())));
+            }
+        };
+        let (glb, made_of) = glb;
+        let Some(glb) = glb else { return Ok(Made { glb: None, encoded: None }) };
+        let mut address_of = vec![content as u64, u64::from(key.level), u64::from(key.x), u64::from(key.y)];
+        address_of.extend(made_of);
+        let bytes: Vec<u8> = address_of.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let address = xxhash_rust::xxh3::xxh3_128(&bytes);
+        let encoded = match self.encoded.get(&address) {
+            Some(e) => e,
+            None => {
+                self.counters.glb_built.fetch_add(1, Ordering::Relaxed);
+                let e = Arc::new(Encoded::new(glb.bytes.clone(), "model/gltf-binary"));
+                self.encoded.insert(address, Arc::clone(&e));
+                e
+            }
+        };
+        Ok(Made { glb: Some(glb), encoded: Some(encoded) })
+    }
+
+    /// The region of group `key`: its extent, and the ground's heights
+    /// there (the height layer's tile at the group's level) with room above.
+    fn group_region(&self, snap: &SceneSnapshot, layers: &TilesetLayers, key: TileKey) -> [f64; 6] {
+        let e = snap.grid.tile_extent(key);
+        let heights = layers.height.and_then(|h| self.scene.store.tile(snap, h, key, &snap.manifest.quality).ok());
+        let (low, high) = match heights.as_deref().map(|t| &*t.payload) {
+            Some(Payload::Height(h)) => h
+                .heights
+                .iter()
+                .filter(|v| v.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(f64::from(v)), hi.max(f64::from(v)))),
+            _ => (f64::INFINITY, f64::NEG_INFINITY),
+        };
+        let (low, high) = if low <= high { (low - 10.0, high + HEADROOM_M) } else { (-500.0, 9000.0) };
+        [e.min_x.to_radians(), e.min_y.to_radians(), e.max_x.to_radians(), e.max_y.to_radians(), low, high]
+    }
+
+    /// `tileset.json`: a child per group, each an external tileset.
+    pub async fn tileset(self: &Arc<Self>) -> Result<serde_json::Value, StandardError> {
+        let (snap, layers) = self.tileset_layers()?;
+        let this = Arc::clone(self);
+        let job_snap = Arc::clone(&snap);
+        self.scene
+            .store
+            .run(move || {
+                let snap = &job_snap;
+                let grid = &snap.grid;
+                let mut entries = Vec::new();
+                let mut coarsest = u8::MAX;
+                for &(content, _, level) in &layers.layers {
+                    coarsest = coarsest.min(level.saturating_sub(GROUP_LEVELS));
+                    for group in layers.groups(snap, content)? {
+                        entries.push(TilesetEntry {
+                            uri: uri(content, group, "json"),
+                            region: this.group_region(snap, &layers, group),
+                            transform: IDENTITY,
+                            geometric_error_m: geometric_error_for_level(grid, level),
+                        });
+                    }
+                }
+                let mut doc = tileset_json(&layers.version, &entries, geometric_error_for_level(grid, coarsest));
+                doc["extras"] = serde_json::json!({"relief:generation": snap.generation});
+                Ok(doc)
+            })
+            .await
+            .map_err(|e| StandardError::Unavailable(format!("tileset.json: {e}")))?
+    }
+
+    /// A group's tileset (`.json`) or a content tile (`.glb`) of `content`
+    /// at `z/x/y`.
+    pub async fn tileset_part(
+        self: &Arc<Self>,
+        content: Content,
+        key: TileKey,
+        glb: bool,
+        v: Option<&str>,
+    ) -> Result<Answer, StandardError> {
+        let (snap, layers) = self.tileset_layers()?;
+        let name = uri(content, key, if glb { "glb" } else { "json" });
+        let Some((_, level)) = layers.layer(content) else {
+            return Err(StandardError::NotFound(format!("the scene has no {} layer", content.name())));
+        };
+        let group = TileKey::new(level.saturating_sub(GROUP_LEVELS), key.x >> GROUP_LEVELS, key.y >> GROUP_LEVELS);
+        let listed = if glb {
+            key.level == level && layers.contents(&snap, content, group).contains(&key)
+        } else {
+            key.level == group.level && layers.groups(&snap, content)?.contains(&key)
+        };
+        if !listed {
+            return Err(StandardError::NotFound(format!("{name} is not part of tileset.json")));
+        }
+        let cache = match v {
+            Some(v) if v == layers.version => CacheRule::Immutable,
+            Some(_) => CacheRule::Short,
+            None => CacheRule::Revalidate,
+        };
+        let (this, job_snap, job_layers, job_name) = (Arc::clone(self), Arc::clone(&snap), layers.clone(), name.clone());
+        let encoded = self
+            .scene
+            .store
+            .run(move || {
+                let (name, models) = (job_name, ModelCache::default());
+                if glb {
+                    let made = this.content_tile(&job_snap, &job_layers, content, key, &models)?;
+                    return made.encoded.ok_or_else(|| StandardError::NotFound(format!("{name} has nothing to draw")));
+                }
+                let mut entries = Vec::new();
+                for tile in job_layers.contents(&job_snap, content, key) {
+                    if let Some(glb) = this.content_tile(&job_snap, &job_layers, content, tile, &models)?.glb {
+                        // Leaves: their content is drawn whole.
+                        // From `{layer}/{z}/{x}/{y}.json` up to `tileset.json`'s folder.
+                        entries.push(TilesetEntry::new(format!("../../../{}", uri(content, tile, "glb")), &glb, 0.0));
+                    }
+                }
+                let doc = tileset_json(&job_layers.version, &entries, geometric_error_for_level(&job_snap.grid, level));
+                Ok(Arc::new(Encoded::new(doc.to_string().into_bytes(), "application/json")))
+            })
+            .await
+            .map_err(|e| StandardError::Unavailable(format!("{name}: {e}")))??;
+        Ok(Answer { encoded, cache, version: layers.version, generation: snap.generation })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn content_uris_are_relative_to_the_tileset() {
+        assert_eq!(uri(Content::Buildings, TileKey::new(14, 8514, 3200), "glb"), "buildings/14/8514/3200.glb");
+        assert_eq!(uri(Content::Instances, TileKey::new(12, 1, 2), "json"), "instances/12/1/2.json");
+    }
+}
