@@ -156,3 +156,44 @@ fn instances_glb_passes_the_gltf_validator() {
     assert_eq!(report["info"]["drawCallCount"], 4);
     assert_eq!(report["info"]["totalTriangleCount"], triangles);
 }
+
+/// The GLBs reliefd serves under `/tiles/3d/` for the demo scene (its town
+/// of extruded buildings and its scattered forest), found as a 3D Tiles
+/// client finds them: `tileset.json`, a group's tileset, its content.
+#[test]
+fn served_glbs_pass_the_gltf_validator() {
+    let Some(modules) = modules("served_glbs_pass_the_gltf_validator") else { return };
+    let dir = tempfile::tempdir().expect("a temporary folder");
+    let manifest = relief_tests::fixtures::write_demo_scene(dir.path()).expect("the demo scene");
+    let daemon = relief_tests::daemon::Reliefd::start(&manifest, &[]).expect("reliefd starts");
+    let base = format!("{}/tiles/3d", daemon.url());
+    let get = |url: &str| {
+        let reply = relief_tests::http::get(url).expect("an answer");
+        assert_eq!(reply.status, 200, "{url}: {}", String::from_utf8_lossy(&reply.body));
+        reply
+    };
+    let tileset = get(&format!("{base}/tileset.json")).json().expect("tileset.json");
+    assert_eq!(tileset["asset"]["version"], "1.1");
+    let version = tileset["asset"]["tilesetVersion"].as_str().expect("a tilesetVersion").to_owned();
+    let groups = tileset["root"]["children"].as_array().expect("groups");
+    for layer in ["buildings", "instances"] {
+        let mut checked = 0;
+        for group in groups.iter().filter(|g| g["content"]["uri"].as_str().is_some_and(|u| u.starts_with(layer))) {
+            let uri = group["content"]["uri"].as_str().unwrap_or_default();
+            let inner = get(&format!("{base}/{uri}?v={version}")).json().expect("a group's tileset");
+            for leaf in inner["root"]["children"].as_array().into_iter().flatten().take(2) {
+                let content = leaf["content"]["uri"].as_str().unwrap_or_default().trim_start_matches("../../../");
+                assert!(content.starts_with(layer) && content.ends_with(".glb"), "{content}");
+                let glb = get(&format!("{base}/{content}?v={version}"));
+                assert_eq!(glb.header("content-type"), Some("model/gltf-binary"));
+                validate(&modules, &content.replace('/', "_"), &glb.body);
+                checked += 1;
+            }
+            if checked >= 2 {
+                break;
+            }
+        }
+        assert!(checked > 0, "no {layer} content served");
+    }
+    daemon.stop(&[]).expect("reliefd stops");
+}
