@@ -97,6 +97,7 @@ fn terrain_is_served_with_cache_rules_and_built_only_when_asked() -> anyhow::Res
     assert_eq!(count(&c, "terrainTilesBuilt"), 1, "one tile, with normals, built once: {c}");
     assert_eq!(count(&c, "terrainTilesServed"), 5, "304s included: {c}");
     assert_eq!(count(&c, "notModified"), 1, "{c}");
+    assert_eq!(count(&c, "terrariumTilesBuilt") + count(&c, "glbTilesBuilt"), 0, "nothing else asked for: {c}");
     daemon.stop(&[])?;
     Ok(())
 }
@@ -279,6 +280,38 @@ fn an_edit_names_its_tiles_and_only_they_are_built_again() -> anyhow::Result<()>
     assert_eq!(built, 1, "only the edited tile was built again");
     assert_eq!(count(&standard_counters(&base)?, "changeNoticesSent"), 1);
     drop(notices);
+    daemon.stop(&[])?;
+    Ok(())
+}
+
+/// The demo scene has a water layer (its lake): `layer.json` offers the
+/// `watermask` extension, and a tile asked for with it carries it after the
+/// normals: one byte where the tile is all land, else 256 x 256.
+#[test]
+fn a_water_layer_offers_the_watermask() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let manifest = fixtures::write_demo_scene(dir.path())?;
+    let daemon = Reliefd::start(&manifest, &[])?;
+    let base = daemon.url();
+    let layer = get(&format!("{base}/tiles/terrain/layer.json"))?.json()?;
+    assert_eq!(layer["extensions"], serde_json::json!(["octvertexnormals", "watermask"]));
+    let version = layer["version"].as_str().unwrap();
+    let z = layer["maxzoom"].as_u64().unwrap();
+    let r = &layer["available"][z as usize][0];
+    let at = (z, r["startX"].as_u64().unwrap(), r["startY"].as_u64().unwrap());
+    let ask = |extensions: &str| -> anyhow::Result<Vec<u8>> {
+        let accept = format!("application/vnd.quantized-mesh;extensions={extensions}");
+        let reply = request_with("GET", &tile_url(&base, at, version), None, &[("accept", &accept)])?;
+        anyhow::ensure!(reply.status == 200, "{}", String::from_utf8_lossy(&reply.body));
+        Ok(reply.body)
+    };
+    let (normals, both) = (ask("octvertexnormals")?, ask("octvertexnormals-watermask")?);
+    assert_eq!(&both[..normals.len()], &normals[..], "the same tile, then the mask");
+    let mask = &both[normals.len()..];
+    assert_eq!(mask[0], 2, "the watermask extension's id");
+    let length = u32::from_le_bytes(mask[1..5].try_into()?) as usize;
+    assert!(length == 1 || length == 256 * 256, "{length}");
+    assert_eq!(mask.len(), 5 + length);
     daemon.stop(&[])?;
     Ok(())
 }

@@ -251,6 +251,28 @@ mod tests {
     }
 
     #[test]
+    fn a_water_mask_reads_alpha_or_height_from_the_north_west() {
+        // A colour tile of 258 x 258 texels (a border of one): water (alpha
+        // 255) in the western half of the core.
+        let size = 258;
+        let mut rgba = vec![0u8; size * size * 4];
+        for j in 0..size {
+            for i in 0..size {
+                rgba[(j * size + i) * 4 + 3] = if (1..129).contains(&i) { 255 } else { 0 };
+            }
+        }
+        let mask = water_mask(&Payload::Color(relief_source::ColorTile { size, rgba }));
+        assert_eq!(mask.len(), WATER_MASK_SIZE * WATER_MASK_SIZE);
+        assert!(mask.chunks(WATER_MASK_SIZE).all(|row| row[..128].iter().all(|&m| m == 255) && row[128..].iter().all(|&m| m == 0)));
+        // A raster of 257 x 257 corner samples: water (1) in the northern rows.
+        let size = 257;
+        let heights = (0..size * size).map(|k| if k / size < 128 { 1.0 } else { 0.0 }).collect();
+        let mask = water_mask(&Payload::Height(relief_source::HeightTile { size, heights }));
+        assert!(mask[..128 * WATER_MASK_SIZE].iter().all(|&m| m == 255));
+        assert!(mask[128 * WATER_MASK_SIZE..].iter().all(|&m| m == 0));
+    }
+
+    #[test]
     fn the_error_doubles_each_level_up() {
         let l = layer(false);
         assert_eq!(l.error_at(10), 1.0);
