@@ -66,7 +66,7 @@ async fn main() -> anyhow::Result<()> {
     page.wait_for("page.settled()", PAGE_TIMEOUT).await?;
 
     // The change notices, read beside the page.
-    let (tx, notices_rx) = mpsc::channel::<Instant>();
+    let (tx, notices_rx) = mpsc::sync_channel::<Instant>(256);
     let url = format!("{relief}/tiles/changes");
     std::thread::Builder::new().name("bench-changes".into()).spawn(move || {
         let Ok(mut events) = http::Events::open(&url) else { return };
