@@ -124,7 +124,10 @@ impl Picture {
             .map_err(|message| field("quality.frame_jpeg_quality", message))?;
         let terrain_mesh_error_m = knobs.terrain_mesh_error_m.unwrap_or(DEFAULT_TERRAIN_MESH_ERROR_M);
         if !(terrain_mesh_error_m.is_finite() && (0.0..=1000.0).contains(&terrain_mesh_error_m)) {
-            return Err(field("quality.terrain_mesh_error_m", format!("{terrain_mesh_error_m} is not from 0 to 1000 m")));
+            return Err(field(
+                "quality.terrain_mesh_error_m",
+                format!("{terrain_mesh_error_m} is not from 0 to 1000 m"),
+            ));
         }
         let raw_sun = &section.sun;
         let time = match &raw_sun.time {

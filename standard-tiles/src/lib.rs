@@ -46,7 +46,8 @@ mod decode;
 pub use error::StandardTileError;
 pub use gltf::{Glb, InstancesGlb, ModelMesh, buildings_glb, instances_glb};
 pub use quantized_mesh::{
-    EncodeOptions, QuantizedMeshHeader, WATER_MASK_SIZE, encode_quantized_mesh, gzip, horizon_occlusion_point, oct_encode,
+    EncodeOptions, QuantizedMeshHeader, WATER_MASK_SIZE, encode_quantized_mesh, gzip, horizon_occlusion_point,
+    oct_encode,
 };
 pub use resample::{resample_colors, resample_heights, source_keys};
 pub use rtin::{EdgeVertices, Rtin, TerrainMesh};

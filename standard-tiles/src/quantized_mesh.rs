@@ -510,7 +510,9 @@ mod tests {
         for knob in [0.0, 0.5, 5.0, 100.0] {
             let mesh = rtin.mesh(knob);
             for octvertexnormals in [false, true] {
-                let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals, watermask: None }).unwrap();
+                let bytes =
+                    encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals, watermask: None })
+                        .unwrap();
                 let d = check_round_trip(&mesh, &grid, key, &bytes);
                 assert_eq!(d.extensions.len(), usize::from(octvertexnormals));
                 if octvertexnormals {
@@ -573,7 +575,8 @@ mod tests {
         let rtin = Rtin::new(&tile).unwrap();
         let mesh = rtin.mesh(0.0);
         assert_eq!(mesh.vertices.len(), 257 * 257);
-        let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true, watermask: None }).unwrap();
+        let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true, watermask: None })
+            .unwrap();
         // 88 + 4 + 6 * 66049 is 2 past a multiple of 4: two bytes of padding.
         assert_eq!(&bytes[88 + 4 + 6 * 66049..][..2], &[0, 0]);
         check_round_trip(&mesh, &grid, key, &bytes);
@@ -629,7 +632,9 @@ mod tests {
         {
             let rtin = Rtin::new(&global_tile(CELLS, key, f)).unwrap();
             let mesh = rtin.mesh(0.0);
-            let bytes = encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true, watermask: None }).unwrap();
+            let bytes =
+                encode_quantized_mesh(&mesh, &grid, key, EncodeOptions { octvertexnormals: true, watermask: None })
+                    .unwrap();
             let d = decode(&bytes);
             let normals = &d.extensions[0].1;
             for (k, (x, y, _)) in dequantized(&d, CELLS).into_iter().enumerate() {

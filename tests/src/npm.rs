@@ -31,7 +31,8 @@ pub fn available() -> bool {
 pub fn node_modules() -> anyhow::Result<PathBuf> {
     let dir = folder();
     let modules = dir.join("node_modules");
-    let lock = File::create(std::env::temp_dir().join("relief-tests-npm.lock")).context("cannot make npm's lock file")?;
+    let lock =
+        File::create(std::env::temp_dir().join("relief-tests-npm.lock")).context("cannot make npm's lock file")?;
     lock.lock().context("cannot take npm's lock")?;
     let stamp = modules.join(".relief-installed");
     let lockfile = dir.join("package-lock.json");

@@ -30,7 +30,7 @@ fn tile_url(base: &str, (z, x, y): (u64, u64, u64), version: &str) -> String {
 
 /// The TMS address of the maxzoom tile holding (lon, lat).
 fn tms_at(layer: &Value, lon: f64, lat: f64) -> (u64, u64, u64) {
-    let z = layer["maxzoom"].as_u64().unwrap();
+    let z = layer["maxzoom"].as_u64().expect("layer.json has a maxzoom");
     let span = 180.0 / f64::from(1u32 << z);
     ((z), ((lon + 180.0) / span) as u64, ((lat + 90.0) / span) as u64)
 }
@@ -135,7 +135,10 @@ fn xyz_tiles_reproject_the_scene_for_maplibre() -> anyhow::Result<()> {
     for (i, j, p) in image.enumerate_pixels() {
         let h = f64::from(p[0]) * 256.0 + f64::from(p[1]) + f64::from(p[2]) / 256.0 - 32768.0;
         let lon = (x as f64 + (f64::from(i) + 0.5) / 256.0) / n * 360.0 - 180.0;
-        let lat = (std::f64::consts::PI * (1.0 - 2.0 * (y as f64 + (f64::from(j) + 0.5) / 256.0) / n)).sinh().atan().to_degrees();
+        let lat = (std::f64::consts::PI * (1.0 - 2.0 * (y as f64 + (f64::from(j) + 0.5) / 256.0) / n))
+            .sinh()
+            .atan()
+            .to_degrees();
         worst = worst.max((h - fixtures::hill(lon, lat)).abs());
     }
     assert!(worst < 0.5, "Terrarium heights off the hill by up to {worst} m");
@@ -162,7 +165,9 @@ fn bad_requests_get_clear_4xx_answers_and_the_daemon_serves_on() -> anyhow::Resu
     let base = daemon.url();
     let layer = get(&format!("{base}/tiles/terrain/layer.json"))?.json()?;
     let version = layer["version"].as_str().unwrap();
-    let cases: [(String, &[(&str, &str)], u16, &str); 6] = [
+    // (URL, request headers, status, what the message says)
+    type Case<'a> = (String, &'a [(&'a str, &'a str)], u16, &'a str);
+    let cases: [Case<'_>; 6] = [
         // Outside `available`: past the finest level, and beside the data.
         (tile_url(&base, (11, 0, 0), version), &[], 404, "levels run 0..=10"),
         (tile_url(&base, (10, 0, 0), version), &[], 404, "level 10 has x"),
@@ -205,7 +210,12 @@ fn a_projected_scene_has_no_quantized_mesh_and_says_why() -> anyhow::Result<()> 
     )?;
     let daemon = Reliefd::start(&manifest, &[])?;
     let base = daemon.url();
-    for path in ["/tiles/terrain/layer.json", "/tiles/terrain/0/0/0.terrain", "/tiles/terrarium.json", "/tiles/imagery/0/0/0.png"] {
+    for path in [
+        "/tiles/terrain/layer.json",
+        "/tiles/terrain/0/0/0.terrain",
+        "/tiles/terrarium.json",
+        "/tiles/imagery/0/0/0.png",
+    ] {
         let reply = get(&format!("{base}{path}"))?;
         assert_eq!(reply.status, 404, "{path}");
         let message = reply.json()?["message"].as_str().unwrap_or_default().to_owned();

@@ -23,7 +23,8 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
     let grid = &snap.grid;
     let z = layer.max_zoom;
     // Eight tiles across the middle of the range.
-    let (cx_lon, cx_lat) = (f64::midpoint(layer.data.min_x, layer.data.max_x), f64::midpoint(layer.data.min_y, layer.data.max_y));
+    let (cx_lon, cx_lat) =
+        (f64::midpoint(layer.data.min_x, layer.data.max_x), f64::midpoint(layer.data.min_y, layer.data.max_y));
     let centre = grid.key_at(z, cx_lon, cx_lat).ok_or_else(|| anyhow::anyhow!("no tile at the data's centre"))?;
     let keys: Vec<TileKey> = (0..8).map(|k| TileKey::new(z, centre.x + k % 4 - 2, centre.y + k / 4)).collect();
     let quality = snap.manifest.quality;
@@ -52,7 +53,8 @@ pub fn run(cx: &Context) -> anyhow::Result<Vec<Sweep>> {
             for _ in 0..RUNS {
                 let started = std::time::Instant::now();
                 let m = Rtin::new(tile)?.mesh(setting);
-                encoded = encode_quantized_mesh(&m, grid, *key, EncodeOptions { octvertexnormals: true, watermask: None })?;
+                encoded =
+                    encode_quantized_mesh(&m, grid, *key, EncodeOptions { octvertexnormals: true, watermask: None })?;
                 times.push(started.elapsed().as_secs_f64() * 1e3);
                 mesh = Some(m);
             }

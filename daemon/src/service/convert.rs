@@ -6,10 +6,10 @@ use relief_source::{Extent, PayloadKind, Quality, TileGrid, TileKey};
 use tonic::Status;
 
 use crate::frames::FrameHub;
-use crate::standard::StandardTiles;
 use crate::manifest::EFFECTS;
 use crate::scene::{EventKind, Scene, SceneEvent};
 use crate::service::status::invalid_field;
+use crate::standard::StandardTiles;
 
 pub fn extent(e: Extent) -> pb::Extent {
     pb::Extent { min_x: e.min_x, min_y: e.min_y, max_x: e.max_x, max_y: e.max_y }

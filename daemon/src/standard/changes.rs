@@ -14,9 +14,9 @@ use tokio_stream::wrappers::ReceiverStream;
 
 use super::layer::{TileRange, covering, tms_rows};
 use super::{StandardTiles, TerrainLayer, TilesetLayers, XyzKind, XyzLayer};
-use relief_standard_tiles::XyzRange;
 use crate::graph::SceneSnapshot;
 use crate::scene::{DirtyRegion, EventKind};
+use relief_standard_tiles::XyzRange;
 
 /// The version of each format a generation offers (None: not offered).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
@@ -86,7 +86,8 @@ impl Notice {
 /// extent of the height or water source overlaps and their neighbours
 /// (wrapping across the antimeridian), within what the layer has.
 pub fn terrain_tiles(layer: &TerrainLayer, snap: &SceneSnapshot, dirty: &[DirtyRegion]) -> Vec<TileRange> {
-    let ids: Vec<&str> = [Some(layer.height), layer.water].into_iter().flatten().map(|i| snap.slots[i].spec.id.as_str()).collect();
+    let ids: Vec<&str> =
+        [Some(layer.height), layer.water].into_iter().flatten().map(|i| snap.slots[i].spec.id.as_str()).collect();
     let grid = &snap.grid;
     let mut out = Vec::new();
     for extent in dirty.iter().filter(|d| ids.contains(&d.source_id.as_str())).flat_map(|d| &d.extents) {

@@ -137,7 +137,15 @@ impl StandardTiles {
                     .scene
                     .store
                     .run(move || {
-                        encode(&job_snap, key, &height_tile.payload, water_tile.as_ref().map(|w| &*w.payload), data, error_m, extensions)
+                        encode(
+                            &job_snap,
+                            key,
+                            &height_tile.payload,
+                            water_tile.as_ref().map(|w| &*w.payload),
+                            data,
+                            error_m,
+                            extensions,
+                        )
                     })
                     .await
                     .map_err(|e| StandardError::Unavailable(format!("terrain tile {z}/{x}/{tms_y}: {e}")))??;
@@ -237,8 +245,12 @@ mod tests {
 
     #[test]
     fn accept_names_the_extensions_cesium_asks_for() {
-        let cesium = "application/vnd.quantized-mesh;extensions=octvertexnormals,application/octet-stream;q=0.9,*/*;q=0.01";
-        assert_eq!(wanted(Some(cesium), &layer(false)).unwrap(), Extensions { octvertexnormals: true, watermask: false });
+        let cesium =
+            "application/vnd.quantized-mesh;extensions=octvertexnormals,application/octet-stream;q=0.9,*/*;q=0.01";
+        assert_eq!(
+            wanted(Some(cesium), &layer(false)).unwrap(),
+            Extensions { octvertexnormals: true, watermask: false }
+        );
         let both = "application/vnd.quantized-mesh;extensions=octvertexnormals-watermask";
         assert_eq!(wanted(Some(both), &layer(true)).unwrap(), Extensions { octvertexnormals: true, watermask: true });
         assert_eq!(wanted(None, &layer(false)).unwrap(), Extensions::default());
@@ -263,7 +275,10 @@ mod tests {
         }
         let mask = water_mask(&Payload::Color(relief_source::ColorTile { size, rgba }));
         assert_eq!(mask.len(), WATER_MASK_SIZE * WATER_MASK_SIZE);
-        assert!(mask.chunks(WATER_MASK_SIZE).all(|row| row[..128].iter().all(|&m| m == 255) && row[128..].iter().all(|&m| m == 0)));
+        assert!(
+            mask.chunks(WATER_MASK_SIZE)
+                .all(|row| row[..128].iter().all(|&m| m == 255) && row[128..].iter().all(|&m| m == 0))
+        );
         // A raster of 257 x 257 corner samples: water (1) in the northern rows.
         let size = 257;
         let heights = (0..size * size).map(|k| if k / size < 128 { 1.0 } else { 0.0 }).collect();

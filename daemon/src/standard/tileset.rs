@@ -160,7 +160,8 @@ impl TilesetLayers {
                 for y in r.y[0]..=r.y[1] {
                     for x in r.x[0]..=r.x[1] {
                         let key = TileKey::new(level, x, y);
-                        let group = TileKey::new(level.saturating_sub(GROUP_LEVELS), x >> GROUP_LEVELS, y >> GROUP_LEVELS);
+                        let group =
+                            TileKey::new(level.saturating_sub(GROUP_LEVELS), x >> GROUP_LEVELS, y >> GROUP_LEVELS);
                         for uri in [uri(content, group, "json"), uri(content, key, "glb")] {
                             if !out.contains(&uri) && out.len() < 4 * MAX_GROUPS as usize {
                                 out.push(uri);
@@ -261,9 +262,9 @@ impl StandardTiles {
         key: TileKey,
         models: &ModelCache,
     ) -> Result<Made, StandardError> {
-        let (slot, _) = layers.layer(content).ok_or_else(|| {
-            StandardError::NotFound(format!("the scene has no {} layer", content.name()))
-        })?;
+        let (slot, _) = layers
+            .layer(content)
+            .ok_or_else(|| StandardError::NotFound(format!("the scene has no {} layer", content.name())))?;
         let store = &self.scene.store;
         let failed = |e: &dyn std::fmt::Display| {
             StandardError::Unavailable(format!("3D Tiles {} tile {key}: {e}", content.name()))
@@ -283,7 +284,8 @@ impl StandardTiles {
                     tiles: Mutex::new(HashMap::new()),
                     read: Mutex::new(Vec::new()),
                 };
-                let glb = buildings_glb(mesh, &snap.grid, key, &|lon, lat| ground.height(lon, lat)).map_err(|e| failed(&e))?;
+                let glb = buildings_glb(mesh, &snap.grid, key, &|lon, lat| ground.height(lon, lat))
+                    .map_err(|e| failed(&e))?;
                 let mut made_of = vec![tile.content_hash];
                 made_of.extend(ground.read.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner));
                 (glb, made_of)
@@ -331,11 +333,11 @@ impl StandardTiles {
         let e = snap.grid.tile_extent(key);
         let heights = layers.height.and_then(|h| self.scene.store.tile(snap, h, key, &snap.manifest.quality).ok());
         let (low, high) = match heights.as_deref().map(|t| &*t.payload) {
-            Some(Payload::Height(h)) => h
-                .heights
-                .iter()
-                .filter(|v| v.is_finite())
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(f64::from(v)), hi.max(f64::from(v)))),
+            Some(Payload::Height(h)) => {
+                h.heights.iter().filter(|v| v.is_finite()).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                    (lo.min(f64::from(v)), hi.max(f64::from(v)))
+                })
+            }
             _ => (f64::INFINITY, f64::NEG_INFINITY),
         };
         let (low, high) = if low <= high { (low - 10.0, high + HEADROOM_M) } else { (-500.0, 9000.0) };
@@ -401,7 +403,8 @@ impl StandardTiles {
             Some(_) => CacheRule::Short,
             None => CacheRule::Revalidate,
         };
-        let (this, job_snap, job_layers, job_name) = (Arc::clone(self), Arc::clone(&snap), layers.clone(), name.clone());
+        let (this, job_snap, job_layers, job_name) =
+            (Arc::clone(self), Arc::clone(&snap), layers.clone(), name.clone());
         let encoded = self
             .scene
             .store

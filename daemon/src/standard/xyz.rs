@@ -67,7 +67,11 @@ impl XyzLayer {
             )));
         }
         let slot = snap.manifest.layers.get(kind.layer()).and_then(|id| snap.index_of(id)).ok_or_else(|| {
-            StandardError::NotFound(format!("the scene has no {} layer, so it has no {} tiles", kind.layer(), kind.name()))
+            StandardError::NotFound(format!(
+                "the scene has no {} layer, so it has no {} tiles",
+                kind.layer(),
+                kind.name()
+            ))
         })?;
         let info = snap.slots[slot].source.as_ref().map(|s| s.info()).unwrap_or_default();
         let native_level = info.resolution.map_or(12, |r| {
@@ -155,7 +159,14 @@ impl StandardTiles {
     }
 
     /// XYZ tile `z/x/y` of `kind` (rows from the north) as PNG.
-    pub async fn xyz_tile(&self, kind: XyzKind, z: u8, x: u32, y: u32, v: Option<&str>) -> Result<Answer, StandardError> {
+    pub async fn xyz_tile(
+        &self,
+        kind: XyzKind,
+        z: u8,
+        x: u32,
+        y: u32,
+        v: Option<&str>,
+    ) -> Result<Answer, StandardError> {
         let (snap, layer) = self.xyz_layer(kind)?;
         let name = kind.name();
         if !layer.available_at(z).is_some_and(|r| r.contains(x, y)) {
@@ -163,7 +174,9 @@ impl StandardTiles {
                 Some(r) => format!("zoom {z} has x {}..={}, y {}..={}", r.x[0], r.x[1], r.y[0], r.y[1]),
                 None => format!("zooms run 0..={}", layer.max_zoom),
             };
-            return Err(StandardError::NotFound(format!("{name} tile {z}/{x}/{y} holds none of the scene's data: {has}")));
+            return Err(StandardError::NotFound(format!(
+                "{name} tile {z}/{x}/{y} holds none of the scene's data: {has}"
+            )));
         }
         let cache = match v {
             Some(v) if v == layer.version => CacheRule::Immutable,
@@ -182,7 +195,10 @@ impl StandardTiles {
             .store
             .run(move || {
                 let requests: Vec<(usize, TileKey)> = keys.iter().map(|&k| (slot, k)).collect();
-                keys.into_iter().zip(store.build(&job_snap, &requests, &quality)).map(|(k, t)| (k, t.ok())).collect::<Vec<_>>()
+                keys.into_iter()
+                    .zip(store.build(&job_snap, &requests, &quality))
+                    .map(|(k, t)| (k, t.ok()))
+                    .collect::<Vec<_>>()
             })
             .await
             .map_err(|e| StandardError::Unavailable(format!("{name} tile {z}/{x}/{y}: {e}")))?;

@@ -16,8 +16,8 @@ use axum::routing::get;
 use tokio_stream::{Stream, StreamExt};
 
 use super::{Params, Shared};
-use crate::service::calls::Calls;
 use crate::service::Secure;
+use crate::service::calls::Calls;
 use crate::standard::{Answer, CacheRule, Content, StandardError, XyzKind};
 
 /// The routes, for `http::router`, and what each answers, for `GET /api`.
@@ -98,7 +98,9 @@ async fn terrain_tile(
     })?;
     let z: u8 = number("level", &z)?;
     if z > relief_source::MAX_LEVEL {
-        return Err(StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into());
+        return Err(
+            StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into()
+        );
     }
     let (x, y) = (number("column", &x)?, number("row", y)?);
     let accept = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok());
@@ -152,7 +154,11 @@ async fn xyz_tile<const KIND: u8>(
     })?;
     let z: u8 = number("zoom", &z)?;
     if z > relief_standard_tiles::XYZ_MAX_ZOOM {
-        return Err(StandardError::Invalid(format!("zoom {z} is past the deepest, {}", relief_standard_tiles::XYZ_MAX_ZOOM)).into());
+        return Err(StandardError::Invalid(format!(
+            "zoom {z} is past the deepest, {}",
+            relief_standard_tiles::XYZ_MAX_ZOOM
+        ))
+        .into());
     }
     let (x, y) = (number("column", &x)?, number("row", y)?);
     let answer = c.standard.xyz_tile(kind, z, x, y, q.get("v").map(String::as_str)).await?;
@@ -193,7 +199,9 @@ async fn tileset_content(
     };
     let z: u8 = number("level", &z)?;
     if z > relief_source::MAX_LEVEL {
-        return Err(StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into());
+        return Err(
+            StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into()
+        );
     }
     let key = relief_source::TileKey::new(z, number("column", &x)?, number("row", y)?);
     let answer = c.standard.tileset_part(content, key, glb, q.get("v").map(String::as_str)).await?;
