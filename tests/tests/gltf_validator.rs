@@ -183,7 +183,10 @@ fn served_glbs_pass_the_gltf_validator() {
             let inner = get(&format!("{base}/{uri}?v={version}")).json().expect("a group's tileset");
             for leaf in inner["root"]["children"].as_array().into_iter().flatten().take(2) {
                 let content = leaf["content"]["uri"].as_str().unwrap_or_default().trim_start_matches("../../../");
-                assert!(content.starts_with(layer) && content.rsplit_once('.').is_some_and(|(_, e)| e == "glb"), "{content}");
+                assert!(
+                    content.starts_with(layer) && content.rsplit_once('.').is_some_and(|(_, e)| e == "glb"),
+                    "{content}"
+                );
                 let glb = get(&format!("{base}/{content}?v={version}"));
                 assert_eq!(glb.header("content-type"), Some("model/gltf-binary"));
                 validate(&modules, &content.replace('/', "_"), &glb.body);
