@@ -13,10 +13,13 @@ use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 
 use super::layer::{TileRange, covering, tms_rows};
-use super::{StandardTiles, TerrainLayer, TilesetLayers, XyzKind, XyzLayer};
+use super::{StandardError, StandardTiles, TerrainLayer, TilesetLayers, XyzKind, XyzLayer};
 use crate::graph::SceneSnapshot;
 use crate::scene::{DirtyRegion, EventKind};
 use relief_standard_tiles::XyzRange;
+
+/// Most `/tiles/changes` streams open at once.
+pub const MAX_CHANGE_STREAMS: u64 = 256;
 
 /// The version of each format a generation offers (None: not offered).
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize)]
@@ -174,13 +177,20 @@ impl StandardTiles {
 
     /// `versions` (the formats offered now), then a `changes` notice for
     /// each generation that changed a format. Ends when the client goes
-    /// or reliefd shuts down.
-    pub fn changes(self: &Arc<Self>) -> ReceiverStream<(&'static str, serde_json::Value)> {
+    /// or reliefd shuts down; past [`MAX_CHANGE_STREAMS`] open at once, a
+    /// new one is refused.
+    pub fn changes(self: &Arc<Self>) -> Result<ReceiverStream<(&'static str, serde_json::Value)>, StandardError> {
+        let open = self.counters.change_streams.fetch_add(1, Ordering::AcqRel);
+        if open >= MAX_CHANGE_STREAMS {
+            self.counters.change_streams.fetch_sub(1, Ordering::AcqRel);
+            return Err(StandardError::TooMany(format!(
+                "{MAX_CHANGE_STREAMS} /tiles/changes streams are open already; close one"
+            )));
+        }
         let mut events = self.scene.events();
         let (tx, rx) = mpsc::channel(16);
         let this = Arc::clone(self);
         tokio::spawn(async move {
-            this.counters.change_streams.fetch_add(1, Ordering::Relaxed);
             let mut now = this.schemes(&this.scene.snapshot());
             let first = serde_json::to_value(&now).unwrap_or_default();
             if tx.send(("versions", first)).await.is_ok() {
@@ -212,7 +222,7 @@ impl StandardTiles {
             }
             this.counters.change_streams.fetch_sub(1, Ordering::Relaxed);
         });
-        ReceiverStream::new(rx)
+        Ok(ReceiverStream::new(rx))
     }
 }
 

@@ -58,6 +58,9 @@ pub enum StandardError {
     /// The data behind is not ready (a failed source, shutting down): 503.
     #[error("{0}")]
     Unavailable(String),
+    /// Past a limit (streams open at once): 429.
+    #[error("{0}")]
+    TooMany(String),
 }
 
 /// How long a client may keep an answer.

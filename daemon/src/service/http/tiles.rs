@@ -57,6 +57,7 @@ impl IntoResponse for TileError {
             StandardError::NotAcceptable(_) => (StatusCode::NOT_ACCEPTABLE, "NOT_ACCEPTABLE"),
             StandardError::Invalid(_) => (StatusCode::BAD_REQUEST, "INVALID_ARGUMENT"),
             StandardError::Unavailable(_) => (StatusCode::SERVICE_UNAVAILABLE, "UNAVAILABLE"),
+            StandardError::TooMany(_) => (StatusCode::TOO_MANY_REQUESTS, "RESOURCE_EXHAUSTED"),
         };
         (status, axum::Json(serde_json::json!({"code": code, "message": self.0.to_string()}))).into_response()
     }
@@ -251,12 +252,12 @@ fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
     }
 }
 
-async fn changes(State(c): Shared) -> Sse<impl Stream<Item = Result<Event, Infallible>>> {
-    let events = c.standard.changes().map(|(name, value)| {
+async fn changes(State(c): Shared) -> Result<Sse<impl Stream<Item = Result<Event, Infallible>>>, TileError> {
+    let events = c.standard.changes()?.map(|(name, value)| {
         Ok(Event::default()
             .event(name)
             .json_data(value)
             .unwrap_or_else(|e| Event::default().event("error").data(format!("cannot encode: {e}"))))
     });
-    Sse::new(events).keep_alive(KeepAlive::default())
+    Ok(Sse::new(events).keep_alive(KeepAlive::default()))
 }
