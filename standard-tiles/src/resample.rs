@@ -63,7 +63,14 @@ impl Plan {
         let level = level.min(MAX_LEVEL);
         let n = i64::from(grid.tile_size());
         let (total_x, total_y) = grid.samples_at(level);
-        let half = |p: usize| p as f64 + 0.5;
+        // Where a pixel reads: heights at its north-west corner, where
+        // MapLibre GL JS and deck.gl put a raster-dem pixel (pixel i of a
+        // tile at i / 256 of it); colours at its centre, as a raster layer
+        // draws a pixel over its area.
+        let half = |p: usize| match kind {
+            SampleKind::Corner => p as f64,
+            SampleKind::TexelWithBorder => p as f64 + 0.5,
+        };
         // Global sample index -> (tile, index in the tile's lattice).
         let column = |g: i64| -> (u32, usize) {
             match kind {
@@ -174,7 +181,9 @@ pub fn source_keys(grid: &TileGrid, level: u8, z: u8, x: u32, y: u32, kind: Samp
 }
 
 /// 256 x 256 heights (metres, row-major from the north-west), bilinear on
-/// the corner lattice at each pixel centre; NaN where any sample it weighs
+/// the corner lattice at each pixel's north-west corner (where MapLibre GL
+/// JS and deck.gl read a raster-dem pixel: pixel i of a tile at i / 256 of
+/// its width); NaN where any sample it weighs
 /// is NaN or its tile is missing. `tiles`: the payloads of
 /// [`source_keys`] with `SampleKind::Corner` (found by key; None = not
 /// available). A payload that is not a height tile of N+1 samples a side

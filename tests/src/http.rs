@@ -51,6 +51,7 @@ pub fn request_with(method: &str, url: &str, body: Option<&str>, headers: &[(&st
     let response = match method {
         "GET" => with(agent.get(url)).call(),
         "DELETE" => with(agent.delete(url)).call(),
+        "OPTIONS" => with(agent.options(url)).call(),
         "POST" => with_body(agent.post(url)),
         "PUT" => with_body(agent.put(url)),
         "PATCH" => with_body(agent.patch(url)),

@@ -37,33 +37,21 @@ fn pixel(zoom: u32, (lon, lat): (f64, f64)) -> (f64, f64) {
     ((lon + 180.0) / 360.0 * size, y * size)
 }
 
-fn lonlat(zoom: u32, (x, y): (f64, f64)) -> (f64, f64) {
-    let size = 256.0 * f64::from(1u32 << zoom);
-    (x / size * 360.0 - 180.0, (PI * (1.0 - 2.0 * y / size)).sinh().atan().to_degrees())
-}
-
-/// Where reliefd's surface has the height MapLibre gives at `p`:
-/// reliefd writes a Terrarium pixel's height at the pixel's centre (as
-/// Mapzen's tiles do), while MapLibre reads pixel (i, j) as the height at
-/// the tile coordinate (i, j), its north-west corner (`Terrain#getDEMElevation`
-/// floors `coord * dim` and interpolates from there). So MapLibre's
-/// height at `p` is the surface's half a pixel east and south of `p`.
-fn read_at(zoom: u32, p: (f64, f64)) -> (f64, f64) {
-    let (x, y) = pixel(zoom, p);
-    lonlat(zoom, (x + 0.5, y + 0.5))
-}
-
 async fn elevations(page: &Browser, points: &[(f64, f64)]) -> Vec<Option<f64>> {
     let list: Vec<[f64; 2]> = points.iter().map(|&(lon, lat)| [lon, lat]).collect();
     serde_json::from_value(page.eval(&format!("page.elevations({})", json!(list))).await.unwrap()).unwrap()
 }
 
-/// How far MapLibre's heights at `points` are from reliefd's surface
-/// where it reads them, at worst; and the page's heights.
-async fn worst(page: &Browser, relief: &str, zoom: u32, points: &[(f64, f64)]) -> (f64, Vec<Option<f64>>, Vec<f64>) {
+/// How far MapLibre's heights at `points` are from reliefd's there, at
+/// worst; and the page's heights. MapLibre reads pixel (i, j) as the
+/// height at the tile coordinate (i, j), its north-west corner
+/// (`Terrain#getDEMElevation` floors `coord * dim` and interpolates from
+/// there), and reliefd writes each Terrarium pixel's height there (not at
+/// its centre, as Mapzen's tiles do, which MapLibre shows half a pixel
+/// off): the same points, no offset.
+async fn worst(page: &Browser, relief: &str, points: &[(f64, f64)]) -> (f64, Vec<Option<f64>>, Vec<f64>) {
     let shown = elevations(page, points).await;
-    let at: Vec<(f64, f64)> = points.iter().map(|&p| read_at(zoom, p)).collect();
-    let (_, want) = consumers::elevations(relief, &at).unwrap();
+    let (_, want) = consumers::elevations(relief, points).unwrap();
     let worst = shown.iter().zip(&want).map(|(s, w)| s.map_or(f64::INFINITY, |s| (s - w).abs())).fold(0.0, f64::max);
     (worst, shown, want)
 }
@@ -102,7 +90,7 @@ async fn maplibre_terrain_from_terrarium_agrees_with_relief_before_and_after_an_
         .collect();
     assert!(points.len() >= 10, "{points:?}");
     let tolerance = STEP_M + INTERPOLATION_M;
-    let (error, shown, want) = worst(&page, &relief, zoom, &points).await;
+    let (error, shown, want) = worst(&page, &relief, &points).await;
     assert!(
         error <= tolerance,
         "MapLibre {shown:?} against reliefd {want:?}: {error} m apart (tolerance {tolerance} m)"
@@ -114,7 +102,7 @@ async fn maplibre_terrain_from_terrarium_agrees_with_relief_before_and_after_an_
     let raised: Vec<f64> = want.iter().map(|w| w + f64::from(RAISE_M)).collect();
     let deadline = tokio::time::Instant::now() + EDIT_DEADLINE;
     loop {
-        let (error, shown, want) = worst(&page, &relief, zoom, &points).await;
+        let (error, shown, want) = worst(&page, &relief, &points).await;
         let moved = want.iter().zip(&raised).all(|(w, r)| (w - r).abs() <= INTERPOLATION_M);
         if moved && error <= tolerance {
             break;

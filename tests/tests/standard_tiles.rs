@@ -82,6 +82,15 @@ fn terrain_is_served_with_cache_rules_and_built_only_when_asked() -> anyhow::Res
     assert_eq!(again.status, 304);
     let zipped = request_with("GET", &url, None, &[("accept", NORMALS), ("accept-encoding", "gzip")])?;
     assert_eq!(zipped.header("content-encoding"), Some("gzip"));
+    let zipped_etag = zipped.header("etag").expect("an ETag");
+    assert_ne!(zipped_etag, etag, "each encoding has its own ETag");
+    let again = request_with(
+        "GET",
+        &url,
+        None,
+        &[("accept", NORMALS), ("accept-encoding", "gzip"), ("if-none-match", zipped_etag)],
+    )?;
+    assert_eq!(again.status, 304);
     let mut inflated = Vec::new();
     flate2::read::GzDecoder::new(&zipped.body[..]).read_to_end(&mut inflated)?;
     assert_eq!(inflated, tile.body);
@@ -95,8 +104,8 @@ fn terrain_is_served_with_cache_rules_and_built_only_when_asked() -> anyhow::Res
 
     let c = standard_counters(&base)?;
     assert_eq!(count(&c, "terrainTilesBuilt"), 1, "one tile, with normals, built once: {c}");
-    assert_eq!(count(&c, "terrainTilesServed"), 5, "304s included: {c}");
-    assert_eq!(count(&c, "notModified"), 1, "{c}");
+    assert_eq!(count(&c, "terrainTilesServed"), 6, "304s included: {c}");
+    assert_eq!(count(&c, "notModified"), 2, "{c}");
     assert_eq!(count(&c, "terrariumTilesBuilt") + count(&c, "glbTilesBuilt"), 0, "nothing else asked for: {c}");
     daemon.stop(&[])?;
     Ok(())
@@ -122,8 +131,9 @@ fn xyz_tiles_reproject_the_scene_for_maplibre() -> anyhow::Result<()> {
     let template = doc["tiles"][0].as_str().unwrap();
     assert!(template.starts_with(&format!("{base}/tiles/terrarium/{{z}}/{{x}}/{{y}}.png?v=")), "{template}");
     // The summit's tile: each pixel's Terrarium height against the hill's
-    // formula at the pixel's centre, within bilinear resampling (twice,
-    // DEM to lattice to pixel) of a smooth hill: 0.5 m.
+    // formula at the pixel's north-west corner (where MapLibre and deck.gl
+    // read it), within bilinear resampling (twice, DEM to lattice to
+    // pixel) of a smooth hill: 0.5 m.
     let (z, x, y) = xyz_at(11, 10.25, 45.25);
     let url = template.replace("{z}", &z.to_string()).replace("{x}", &x.to_string()).replace("{y}", &y.to_string());
     let png = get(&url)?;
@@ -134,11 +144,9 @@ fn xyz_tiles_reproject_the_scene_for_maplibre() -> anyhow::Result<()> {
     let mut worst = 0.0f64;
     for (i, j, p) in image.enumerate_pixels() {
         let h = f64::from(p[0]) * 256.0 + f64::from(p[1]) + f64::from(p[2]) / 256.0 - 32768.0;
-        let lon = (x as f64 + (f64::from(i) + 0.5) / 256.0) / n * 360.0 - 180.0;
-        let lat = (std::f64::consts::PI * (1.0 - 2.0 * (y as f64 + (f64::from(j) + 0.5) / 256.0) / n))
-            .sinh()
-            .atan()
-            .to_degrees();
+        let lon = (x as f64 + f64::from(i) / 256.0) / n * 360.0 - 180.0;
+        let lat =
+            (std::f64::consts::PI * (1.0 - 2.0 * (y as f64 + f64::from(j) / 256.0) / n)).sinh().atan().to_degrees();
         worst = worst.max((h - fixtures::hill(lon, lat)).abs());
     }
     assert!(worst < 0.5, "Terrarium heights off the hill by up to {worst} m");
@@ -322,6 +330,35 @@ fn a_water_layer_offers_the_watermask() -> anyhow::Result<()> {
     let length = u32::from_le_bytes(mask[1..5].try_into()?) as usize;
     assert!(length == 1 || length == 256 * 256, "{length}");
     assert_eq!(mask.len(), 5 + length);
+    daemon.stop(&[])?;
+    Ok(())
+}
+
+/// A page from another site reads the tiles only when reliefd allows its
+/// origin; then its answers say so (CORS), and a page that sends its token
+/// in a header is granted the preflight, for the tiles only.
+#[test]
+fn pages_of_allowed_origins_read_the_tiles() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let manifest = relief_tests::scenes::hill(dir.path(), "")?;
+    let daemon = Reliefd::start(&manifest, &["--allow-origin", "http://maps.example.test"])?;
+    let base = daemon.url();
+    let url = format!("{base}/tiles/terrain/layer.json");
+    let allowed = [("origin", "http://maps.example.test")];
+    let reply = request_with("GET", &url, None, &allowed)?;
+    assert_eq!(reply.status, 200);
+    assert_eq!(reply.header("access-control-allow-origin"), Some("http://maps.example.test"));
+    assert!(reply.header("access-control-expose-headers").is_some_and(|h| h.contains("etag")));
+    let preflight = [("origin", "http://maps.example.test"), ("access-control-request-method", "GET")];
+    let reply = request_with("OPTIONS", &url, None, &preflight)?;
+    assert_eq!(reply.status, 204);
+    assert!(reply.header("access-control-allow-headers").is_some_and(|h| h.contains("authorization")));
+    // No preflight for the routes that steer, nor for other sites.
+    let reply = request_with("OPTIONS", &format!("{base}/api/camera"), None, &preflight)?;
+    assert_ne!(reply.status, 204);
+    let other = request_with("GET", &url, None, &[("origin", "http://evil.example.test")])?;
+    assert_eq!(other.status, 403);
+    assert!(other.header("access-control-allow-origin").is_none());
     daemon.stop(&[])?;
     Ok(())
 }

@@ -120,6 +120,23 @@ pub async fn check(State(site): State<Arc<Site>>, request: Request, next: Next) 
             relief_source::echo::echoed(origin)
         )));
     }
+    // A page that sends a token in a header asks first (a preflight): the
+    // standard tiles, which only read, grant it to an allowed page; no
+    // other route does.
+    if *request.method() == Method::OPTIONS
+        && request.uri().path().starts_with("/tiles/")
+        && let Some(origin) = origin.clone()
+        && request.headers().get(header::ACCESS_CONTROL_REQUEST_METHOD).is_some_and(|m| m.as_bytes() == b"GET")
+    {
+        let headers = [
+            (header::ACCESS_CONTROL_ALLOW_ORIGIN, origin),
+            (header::ACCESS_CONTROL_ALLOW_METHODS, header::HeaderValue::from_static("GET")),
+            (header::ACCESS_CONTROL_ALLOW_HEADERS, header::HeaderValue::from_static("authorization, accept")),
+            (header::ACCESS_CONTROL_MAX_AGE, header::HeaderValue::from_static("600")),
+            (header::VARY, header::HeaderValue::from_static("Origin")),
+        ];
+        return (axum::http::StatusCode::NO_CONTENT, axum::http::HeaderMap::from_iter(headers)).into_response();
+    }
     if matches!(*request.method(), Method::POST | Method::PUT | Method::PATCH) {
         let json = request
             .headers()

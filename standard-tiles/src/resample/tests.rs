@@ -8,11 +8,20 @@ use crate::xyz::geodetic_level_for;
 const SIDE: usize = XYZ_TILE_SIZE;
 
 /// The pixel centre of (c, r), from the Mercator formulas written out
-/// again (not through `xyz_pixel_lonlat`).
+/// again (not through `xyz_pixel_lonlat`): where a colour pixel reads.
 fn reference_centre(z: u8, x: u32, y: u32, c: usize, r: usize) -> (f64, f64) {
+    reference_point(z, x, y, c as f64 + 0.5, r as f64 + 0.5)
+}
+
+/// The north-west corner of pixel (c, r): where a height pixel reads.
+fn reference_corner(z: u8, x: u32, y: u32, c: usize, r: usize) -> (f64, f64) {
+    reference_point(z, x, y, c as f64, r as f64)
+}
+
+fn reference_point(z: u8, x: u32, y: u32, px: f64, py: f64) -> (f64, f64) {
     let n = 2f64.powi(i32::from(z));
-    let lon = (f64::from(x) + (c as f64 + 0.5) / 256.0) / n * 360.0 - 180.0;
-    let lat = (PI * (1.0 - 2.0 * (f64::from(y) + (r as f64 + 0.5) / 256.0) / n)).sinh().atan().to_degrees();
+    let lon = (f64::from(x) + px / 256.0) / n * 360.0 - 180.0;
+    let lat = (PI * (1.0 - 2.0 * (f64::from(y) + py / 256.0) / n)).sinh().atan().to_degrees();
     (lon, lat)
 }
 
@@ -39,7 +48,7 @@ fn fetch(
 }
 
 #[test]
-fn a_tilted_plane_comes_back_exact_at_the_pixel_centres() {
+fn a_tilted_plane_comes_back_exact_at_the_pixel_corners() {
     let plane = |lon: f64, lat: f64| 3.0 * lon - 5.0 * lat + 100.0;
     // (N, level, z/x/y): levels that match the zoom, magnify it (several
     // pixels per sample, across geodetic tile edges) and shrink it (many
@@ -63,7 +72,7 @@ fn a_tilted_plane_comes_back_exact_at_the_pixel_centres() {
         assert_eq!(heights.len(), SIDE * SIDE);
         for r in 0..SIDE {
             for c in 0..SIDE {
-                let (lon, lat) = reference_centre(z, x, y, c, r);
+                let (lon, lat) = reference_corner(z, x, y, c, r);
                 let got = f64::from(heights[r * SIDE + c]);
                 let want = plane(lon, lat);
                 assert!((got - want).abs() < 1e-3, "n {n} level {level} {z}/{x}/{y} ({c}, {r}): {got} vs {want}");
@@ -76,14 +85,14 @@ fn a_tilted_plane_comes_back_exact_at_the_pixel_centres() {
 fn at_the_matching_level_texels_line_up_and_corners_reach_one_sample_over() {
     // N = 256 and zoom 1 at level 0, the level geodetic_level_for picks:
     // one sample per pixel (both grids halve 360 degrees). Pixel centres
-    // are texel centres, so a colour tile reads one geodetic tile; they
-    // fall half way between corner samples, so the last pixels reach the
-    // next tile's first sample.
+    // are texel centres, so a colour tile reads one geodetic tile; pixel
+    // corners (where heights are read) are corner samples, so a height
+    // tile reads one too.
     let grid = TileGrid::geodetic(256).unwrap();
     assert_eq!(geodetic_level_for(&grid, 1, MAX_LEVEL), 0);
     assert_eq!(source_keys(&grid, 0, 1, 1, 1, SampleKind::TexelWithBorder), vec![TileKey::new(0, 1, 0)]);
-    assert_eq!(source_keys(&grid, 0, 1, 0, 0, SampleKind::Corner), vec![TileKey::new(0, 0, 0), TileKey::new(0, 1, 0)]);
-    // Zoom 0: two samples a pixel, centres on odd samples: no wrap.
+    assert_eq!(source_keys(&grid, 0, 1, 0, 0, SampleKind::Corner), vec![TileKey::new(0, 0, 0)]);
+    // Zoom 0: two samples a pixel, corners on even samples: no wrap.
     assert_eq!(source_keys(&grid, 0, 0, 0, 0, SampleKind::Corner), vec![TileKey::new(0, 0, 0), TileKey::new(0, 1, 0)]);
 }
 
@@ -91,8 +100,8 @@ fn at_the_matching_level_texels_line_up_and_corners_reach_one_sample_over() {
 fn pixels_past_a_tiles_last_own_sample_read_its_neighbour() {
     // N = 16, level 3: columns of 22.5 degrees, 1.40625 a sample. XYZ 4/4/6
     // is geodetic column 4 (-90..-67.5) exactly, 16 pixels a sample; the
-    // pixels east of column 4's sample 15 blend in sample 16, which is
-    // column 5's first (the corner lattice shares it).
+    // pixels whose corners lie east of column 4's sample 15 blend in sample
+    // 16, which is column 5's first (the corner lattice shares it).
     let grid = TileGrid::geodetic(16).unwrap();
     let (level, z, x, y) = (3u8, 4u8, 4u32, 6u32);
     let keys = source_keys(&grid, level, z, x, y, SampleKind::Corner);
@@ -106,7 +115,7 @@ fn pixels_past_a_tiles_last_own_sample_read_its_neighbour() {
     let first_east = f64::from(east_col * 16);
     let mut nan_columns = 0;
     for c in 0..SIDE {
-        let (lon, _) = reference_centre(z, x, y, c, 100);
+        let (lon, _) = reference_corner(z, x, y, c, 100);
         let gx = (lon + 180.0) / step;
         // Reads sample `first_east` (with weight) exactly when gx > first_east - 1.
         let reads_east = gx > first_east - 1.0;
@@ -117,8 +126,8 @@ fn pixels_past_a_tiles_last_own_sample_read_its_neighbour() {
         }
         nan_columns += usize::from(reads_east);
     }
-    // The last sample interval: 16 pixels.
-    assert_eq!(nan_columns, 16);
+    // The last sample interval less the pixel on sample 15: 15 pixels.
+    assert_eq!(nan_columns, 15);
 }
 
 #[test]
@@ -127,7 +136,7 @@ fn one_nodata_sample_blanks_only_the_pixels_that_weigh_it() {
     let (level, z, x, y) = (2u8, 4u8, 9u32, 5u32);
     let tiles = fetch(&grid, level, (z, x, y), SampleKind::Corner, |k| Some(height_tile(&grid, k, |_, _| 7.0)));
     // Put a NaN at one sample inside the XYZ tile's footprint.
-    let (lon, lat) = reference_centre(z, x, y, 128, 128);
+    let (lon, lat) = reference_corner(z, x, y, 128, 128);
     let (gx, gy) = grid.sample_coords(level, lon, lat);
     let (key, i, j) = grid.corner_sample(level, gx.floor() as i64, gy.floor() as i64);
     let tiles: Vec<_> = tiles
@@ -145,7 +154,7 @@ fn one_nodata_sample_blanks_only_the_pixels_that_weigh_it() {
     let (sx, sy) = (gx.floor(), gy.floor());
     for r in 0..SIDE {
         for c in 0..SIDE {
-            let (lon, lat) = reference_centre(z, x, y, c, r);
+            let (lon, lat) = reference_corner(z, x, y, c, r);
             let (px, py) = grid.sample_coords(level, lon, lat);
             let weighs = (px - sx).abs() < 1.0 && (py - sy).abs() < 1.0;
             let h = heights[r * SIDE + c];
@@ -166,7 +175,7 @@ fn the_antimeridian_tiles_read_both_sides() {
     let heights = resample_heights(&grid, 0, 3, 7, 3, &fetch(&grid, 0, (3, 7, 3), SampleKind::Corner, fill));
     let step = grid.sample_step(0);
     for c in [0, 200, 250, 255] {
-        let (lon, _) = reference_centre(3, 7, 3, c, 0);
+        let (lon, _) = reference_corner(3, 7, 3, c, 0);
         let gx = (lon + 180.0) / step;
         // Between sample 31 (east tile) and 32 (= column 0's first, at -180).
         let w = gx - 31.0;

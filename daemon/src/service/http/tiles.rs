@@ -218,11 +218,17 @@ fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
         CacheRule::Revalidate => "no-cache",
     };
     let e = &answer.encoded;
+    let gzip = request
+        .get(header::ACCEPT_ENCODING)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|v| v.split(',').any(|enc| enc.split(';').next().is_some_and(|n| n.trim() == "gzip")));
+    // Each encoding's bytes have their own (strong) ETag.
+    let etag = if gzip { format!("{}-gzip\"", e.etag.trim_end_matches('"')) } else { e.etag.clone() };
     let mut headers = HeaderMap::new();
     headers.insert(header::CACHE_CONTROL, HeaderValue::from_static(cache));
     headers.insert(header::VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
     let text = [
-        (header::ETAG, e.etag.clone()),
+        (header::ETAG, etag.clone()),
         (header::HeaderName::from_static("x-relief-version"), answer.version.clone()),
         (header::HeaderName::from_static("x-relief-generation"), answer.generation.to_string()),
     ];
@@ -234,16 +240,12 @@ fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
     let matches = request
         .get(header::IF_NONE_MATCH)
         .and_then(|v| v.to_str().ok())
-        .is_some_and(|tags| tags.split(',').any(|t| t.trim() == e.etag || t.trim() == "*"));
+        .is_some_and(|tags| tags.split(',').any(|t| t.trim() == etag || t.trim() == "*"));
     if matches {
         c.standard.count_not_modified();
         return (StatusCode::NOT_MODIFIED, headers).into_response();
     }
     headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(e.content_type));
-    let gzip = request
-        .get(header::ACCEPT_ENCODING)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.split(',').any(|enc| enc.split(';').next().is_some_and(|n| n.trim() == "gzip")));
     if gzip {
         headers.insert(header::CONTENT_ENCODING, HeaderValue::from_static("gzip"));
         (headers, e.gzipped()).into_response()
