@@ -37,4 +37,5 @@ bench: setup
 	cargo bench -p relief-daemon --bench warm
 	cargo bench -p relief-daemon --bench soak
 	cargo bench -p relief-daemon --bench standard_tiles
+	cargo bench -p relief-tests --bench cesium_edit
 	bash clients/qgis/scripts/bench.sh
