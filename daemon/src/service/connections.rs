@@ -211,6 +211,11 @@ impl<G: Unpin> hyper::body::Body for Held<G> {
     }
 }
 
+/// Whether a request came over TLS (its connection's), for the URLs an
+/// answer names (a TileJSON's tiles).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Secure(pub bool);
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -37,7 +37,7 @@ use tokio_util::task::TaskTracker;
 use self::auth::Access;
 use self::calls::Calls;
 pub use self::connections::Limits;
-use self::connections::{Activity, Connections, Held, Hold};
+use self::connections::{Activity, Connections, Held, Hold, Secure};
 
 use crate::scene::Scene;
 
@@ -276,11 +276,6 @@ pub async fn serve(
     }
     Ok(())
 }
-
-/// Whether a request came over TLS (its connection's), for the URLs an
-/// answer names (a TileJSON's tiles).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Secure(pub bool);
 
 /// The router as one connection's service: each request, and its
 /// response's body (a stream's whole life), counted as under way, and

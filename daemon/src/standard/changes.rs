@@ -12,8 +12,11 @@ use tokio::sync::broadcast::error::RecvError;
 use tokio::sync::mpsc;
 use tokio_stream::wrappers::ReceiverStream;
 
+use super::layer::TerrainLayer;
 use super::layer::{TileRange, covering, tms_rows};
-use super::{StandardError, StandardTiles, TerrainLayer, TilesetLayers, XyzKind, XyzLayer};
+use super::tiles::{StandardError, StandardTiles};
+use super::tileset::TilesetLayers;
+use super::xyz::{XyzKind, XyzLayer};
 use crate::graph::SceneSnapshot;
 use crate::scene::{DirtyRegion, EventKind};
 use relief_standard_tiles::XyzRange;

@@ -4,7 +4,7 @@
 use relief_source::{Extent, TileGrid, TileKey};
 use serde_json::json;
 
-use super::StandardError;
+use super::tiles::StandardError;
 use crate::graph::SceneSnapshot;
 use crate::picture::Picture;
 

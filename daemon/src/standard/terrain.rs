@@ -7,7 +7,8 @@ use std::sync::atomic::Ordering;
 use relief_source::{Payload, TileKey};
 use relief_standard_tiles::{EncodeOptions, Rtin, WATER_MASK_SIZE, encode_quantized_mesh, key_from_tms};
 
-use super::{Answer, CacheRule, Encoded, StandardError, StandardTiles, TerrainLayer};
+use super::layer::TerrainLayer;
+use super::tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
 use crate::graph::SceneSnapshot;
 
 /// The media type of a quantized-mesh tile.

@@ -27,7 +27,7 @@ use relief_standard_tiles::{
 };
 
 use super::layer::covering;
-use super::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
+use super::tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
 use crate::graph::SceneSnapshot;
 use crate::scene_tiles::ModelCache;
 use crate::tiles::TileStore;

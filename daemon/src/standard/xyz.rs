@@ -13,7 +13,7 @@ use relief_standard_tiles::{
 };
 use serde_json::json;
 
-use super::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
+use super::tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
 use crate::graph::SceneSnapshot;
 
 /// Which XYZ tiles.

@@ -15,9 +15,11 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use tokio_stream::{Stream, StreamExt};
 
-use super::{Params, Shared};
-use crate::service::Secure;
 use crate::service::calls::Calls;
+
+type Shared = State<Arc<Calls>>;
+type Params = Query<std::collections::HashMap<String, String>>;
+use crate::service::connections::Secure;
 use crate::standard::{Answer, CacheRule, Content, StandardError, XyzKind};
 
 /// The routes, for `http::router`, and what each answers, for `GET /api`.

@@ -1,0 +1,139 @@
+//! The standard tiles of one scene: what every format shares (the
+//! encoded-tile cache, the counters, answers and errors).
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, OnceLock};
+
+use bytes::Bytes;
+use relief_proto::v1 as pb;
+use tokio_util::sync::CancellationToken;
+
+use crate::scene::Scene;
+
+/// Bytes of encoded standard tiles kept in memory.
+const ENCODED_BUDGET_BYTES: u64 = 64 * 1024 * 1024;
+
+/// Why a standard tile or description cannot be served; each names what
+/// was asked and what is wrong.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum StandardError {
+    /// Not in this scene (a tile outside `available`, a format the scene
+    /// does not offer): 404.
+    #[error("{0}")]
+    NotFound(String),
+    /// The client asked for what this layer cannot give (an unknown
+    /// extension in `Accept`): 406.
+    #[error("{0}")]
+    NotAcceptable(String),
+    /// A malformed address: 400.
+    #[error("{0}")]
+    Invalid(String),
+    /// The data behind is not ready (a failed source, shutting down): 503.
+    #[error("{0}")]
+    Unavailable(String),
+    /// Past a limit (streams open at once): 429.
+    #[error("{0}")]
+    TooMany(String),
+}
+
+/// How long a client may keep an answer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CacheRule {
+    /// A versioned URL of the current version: it never changes.
+    Immutable,
+    /// A versioned URL of an older version, answered with the current
+    /// tile: keep it briefly.
+    Short,
+    /// A description (`layer.json`) or an unversioned URL: ask again each
+    /// time (the ETag makes that cheap).
+    Revalidate,
+}
+
+/// One encoded tile, and its ETag (a hash of its bytes).
+#[derive(Debug)]
+pub struct Encoded {
+    pub bytes: Bytes,
+    pub etag: String,
+    pub content_type: &'static str,
+    gzip: OnceLock<Bytes>,
+}
+
+impl Encoded {
+    pub(super) fn new(bytes: Vec<u8>, content_type: &'static str) -> Self {
+        let etag = format!("\"{:016x}\"", xxhash_rust::xxh3::xxh3_64(&bytes));
+        Self { bytes: Bytes::from(bytes), etag, content_type, gzip: OnceLock::new() }
+    }
+
+    /// The bytes gzipped (worked out once, on the first client that
+    /// accepts gzip).
+    pub fn gzipped(&self) -> Bytes {
+        self.gzip.get_or_init(|| Bytes::from(relief_standard_tiles::gzip(&self.bytes))).clone()
+    }
+}
+
+/// A tile as served: its bytes, how long to keep them, and the version
+/// of the layer they belong to.
+#[derive(Debug, Clone)]
+pub struct Answer {
+    pub encoded: Arc<Encoded>,
+    pub cache: CacheRule,
+    pub version: String,
+    pub generation: u64,
+}
+
+/// What the standard tiles cost, for the scene state.
+#[derive(Debug, Default)]
+pub(super) struct Counters {
+    pub(super) terrain_built: AtomicU64,
+    pub(super) terrain_served: AtomicU64,
+    pub(super) terrarium_built: AtomicU64,
+    pub(super) imagery_built: AtomicU64,
+    pub(super) glb_built: AtomicU64,
+    pub(super) not_modified: AtomicU64,
+    pub(super) notices_sent: AtomicU64,
+    pub(super) change_streams: AtomicU64,
+}
+
+/// The standard tiles of one scene.
+pub struct StandardTiles {
+    pub(super) scene: Arc<Scene>,
+    /// Differs between runs of reliefd, so that a version (and the URLs
+    /// clients cache for a year) never names other content after a restart.
+    pub(super) boot: u64,
+    pub(super) encoded: moka::sync::Cache<u128, Arc<Encoded>>,
+    pub(super) counters: Counters,
+    pub(super) shutdown: CancellationToken,
+}
+
+impl StandardTiles {
+    pub fn new(scene: &Arc<Scene>, shutdown: CancellationToken) -> Arc<Self> {
+        let started = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).unwrap_or_default();
+        let boot = xxhash_rust::xxh3::xxh3_64(format!("{}-{}", started.as_nanos(), std::process::id()).as_bytes());
+        let encoded = moka::sync::Cache::builder()
+            .max_capacity(ENCODED_BUDGET_BYTES)
+            .weigher(|_, e: &Arc<Encoded>| u32::try_from(e.bytes.len()).unwrap_or(u32::MAX))
+            .build();
+        Arc::new(Self { scene: Arc::clone(scene), boot, encoded, counters: Counters::default(), shutdown })
+    }
+
+    /// The counters for the scene state.
+    pub fn state(&self) -> pb::StandardTiles {
+        let c = &self.counters;
+        pb::StandardTiles {
+            terrain_tiles_built: c.terrain_built.load(Ordering::Relaxed),
+            terrain_tiles_served: c.terrain_served.load(Ordering::Relaxed),
+            terrarium_tiles_built: c.terrarium_built.load(Ordering::Relaxed),
+            imagery_tiles_built: c.imagery_built.load(Ordering::Relaxed),
+            glb_tiles_built: c.glb_built.load(Ordering::Relaxed),
+            not_modified: c.not_modified.load(Ordering::Relaxed),
+            change_notices_sent: c.notices_sent.load(Ordering::Relaxed),
+            change_streams: c.change_streams.load(Ordering::Relaxed),
+            encoded_bytes: self.encoded.weighted_size(),
+        }
+    }
+
+    /// Counts an answer of 304 Not Modified (the client's ETag matched).
+    pub fn count_not_modified(&self) {
+        self.counters.not_modified.fetch_add(1, Ordering::Relaxed);
+    }
+}
