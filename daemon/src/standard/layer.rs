@@ -4,7 +4,7 @@
 use relief_source::{Extent, TileGrid, TileKey};
 use serde_json::json;
 
-use super::tiles::StandardError;
+use super::tiles::{StandardError, version_of};
 use crate::graph::SceneSnapshot;
 use crate::picture::Picture;
 
@@ -50,22 +50,13 @@ impl TerrainLayer {
         })?;
         let slot = &snap.slots[height];
         let info = slot.source.as_ref().map(|s| s.info()).unwrap_or_default();
-        let max_zoom = info.resolution.map_or(12, |r| {
-            let mut level = 0u8;
-            while level < 20 && grid.sample_step(level) > r {
-                level += 1;
-            }
-            level
-        });
+        let max_zoom = data_level(grid, info.resolution);
         let data = info.extent.and_then(|e| e.intersection(&grid.extent())).unwrap_or_else(|| grid.extent());
         let water = layer("water");
         let error_m = Picture::of(&snap.manifest).terrain_mesh_error_m;
-        let version = {
-            let mut made_of = vec![boot, slot.effective_version, error_m.to_bits()];
-            made_of.extend(water.map(|w| snap.slots[w].effective_version));
-            let bytes: Vec<u8> = made_of.iter().flat_map(|v| v.to_le_bytes()).collect();
-            format!("{:012x}", xxhash_rust::xxh3::xxh3_64(&bytes) >> 16)
-        };
+        let mut made_of = vec![boot, slot.effective_version, error_m.to_bits()];
+        made_of.extend(water.map(|w| snap.slots[w].effective_version));
+        let version = version_of(&made_of);
         Ok(Self { height, water, max_zoom, data, error_m, version })
     }
 
@@ -134,6 +125,12 @@ impl TerrainLayer {
             "relief:level_error_m": (0..=self.max_zoom).map(|z| self.error_at(z)).collect::<Vec<_>>(),
         })
     }
+}
+
+/// The level whose samples are a source's own (the first at or finer than
+/// its data's `resolution`, in grid units); 12 when it is not known.
+pub fn data_level(grid: &TileGrid, resolution: Option<f64>) -> u8 {
+    resolution.map_or(12, |r| (0..20).find(|&l| grid.sample_step(l) <= r).unwrap_or(20))
 }
 
 /// The tiles of level `z` an extent overlaps (rows from the north), or

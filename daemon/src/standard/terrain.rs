@@ -8,7 +8,7 @@ use relief_source::{Payload, TileKey};
 use relief_standard_tiles::{EncodeOptions, Rtin, WATER_MASK_SIZE, encode_quantized_mesh, key_from_tms};
 
 use super::layer::TerrainLayer;
-use super::tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
+use super::tiles::{Answer, CacheRule, Encoded, FORMAT_TERRAIN, StandardError, StandardTiles, address_of};
 use crate::graph::SceneSnapshot;
 
 /// The media type of a quantized-mesh tile.
@@ -94,11 +94,7 @@ impl StandardTiles {
             .filter(|&k| layer.is_available(grid, k))
             .ok_or_else(|| not_available(&layer, grid, z, x, tms_y))?;
         let extensions = wanted(accept, &layer)?;
-        let cache = match v {
-            Some(v) if v == layer.version => CacheRule::Immutable,
-            Some(_) => CacheRule::Short,
-            None => CacheRule::Revalidate,
-        };
+        let cache = CacheRule::for_version(v, &layer.version);
         let store = Arc::clone(&self.scene.store);
         let job_snap = Arc::clone(&snap);
         let quality = snap.manifest.quality;
@@ -118,6 +114,7 @@ impl StandardTiles {
         let error_m = layer.error_at(z);
         let address = {
             let mut made_of = vec![
+                FORMAT_TERRAIN,
                 u64::from(z),
                 u64::from(x),
                 u64::from(tms_y),
@@ -126,8 +123,7 @@ impl StandardTiles {
                 u64::from(extensions.octvertexnormals),
             ];
             made_of.extend(water_tile.as_ref().map(|w| w.content_hash));
-            let bytes: Vec<u8> = made_of.iter().flat_map(|v| v.to_le_bytes()).collect();
-            xxhash_rust::xxh3::xxh3_128(&bytes)
+            address_of(&made_of)
         };
         let encoded = match self.encoded.get(&address) {
             Some(e) => e,

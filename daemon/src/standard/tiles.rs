@@ -13,6 +13,26 @@ use crate::scene::Scene;
 /// Bytes of encoded standard tiles kept in memory.
 const ENCODED_BUDGET_BYTES: u64 = 64 * 1024 * 1024;
 
+/// The first part of an encoded tile's address: its format.
+pub(super) const FORMAT_TERRAIN: u64 = 1;
+pub(super) const FORMAT_XYZ: u64 = 2;
+pub(super) const FORMAT_GLB: u64 = 3;
+
+/// A short version string of what something is made of (12 hex digits).
+pub(super) fn version_of(made_of: &[u64]) -> String {
+    format!("{:012x}", xxhash_rust::xxh3::xxh3_64(&bytes_of(made_of)) >> 16)
+}
+
+/// The address an encoded tile is kept under, from what it is made of
+/// (its format first).
+pub(super) fn address_of(made_of: &[u64]) -> u128 {
+    xxhash_rust::xxh3::xxh3_128(&bytes_of(made_of))
+}
+
+fn bytes_of(values: &[u64]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
 /// Why a standard tile or description cannot be served; each names what
 /// was asked and what is wrong.
 #[derive(Debug, Clone, thiserror::Error)]
@@ -47,6 +67,18 @@ pub enum CacheRule {
     /// A description (`layer.json`) or an unversioned URL: ask again each
     /// time (the ETag makes that cheap).
     Revalidate,
+}
+
+impl CacheRule {
+    /// The rule for a URL that named version `asked` (or none) when the
+    /// current one is `current`.
+    pub fn for_version(asked: Option<&str>, current: &str) -> Self {
+        match asked {
+            Some(v) if v == current => Self::Immutable,
+            Some(_) => Self::Short,
+            None => Self::Revalidate,
+        }
+    }
 }
 
 /// One encoded tile, and its ETag (a hash of its bytes).

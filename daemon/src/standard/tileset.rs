@@ -26,8 +26,8 @@ use relief_standard_tiles::{
     Glb, ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
 };
 
-use super::layer::covering;
-use super::tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
+use super::layer::{covering, data_level};
+use super::tiles::{Answer, CacheRule, Encoded, FORMAT_GLB, StandardError, StandardTiles, address_of, version_of};
 use crate::graph::SceneSnapshot;
 use crate::scene_tiles::ModelCache;
 use crate::tiles::TileStore;
@@ -108,8 +108,7 @@ impl TilesetLayers {
         let mut made_of = vec![boot];
         made_of.extend(layers.iter().map(|&(_, i, _)| snap.slots[i].effective_version));
         made_of.extend(height.map(|h| snap.slots[h].effective_version));
-        let bytes: Vec<u8> = made_of.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let version = format!("{:012x}", xxhash_rust::xxh3::xxh3_64(&bytes) >> 16);
+        let version = version_of(&made_of);
         Ok(Self { layers, height, version })
     }
 
@@ -274,7 +273,7 @@ impl StandardTiles {
             (Content::Buildings, Payload::Mesh(mesh)) => {
                 let height_level = layers.height.and_then(|h| {
                     let r = snap.slots[h].source.as_ref()?.info().resolution?;
-                    Some((0..key.level).find(|&l| snap.grid.sample_step(l) <= r).unwrap_or(key.level))
+                    Some(data_level(&snap.grid, Some(r)).min(key.level))
                 });
                 let ground = Ground {
                     store,
@@ -311,10 +310,9 @@ impl StandardTiles {
         };
         let (glb, made_of) = glb;
         let Some(glb) = glb else { return Ok(Made { glb: None, encoded: None }) };
-        let mut address_of = vec![content as u64, u64::from(key.level), u64::from(key.x), u64::from(key.y)];
-        address_of.extend(made_of);
-        let bytes: Vec<u8> = address_of.iter().flat_map(|v| v.to_le_bytes()).collect();
-        let address = xxhash_rust::xxh3::xxh3_128(&bytes);
+        let mut parts = vec![FORMAT_GLB, content as u64, u64::from(key.level), u64::from(key.x), u64::from(key.y)];
+        parts.extend(made_of);
+        let address = address_of(&parts);
         let encoded = match self.encoded.get(&address) {
             Some(e) => e,
             None => {
@@ -398,11 +396,7 @@ impl StandardTiles {
         if !listed {
             return Err(StandardError::NotFound(format!("{name} is not part of tileset.json")));
         }
-        let cache = match v {
-            Some(v) if v == layers.version => CacheRule::Immutable,
-            Some(_) => CacheRule::Short,
-            None => CacheRule::Revalidate,
-        };
+        let cache = CacheRule::for_version(v, &layers.version);
         let (this, job_snap, job_layers, job_name) =
             (Arc::clone(self), Arc::clone(&snap), layers.clone(), name.clone());
         let encoded = self

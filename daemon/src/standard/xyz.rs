@@ -13,7 +13,8 @@ use relief_standard_tiles::{
 };
 use serde_json::json;
 
-use super::tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
+use super::layer::data_level;
+use super::tiles::{Answer, CacheRule, Encoded, FORMAT_XYZ, StandardError, StandardTiles, address_of, version_of};
 use crate::graph::SceneSnapshot;
 
 /// Which XYZ tiles.
@@ -74,22 +75,12 @@ impl XyzLayer {
             ))
         })?;
         let info = snap.slots[slot].source.as_ref().map(|s| s.info()).unwrap_or_default();
-        let native_level = info.resolution.map_or(12, |r| {
-            let mut level = 0u8;
-            while level < 20 && grid.sample_step(level) > r {
-                level += 1;
-            }
-            level
-        });
+        let native_level = data_level(grid, info.resolution);
         let world = Extent::new(-180.0, -MERCATOR_MAX_LAT, 180.0, MERCATOR_MAX_LAT);
         let data = info.extent.and_then(|e| e.intersection(&world)).unwrap_or(world);
         // A geodetic level's tiles span 180 / 2^l degrees, a zoom's 360 / 2^z.
         let max_zoom = native_level + 1;
-        let version = {
-            let made_of = [boot, snap.slots[slot].effective_version, kind as u64];
-            let bytes: Vec<u8> = made_of.iter().flat_map(|v| v.to_le_bytes()).collect();
-            format!("{:012x}", xxhash_rust::xxh3::xxh3_64(&bytes) >> 16)
-        };
+        let version = version_of(&[boot, snap.slots[slot].effective_version, kind as u64]);
         Ok(Self { kind, slot, native_level, max_zoom, data, version })
     }
 
@@ -178,11 +169,7 @@ impl StandardTiles {
                 "{name} tile {z}/{x}/{y} holds none of the scene's data: {has}"
             )));
         }
-        let cache = match v {
-            Some(v) if v == layer.version => CacheRule::Immutable,
-            Some(_) => CacheRule::Short,
-            None => CacheRule::Revalidate,
-        };
+        let cache = CacheRule::for_version(v, &layer.version);
         let grid = snap.grid.clone();
         let level = geodetic_level_for(&grid, z, layer.native_level);
         let sample = if kind == XyzKind::Terrarium { SampleKind::Corner } else { SampleKind::TexelWithBorder };
@@ -208,12 +195,9 @@ impl StandardTiles {
                 kind.layer()
             )));
         }
-        let address = {
-            let mut made_of = vec![kind as u64, u64::from(z), u64::from(x), u64::from(y)];
-            made_of.extend(tiles.iter().map(|(_, t)| t.as_ref().map_or(u64::MAX, |t| t.content_hash)));
-            let bytes: Vec<u8> = made_of.iter().flat_map(|v| v.to_le_bytes()).collect();
-            xxhash_rust::xxh3::xxh3_128(&bytes)
-        };
+        let mut made_of = vec![FORMAT_XYZ, kind as u64, u64::from(z), u64::from(x), u64::from(y)];
+        made_of.extend(tiles.iter().map(|(_, t)| t.as_ref().map_or(u64::MAX, |t| t.content_hash)));
+        let address = address_of(&made_of);
         let encoded = match self.encoded.get(&address) {
             Some(e) => e,
             None => {

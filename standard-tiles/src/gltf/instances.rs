@@ -24,7 +24,7 @@ const REGION_PAD_DEG: f64 = 1e-7;
 ///
 /// The daemon fills it from a `relief_models::Model` field by field:
 ///
-/// ```ignore
+/// ```text
 /// let models = |name: &str| {
 ///     scene_model(name).map(|m: Arc<relief_models::Model>| ModelMesh {
 ///         positions: m.positions.clone(),
