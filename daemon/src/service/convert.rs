@@ -213,13 +213,17 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub, standard: &StandardTiles) -> p
             raster_cache_bytes: relief_source_gdal::cached_bytes(),
             raster_cache_budget_bytes: relief_source_gdal::block_budget(),
             stream_frames_carried_over: frames.frames_carried_over,
-            memory: [("tile cache", c.bytes), ("raster blocks", relief_source_gdal::cached_bytes())]
-                .into_iter()
-                .map(|(n, b)| (n.to_owned(), b))
-                .chain(hub.viewer().held_bytes().into_iter().map(|(n, b)| (format!("renderer: {n}"), b)))
-                .chain(std::iter::once(("frames held for streams".to_owned(), hub.held_bytes())))
-                .map(|(name, bytes)| pb::MemoryUse { name, bytes })
-                .collect(),
+            memory: [
+                ("tile cache", c.bytes),
+                ("raster blocks", relief_source_gdal::cached_bytes()),
+                ("standard tiles", standard.state().encoded_bytes),
+            ]
+            .into_iter()
+            .map(|(n, b)| (n.to_owned(), b))
+            .chain(hub.viewer().held_bytes().into_iter().map(|(n, b)| (format!("renderer: {n}"), b)))
+            .chain(std::iter::once(("frames held for streams".to_owned(), hub.held_bytes())))
+            .map(|(name, bytes)| pb::MemoryUse { name, bytes })
+            .collect(),
             standard_tiles: Some(standard.state()),
             renderer_caches: Some({
                 let w = hub.viewer().cache_work();

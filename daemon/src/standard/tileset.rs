@@ -21,6 +21,7 @@ use std::collections::HashMap;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 
+use rayon::prelude::*;
 use relief_source::{Payload, TileKey};
 use relief_standard_tiles::{
     Glb, ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
@@ -408,14 +409,21 @@ impl StandardTiles {
                     let made = this.content_tile(&job_snap, &job_layers, content, key, &models)?;
                     return made.encoded.ok_or_else(|| StandardError::NotFound(format!("{name} has nothing to draw")));
                 }
-                let mut entries = Vec::new();
-                for tile in job_layers.contents(&job_snap, content, key) {
-                    if let Some(glb) = this.content_tile(&job_snap, &job_layers, content, tile, &models)?.glb {
-                        // Leaves: their content is drawn whole.
-                        // From `{layer}/{z}/{x}/{y}.json` up to `tileset.json`'s folder.
-                        entries.push(TilesetEntry::new(format!("../../../{}", uri(content, tile, "glb")), &glb, 0.0));
-                    }
-                }
+                // The group's tiles in parallel, on the tile pool.
+                let made: Vec<(TileKey, Made)> = job_layers
+                    .contents(&job_snap, content, key)
+                    .into_par_iter()
+                    .map(|tile| Ok((tile, this.content_tile(&job_snap, &job_layers, content, tile, &models)?)))
+                    .collect::<Result<_, StandardError>>()?;
+                // Leaves: their content is drawn whole. Their URIs go from
+                // `{layer}/{z}/{x}/{y}.json` up to `tileset.json`'s folder.
+                let entries: Vec<TilesetEntry> = made
+                    .iter()
+                    .filter_map(|(tile, m)| {
+                        let glb = m.glb.as_ref()?;
+                        Some(TilesetEntry::new(format!("../../../{}", uri(content, *tile, "glb")), glb, 0.0))
+                    })
+                    .collect();
                 let doc = tileset_json(&job_layers.version, &entries, geometric_error_for_level(&job_snap.grid, level));
                 Ok(Arc::new(Encoded::new(doc.to_string().into_bytes(), "application/json")))
             })
