@@ -18,6 +18,7 @@
 //! The HTTP adapter is `service::http::tiles`.
 
 mod changes;
+mod ground;
 mod layer;
 mod terrain;
 mod tiles;

@@ -27,11 +27,11 @@ use relief_standard_tiles::{
     Glb, ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
 };
 
+use super::ground::Ground;
 use super::layer::{covering, data_level};
 use super::tiles::{Answer, CacheRule, Encoded, FORMAT_GLB, StandardError, StandardTiles, address_of, version_of};
 use crate::graph::SceneSnapshot;
 use crate::scene_tiles::ModelCache;
-use crate::tiles::TileStore;
 
 /// The level of building content unless the source asks for a finer one:
 /// tiles about 1.2 km tall, what the renderer draws buildings at near the
@@ -198,46 +198,6 @@ fn uri(content: Content, key: TileKey, extension: &str) -> String {
 
 /// The identity, for a group's tile (its content places itself).
 const IDENTITY: [f64; 16] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
-
-/// Heights of the ground for `on_ground` buildings: the height layer's
-/// tiles at `level` (the content's, or the DEM's own if coarser), read
-/// bilinearly, each tile fetched once.
-struct Ground<'a> {
-    store: &'a TileStore,
-    snap: &'a SceneSnapshot,
-    slot: Option<usize>,
-    level: u8,
-    tiles: Mutex<HashMap<TileKey, Option<Arc<Payload>>>>,
-    /// The content hashes of the tiles read, for the GLB's address.
-    read: Mutex<Vec<u64>>,
-}
-
-impl Ground<'_> {
-    fn height(&self, lon: f64, lat: f64) -> f64 {
-        let Some(slot) = self.slot else { return f64::NAN };
-        let grid = &self.snap.grid;
-        let (gx, gy) = grid.sample_coords(self.level, lon, lat);
-        let (x0, y0) = (gx.floor() as i64, gy.floor() as i64);
-        let (fx, fy) = (gx - x0 as f64, gy - y0 as f64);
-        let sample = |dx: i64, dy: i64| -> f64 {
-            let (key, i, j) = grid.corner_sample(self.level, x0 + dx, y0 + dy);
-            let mut tiles = self.tiles.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
-            let tile = tiles.entry(key).or_insert_with(|| {
-                let t = self.store.tile(self.snap, slot, key, &self.snap.manifest.quality).ok();
-                if let Some(t) = &t {
-                    self.read.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(t.content_hash);
-                }
-                t.map(|t| Arc::clone(&t.payload))
-            });
-            match tile.as_deref() {
-                Some(Payload::Height(h)) => f64::from(h.get(i, j)),
-                _ => f64::NAN,
-            }
-        };
-        let (a, b, c, d) = (sample(0, 0), sample(1, 0), sample(0, 1), sample(1, 1));
-        (a * (1.0 - fx) + b * fx) * (1.0 - fy) + (c * (1.0 - fx) + d * fx) * fy
-    }
-}
 
 /// What one content tile is: its GLB (None: nothing to draw) and entry.
 struct Made {
