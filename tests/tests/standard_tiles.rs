@@ -63,6 +63,11 @@ fn terrain_is_served_with_cache_rules_and_built_only_when_asked() -> anyhow::Res
     assert_eq!(layer["relief:level_error_m"][10], 1.0);
     assert_eq!(layer["relief:level_error_m"][9], 2.0);
     let version = layer["version"].as_str().unwrap().to_owned();
+    // A description has an ETag too: asking again with it is a 304.
+    let described = reply.header("etag").expect("layer.json has an ETag").to_owned();
+    let again =
+        request_with("GET", &format!("{base}/tiles/terrain/layer.json"), None, &[("if-none-match", &described)])?;
+    assert_eq!(again.status, 304);
 
     let at = tms_at(&layer, 10.25, 45.25);
     let url = tile_url(&base, at, &version);
@@ -94,6 +99,10 @@ fn terrain_is_served_with_cache_rules_and_built_only_when_asked() -> anyhow::Res
     let mut inflated = Vec::new();
     flate2::read::GzDecoder::new(&zipped.body[..]).read_to_end(&mut inflated)?;
     assert_eq!(inflated, tile.body);
+    assert_eq!(zipped.header("vary"), Some("Accept, Accept-Encoding, Origin"));
+    // gzip;q=0 refuses it.
+    let refused = request_with("GET", &url, None, &[("accept", NORMALS), ("accept-encoding", "gzip;q=0, identity")])?;
+    assert_eq!((refused.header("content-encoding"), refused.body.len()), (None, tile.body.len()));
     // Without a version: ask each time; an old version: the current tile,
     // kept briefly.
     let bare = request_with("GET", &url.replace(&format!("?v={version}"), ""), None, &[("accept", NORMALS)])?;
@@ -104,7 +113,7 @@ fn terrain_is_served_with_cache_rules_and_built_only_when_asked() -> anyhow::Res
 
     let c = standard_counters(&base)?;
     assert_eq!(count(&c, "terrainTilesBuilt"), 1, "one tile, with normals, built once: {c}");
-    assert_eq!(count(&c, "terrainTilesServed"), 6, "304s included: {c}");
+    assert_eq!(count(&c, "terrainTilesServed"), 7, "304s included: {c}");
     assert_eq!(count(&c, "notModified"), 2, "{c}");
     assert_eq!(count(&c, "terrariumTilesBuilt") + count(&c, "glbTilesBuilt"), 0, "nothing else asked for: {c}");
     daemon.stop(&[])?;

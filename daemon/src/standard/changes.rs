@@ -172,7 +172,7 @@ impl StandardTiles {
         if let Some(v) = now.tileset.as_ref().filter(|v| before.tileset.as_ref() != Some(*v))
             && let Ok(layers) = TilesetLayers::of(snap, self.boot)
         {
-            let content = dirty.map(|d| layers.dirty_content(snap, d)).unwrap_or_default();
+            let content = dirty.and_then(|d| layers.dirty_content(snap, d)).unwrap_or_default();
             notice.tileset = Some(ContentChange { version: v.version.clone(), all: content.is_empty(), content });
         }
         (now, notice)
@@ -203,16 +203,22 @@ impl StandardTiles {
                         () = tx.closed() => break,
                         e = events.recv() => e,
                     };
-                    let dirty = match event {
-                        Ok(e) => match e.kind {
-                            EventKind::Generation { dirty, .. } => Some(dirty),
-                            _ => continue,
-                        },
-                        // Notices were missed: what changed meanwhile is all.
-                        Err(RecvError::Lagged(_)) => None,
+                    match event {
+                        Ok(e) if matches!(e.kind, EventKind::Generation { .. }) => {}
+                        // Missed events: the snapshot and the dirt log say
+                        // what changed meanwhile.
+                        Ok(_) | Err(RecvError::Lagged(_)) => {}
                         Err(RecvError::Closed) => break,
-                    };
-                    let (next, notice) = this.notice(&now, &this.scene.snapshot(), dirty.as_deref());
+                    }
+                    // Each notice goes from the last generation noticed to the
+                    // one served now, with the dirt of every generation
+                    // between (all of a format when the log no longer has it).
+                    let snap = this.scene.snapshot();
+                    if snap.generation <= now.generation {
+                        continue;
+                    }
+                    let dirty = this.scene.dirt_between(now.generation, snap.generation);
+                    let (next, notice) = this.notice(&now, &snap, dirty.as_deref());
                     now = next;
                     if notice.is_empty() {
                         continue;

@@ -123,6 +123,9 @@ impl StandardTiles {
                 u64::from(extensions.octvertexnormals),
             ];
             made_of.extend(water_tile.as_ref().map(|w| w.content_hash));
+            // Where the data ends decides which gaps are 0 m and which filled.
+            let d = layer.data;
+            made_of.extend([d.min_x, d.min_y, d.max_x, d.max_y].map(f64::to_bits));
             address_of(&made_of)
         };
         let encoded = match self.encoded.get(&address) {

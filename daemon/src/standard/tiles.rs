@@ -1,14 +1,15 @@
 //! The standard tiles of one scene: what every format shares (the
 //! encoded-tile cache, the counters, answers and errors).
 
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, OnceLock};
 
 use bytes::Bytes;
 use relief_proto::v1 as pb;
 use tokio_util::sync::CancellationToken;
 
 use crate::scene::Scene;
+use crate::scene_tiles::ModelCache;
 
 /// Bytes of encoded standard tiles kept in memory (a group of the demo's
 /// forest is some 40 MB of GLB); the state's `memory` shows what is held.
@@ -88,19 +89,21 @@ pub struct Encoded {
     pub bytes: Bytes,
     pub etag: String,
     pub content_type: &'static str,
-    gzip: OnceLock<Bytes>,
+    /// The bytes gzipped, made with them (on the tile pool, where they are
+    /// encoded); None for a PNG, which gzip would not shrink.
+    pub gzip: Option<Bytes>,
 }
 
 impl Encoded {
     pub(super) fn new(bytes: Vec<u8>, content_type: &'static str) -> Self {
         let etag = format!("\"{:016x}\"", xxhash_rust::xxh3::xxh3_64(&bytes));
-        Self { bytes: Bytes::from(bytes), etag, content_type, gzip: OnceLock::new() }
+        let gzip = (content_type != "image/png").then(|| Bytes::from(relief_standard_tiles::gzip(&bytes)));
+        Self { bytes: Bytes::from(bytes), etag, content_type, gzip }
     }
 
-    /// The bytes gzipped (worked out once, on the first client that
-    /// accepts gzip).
-    pub fn gzipped(&self) -> Bytes {
-        self.gzip.get_or_init(|| Bytes::from(relief_standard_tiles::gzip(&self.bytes))).clone()
+    /// Bytes held: the tile and its gzipped copy.
+    fn weight(&self) -> u32 {
+        u32::try_from(self.bytes.len() + self.gzip.as_ref().map_or(0, Bytes::len)).unwrap_or(u32::MAX)
     }
 }
 
@@ -136,6 +139,8 @@ pub struct StandardTiles {
     pub(super) encoded: moka::sync::Cache<u128, Arc<Encoded>>,
     pub(super) counters: Counters,
     pub(super) shutdown: CancellationToken,
+    /// The instances' models, read once per file version.
+    pub(super) models: ModelCache,
 }
 
 impl StandardTiles {
@@ -144,9 +149,16 @@ impl StandardTiles {
         let boot = xxhash_rust::xxh3::xxh3_64(format!("{}-{}", started.as_nanos(), std::process::id()).as_bytes());
         let encoded = moka::sync::Cache::builder()
             .max_capacity(ENCODED_BUDGET_BYTES)
-            .weigher(|_, e: &Arc<Encoded>| u32::try_from(e.bytes.len()).unwrap_or(u32::MAX))
+            .weigher(|_, e: &Arc<Encoded>| e.weight())
             .build();
-        Arc::new(Self { scene: Arc::clone(scene), boot, encoded, counters: Counters::default(), shutdown })
+        Arc::new(Self {
+            scene: Arc::clone(scene),
+            boot,
+            encoded,
+            counters: Counters::default(),
+            shutdown,
+            models: ModelCache::default(),
+        })
     }
 
     /// The counters for the scene state.

@@ -46,6 +46,9 @@ pub const GROUP_LEVELS: u8 = 3;
 /// with a message (every answer has a limit).
 pub const MAX_GROUPS: u64 = 4096;
 
+/// Most content tiles one notice names; past them it says `all`.
+const MAX_NOTICED: u64 = 4096;
+
 /// Room above the ground in a group's region: the tallest building or
 /// tree relief expects (a region too tall only culls a little later).
 const HEADROOM_M: f64 = 1000.0;
@@ -148,30 +151,41 @@ impl TilesetLayers {
     /// The URIs (relative to `tileset.json`) of the content tiles `dirty`
     /// changes, and of their groups' tilesets: tiles over a dirty extent of
     /// a layer's source, or of the ground under its buildings.
-    pub fn dirty_content(&self, snap: &SceneSnapshot, dirty: &[crate::scene::DirtyRegion]) -> Vec<String> {
-        let mut out = Vec::new();
+    pub fn dirty_content(&self, snap: &SceneSnapshot, dirty: &[crate::scene::DirtyRegion]) -> Option<Vec<String>> {
+        let mut out = std::collections::BTreeSet::new();
         for &(content, slot, level) in &self.layers {
             let mut ids = vec![snap.slots[slot].spec.id.as_str()];
-            if content == Content::Buildings {
-                ids.extend(self.height.map(|h| snap.slots[h].spec.id.as_str()));
+            // The ground under buildings is read bilinearly at the height
+            // layer's own level: its dirt reaches a sample further.
+            let mut reach = 0.0;
+            if content == Content::Buildings
+                && let Some(h) = self.height
+            {
+                ids.push(snap.slots[h].spec.id.as_str());
+                let resolution = snap.slots[h].source.as_ref().and_then(|s| s.info().resolution);
+                reach = snap.grid.sample_step(data_level(&snap.grid, resolution).min(level));
             }
+            // Only where the layer has content.
+            let Some(data) = data_extent(snap, slot, 0) else { continue };
             for extent in dirty.iter().filter(|d| ids.contains(&d.source_id.as_str())).flat_map(|d| &d.extents) {
-                let Some(r) = covering(&snap.grid, level, extent) else { continue };
+                let Some(area) = extent.dilate(reach, reach).intersection(&data) else { continue };
+                let Some(r) = covering(&snap.grid, level, &area) else { continue };
+                let count = u64::from(r.x[1] - r.x[0] + 1) * u64::from(r.y[1] - r.y[0] + 1);
+                if count + out.len() as u64 > MAX_NOTICED {
+                    return None;
+                }
                 for y in r.y[0]..=r.y[1] {
                     for x in r.x[0]..=r.x[1] {
                         let key = TileKey::new(level, x, y);
                         let group =
                             TileKey::new(level.saturating_sub(GROUP_LEVELS), x >> GROUP_LEVELS, y >> GROUP_LEVELS);
-                        for uri in [uri(content, group, "json"), uri(content, key, "glb")] {
-                            if !out.contains(&uri) && out.len() < 4 * MAX_GROUPS as usize {
-                                out.push(uri);
-                            }
-                        }
+                        out.insert(uri(content, group, "json"));
+                        out.insert(uri(content, key, "glb"));
                     }
                 }
             }
         }
-        out
+        Some(out.into_iter().collect())
     }
 }
 
@@ -263,7 +277,8 @@ impl StandardTiles {
                     })
                 };
                 let made = instances_glb(instances, &model, &snap.grid, key).map_err(|e| failed(&e))?;
-                (made.glb, vec![tile.content_hash])
+                // The models too: an edited model file is a new version.
+                (made.glb, vec![tile.content_hash, snap.slots[slot].effective_version])
             }
             (_, other) => {
                 return Err(failed(&format!("the layer's source gave a {} tile", other.kind().name())));
@@ -364,16 +379,16 @@ impl StandardTiles {
             .scene
             .store
             .run(move || {
-                let (name, models) = (job_name, ModelCache::default());
+                let (name, models) = (job_name, &this.models);
                 if glb {
-                    let made = this.content_tile(&job_snap, &job_layers, content, key, &models)?;
+                    let made = this.content_tile(&job_snap, &job_layers, content, key, models)?;
                     return made.encoded.ok_or_else(|| StandardError::NotFound(format!("{name} has nothing to draw")));
                 }
                 // The group's tiles in parallel, on the tile pool.
                 let made: Vec<(TileKey, Made)> = job_layers
                     .contents(&job_snap, content, key)
                     .into_par_iter()
-                    .map(|tile| Ok((tile, this.content_tile(&job_snap, &job_layers, content, tile, &models)?)))
+                    .map(|tile| Ok((tile, this.content_tile(&job_snap, &job_layers, content, tile, models)?)))
                     .collect::<Result<_, StandardError>>()?;
                 // Leaves: their content is drawn whole. Their URIs go from
                 // `{layer}/{z}/{x}/{y}.json` up to `tileset.json`'s folder.

@@ -124,12 +124,23 @@ pub fn dirty_tiles(layer: &XyzLayer, snap: &SceneSnapshot, dirty: &[crate::scene
     for extent in dirty.iter().filter(|d| d.source_id == id).flat_map(|d| &d.extents) {
         for z in 0..=layer.max_zoom {
             let reach = 2.0 * snap.grid.sample_step(geodetic_level_for(&snap.grid, z, layer.native_level));
-            let Some(r) = xyz_range(z, &extent.dilate(reach, reach)) else { continue };
+            let grown = extent.dilate(reach, reach);
+            // Pixels wrap across the antimeridian: what reaches past it
+            // changes tiles on the other side too.
+            let mut areas = vec![grown];
+            if grown.min_x < -180.0 {
+                areas.push(Extent::new(grown.min_x + 360.0, grown.min_y, 180.0, grown.max_y));
+            }
+            if grown.max_x > 180.0 {
+                areas.push(Extent::new(-180.0, grown.min_y, grown.max_x - 360.0, grown.max_y));
+            }
             let Some(a) = layer.available_at(z) else { continue };
-            let x = [r.x[0].max(a.x[0]), r.x[1].min(a.x[1])];
-            let y = [r.y[0].max(a.y[0]), r.y[1].min(a.y[1])];
-            if x[0] <= x[1] && y[0] <= y[1] && !out.contains(&XyzRange { z, x, y }) {
-                out.push(XyzRange { z, x, y });
+            for r in areas.iter().filter_map(|area| xyz_range(z, area)) {
+                let x = [r.x[0].max(a.x[0]), r.x[1].min(a.x[1])];
+                let y = [r.y[0].max(a.y[0]), r.y[1].min(a.y[1])];
+                if x[0] <= x[1] && y[0] <= y[1] && !out.contains(&XyzRange { z, x, y }) {
+                    out.push(XyzRange { z, x, y });
+                }
             }
         }
     }
@@ -195,6 +206,10 @@ impl StandardTiles {
                 kind.layer()
             )));
         }
+        // A tile made without some of its inputs (one failed to build) is
+        // served briefly and not kept: the next request tries them again.
+        let partial = tiles.iter().any(|(_, t)| t.is_none());
+        let cache = if partial { CacheRule::Short } else { cache };
         let mut made_of = vec![FORMAT_XYZ, kind as u64, u64::from(z), u64::from(x), u64::from(y)];
         made_of.extend(tiles.iter().map(|(_, t)| t.as_ref().map_or(u64::MAX, |t| t.content_hash)));
         let address = address_of(&made_of);
@@ -218,7 +233,9 @@ impl StandardTiles {
                 };
                 counter.fetch_add(1, Ordering::Relaxed);
                 let made = Arc::new(Encoded::new(made, "image/png"));
-                self.encoded.insert(address, Arc::clone(&made));
+                if !partial {
+                    self.encoded.insert(address, Arc::clone(&made));
+                }
                 made
             }
         };

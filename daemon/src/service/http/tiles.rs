@@ -71,13 +71,30 @@ impl From<StandardError> for TileError {
     }
 }
 
-/// A description: JSON to ask for again each time.
-fn description(value: serde_json::Value) -> Response {
-    ([(header::CACHE_CONTROL, "no-cache")], axum::Json(value)).into_response()
+/// A description: JSON to ask for again each time, with an ETag (a hash
+/// of it) that makes asking again cheap.
+fn description(value: &serde_json::Value, request: &HeaderMap) -> Response {
+    let body = value.to_string();
+    let etag = format!("\"{:016x}\"", xxhash_rust::xxh3::xxh3_64(body.as_bytes()));
+    let matches = request
+        .get(header::IF_NONE_MATCH)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|tags| tags.split(',').any(|t| t.trim() == etag));
+    let mut headers = HeaderMap::new();
+    headers.insert(header::CACHE_CONTROL, HeaderValue::from_static("no-cache"));
+    headers.insert(header::VARY, HeaderValue::from_static("Origin"));
+    if let Ok(v) = HeaderValue::from_str(&etag) {
+        headers.insert(header::ETAG, v);
+    }
+    if matches {
+        return (StatusCode::NOT_MODIFIED, headers).into_response();
+    }
+    headers.insert(header::CONTENT_TYPE, HeaderValue::from_static("application/json"));
+    (headers, body).into_response()
 }
 
-async fn layer_json(State(c): Shared) -> Result<Response, TileError> {
-    Ok(description(c.standard.layer_json()?))
+async fn layer_json(State(c): Shared, headers: HeaderMap) -> Result<Response, TileError> {
+    Ok(description(&c.standard.layer_json()?, &headers))
 }
 
 /// A number in a tile's address, or 400 naming it.
@@ -138,7 +155,7 @@ async fn tilejson<const KIND: u8>(
     secure: Option<Extension<Secure>>,
 ) -> Result<Response, TileError> {
     let secure = secure.is_some_and(|Extension(s)| s.0);
-    Ok(description(c.standard.tilejson(xyz_kind(KIND), &base_url(&headers, &uri, secure))?))
+    Ok(description(&c.standard.tilejson(xyz_kind(KIND), &base_url(&headers, &uri, secure))?, &headers))
 }
 
 async fn xyz_tile<const KIND: u8>(
@@ -168,8 +185,8 @@ async fn xyz_tile<const KIND: u8>(
     Ok(tile_response(&c, &answer, &headers))
 }
 
-async fn tileset(State(c): Shared) -> Result<Response, TileError> {
-    Ok(description(c.standard.tileset().await?))
+async fn tileset(State(c): Shared, headers: HeaderMap) -> Result<Response, TileError> {
+    Ok(description(&c.standard.tileset().await?, &headers))
 }
 
 async fn tileset_content(
@@ -211,6 +228,16 @@ async fn tileset_content(
     Ok(tile_response(&c, &answer, &headers))
 }
 
+/// Whether `Accept-Encoding` takes gzip (not with `q=0`).
+fn accepts_gzip(request: &HeaderMap) -> bool {
+    let Some(text) = request.get(header::ACCEPT_ENCODING).and_then(|v| v.to_str().ok()) else { return false };
+    text.split(',').any(|coding| {
+        let mut parts = coding.split(';').map(str::trim);
+        parts.next().is_some_and(|name| name.eq_ignore_ascii_case("gzip") || name == "*")
+            && parts.all(|p| p.strip_prefix("q=").is_none_or(|q| q.parse::<f64>().is_ok_and(|q| q > 0.0)))
+    })
+}
+
 /// A tile's answer: 304 when the client's ETag is the tile's, else the
 /// bytes (gzipped when accepted), with its cache rule.
 fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
@@ -220,15 +247,14 @@ fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
         CacheRule::Revalidate => "no-cache",
     };
     let e = &answer.encoded;
-    let gzip = request
-        .get(header::ACCEPT_ENCODING)
-        .and_then(|v| v.to_str().ok())
-        .is_some_and(|v| v.split(',').any(|enc| enc.split(';').next().is_some_and(|n| n.trim() == "gzip")));
+    let gzip = e.gzip.as_ref().filter(|_| accepts_gzip(request));
     // Each encoding's bytes have their own (strong) ETag.
-    let etag = if gzip { format!("{}-gzip\"", e.etag.trim_end_matches('"')) } else { e.etag.clone() };
+    let etag = if gzip.is_some() { format!("{}-gzip\"", e.etag.trim_end_matches('"')) } else { e.etag.clone() };
     let mut headers = HeaderMap::new();
     headers.insert(header::CACHE_CONTROL, HeaderValue::from_static(cache));
-    headers.insert(header::VARY, HeaderValue::from_static("Accept, Accept-Encoding"));
+    // Origin too: an allowed page's answer carries its origin (CORS), and
+    // one without none; a cache must keep them apart.
+    headers.insert(header::VARY, HeaderValue::from_static("Accept, Accept-Encoding, Origin"));
     let text = [
         (header::ETAG, etag.clone()),
         (header::HeaderName::from_static("x-relief-version"), answer.version.clone()),
@@ -248,9 +274,9 @@ fn tile_response(c: &Calls, answer: &Answer, request: &HeaderMap) -> Response {
         return (StatusCode::NOT_MODIFIED, headers).into_response();
     }
     headers.insert(header::CONTENT_TYPE, HeaderValue::from_static(e.content_type));
-    if gzip {
+    if let Some(zipped) = gzip {
         headers.insert(header::CONTENT_ENCODING, HeaderValue::from_static("gzip"));
-        (headers, e.gzipped()).into_response()
+        (headers, zipped.clone()).into_response()
     } else {
         (headers, e.bytes.clone()).into_response()
     }
