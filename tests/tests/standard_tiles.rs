@@ -371,3 +371,32 @@ fn pages_of_allowed_origins_read_the_tiles() -> anyhow::Result<()> {
     daemon.stop(&[])?;
     Ok(())
 }
+
+/// A group's tileset builds its GLBs once: asked again, and its content
+/// asked for, nothing is built again (each GLB is kept by what it is made
+/// of, known before it is built).
+#[test]
+fn a_tileset_group_builds_its_content_once() -> anyhow::Result<()> {
+    let dir = tempfile::tempdir()?;
+    let manifest = fixtures::write_demo_scene(dir.path())?;
+    let daemon = Reliefd::start(&manifest, &[])?;
+    let base = format!("{}/tiles/3d", daemon.url());
+    let tileset = get(&format!("{base}/tileset.json"))?.json()?;
+    assert_eq!(count(&standard_counters(&daemon.url())?, "glbTilesBuilt"), 0, "groups are built when opened");
+    let group = tileset["root"]["children"]
+        .as_array()
+        .and_then(|c| c.iter().find(|g| g["content"]["uri"].as_str().is_some_and(|u| u.starts_with("buildings/"))))
+        .map(|g| g["content"]["uri"].as_str().unwrap_or_default().to_owned())
+        .expect("a group of buildings");
+    let inner = get(&format!("{base}/{group}"))?.json()?;
+    let built = count(&standard_counters(&daemon.url())?, "glbTilesBuilt");
+    let leaves = inner["root"]["children"].as_array().map_or(0, Vec::len) as u64;
+    assert!(built >= leaves && leaves > 0, "{built} built for {leaves} leaves");
+    assert_eq!(get(&format!("{base}/{group}"))?.json()?, inner);
+    let leaf =
+        inner["root"]["children"][0]["content"]["uri"].as_str().unwrap_or_default().trim_start_matches("../../../");
+    assert_eq!(get(&format!("{base}/{leaf}"))?.status, 200);
+    assert_eq!(count(&standard_counters(&daemon.url())?, "glbTilesBuilt"), built, "nothing built again");
+    daemon.stop(&[])?;
+    Ok(())
+}

@@ -18,8 +18,6 @@ pub(super) struct Ground<'a> {
     pub(super) slot: Option<usize>,
     pub(super) level: u8,
     pub(super) tiles: Mutex<HashMap<TileKey, Option<Arc<Payload>>>>,
-    /// The content hashes of the tiles read, for the GLB's address.
-    pub(super) read: Mutex<Vec<u64>>,
 }
 
 impl Ground<'_> {
@@ -34,9 +32,6 @@ impl Ground<'_> {
             let mut tiles = self.tiles.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             let tile = tiles.entry(key).or_insert_with(|| {
                 let t = self.store.tile(self.snap, slot, key, &self.snap.manifest.quality).ok();
-                if let Some(t) = &t {
-                    self.read.lock().unwrap_or_else(std::sync::PoisonError::into_inner).push(t.content_hash);
-                }
                 t.map(|t| Arc::clone(&t.payload))
             });
             match tile.as_deref() {

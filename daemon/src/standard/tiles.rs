@@ -92,13 +92,28 @@ pub struct Encoded {
     /// The bytes gzipped, made with them (on the tile pool, where they are
     /// encoded); None for a PNG, which gzip would not shrink.
     pub gzip: Option<Bytes>,
+    /// Where a 3D Tiles content tile stands (None: not content, or nothing
+    /// to draw).
+    pub placement: Option<Placement>,
+}
+
+/// A GLB's place in its tileset: `boundingVolume.region` and `transform`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Placement {
+    pub region: [f64; 6],
+    pub transform: [f64; 16],
 }
 
 impl Encoded {
     pub(super) fn new(bytes: Vec<u8>, content_type: &'static str) -> Self {
         let etag = format!("\"{:016x}\"", xxhash_rust::xxh3::xxh3_64(&bytes));
         let gzip = (content_type != "image/png").then(|| Bytes::from(relief_standard_tiles::gzip(&bytes)));
-        Self { bytes: Bytes::from(bytes), etag, content_type, gzip }
+        Self { bytes: Bytes::from(bytes), etag, content_type, gzip, placement: None }
+    }
+
+    /// A 3D Tiles content tile and where it stands.
+    pub(super) fn placed(bytes: Vec<u8>, content_type: &'static str, placement: Placement) -> Self {
+        Self { placement: Some(placement), ..Self::new(bytes, content_type) }
     }
 
     /// Bytes held: the tile and its gzipped copy.

@@ -24,12 +24,14 @@ use std::sync::{Arc, Mutex};
 use rayon::prelude::*;
 use relief_source::{Payload, TileKey};
 use relief_standard_tiles::{
-    Glb, ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
+    ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
 };
 
 use super::ground::Ground;
 use super::layer::{covering, data_level};
-use super::tiles::{Answer, CacheRule, Encoded, FORMAT_GLB, StandardError, StandardTiles, address_of, version_of};
+use super::tiles::{
+    Answer, CacheRule, Encoded, FORMAT_GLB, Placement, StandardError, StandardTiles, address_of, version_of,
+};
 use crate::graph::SceneSnapshot;
 use crate::scene_tiles::ModelCache;
 
@@ -204,6 +206,35 @@ fn data_extent(snap: &SceneSnapshot, slot: usize, depth: usize) -> Option<relief
     extents.try_fold(first, |a, b| a.intersection(&b))
 }
 
+/// The content hashes of the height tiles at `level` under a mesh tile's
+/// footprint (grown by a sample: the ground is read bilinearly), or the
+/// height layer's version where that is more than 64 tiles.
+fn ground_read(
+    snap: &SceneSnapshot,
+    store: &crate::tiles::TileStore,
+    height: usize,
+    level: u8,
+    mesh: &relief_source::MeshTile,
+) -> Result<Vec<u64>, crate::tiles::TileError> {
+    let Some(footprint) =
+        mesh.positions.iter().map(|p| relief_source::Extent::new(p[0], p[1], p[0], p[1])).reduce(|a, b| a.union(&b))
+    else {
+        return Ok(Vec::new());
+    };
+    let step = snap.grid.sample_step(level);
+    let Some(r) = covering(&snap.grid, level, &footprint.dilate(step, step)) else { return Ok(Vec::new()) };
+    if u64::from(r.x[1] - r.x[0] + 1) * u64::from(r.y[1] - r.y[0] + 1) > 64 {
+        return Ok(vec![snap.slots[height].effective_version]);
+    }
+    let mut hashes = Vec::new();
+    for y in r.y[0]..=r.y[1] {
+        for x in r.x[0]..=r.x[1] {
+            hashes.push(store.tile(snap, height, TileKey::new(level, x, y), &snap.manifest.quality)?.content_hash);
+        }
+    }
+    Ok(hashes)
+}
+
 /// A group's tileset (`json`) or a content tile (`glb`), relative to
 /// `tileset.json`.
 fn uri(content: Content, key: TileKey, extension: &str) -> String {
@@ -212,12 +243,6 @@ fn uri(content: Content, key: TileKey, extension: &str) -> String {
 
 /// The identity, for a group's tile (its content places itself).
 const IDENTITY: [f64; 16] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
-
-/// What one content tile is: its GLB (None: nothing to draw) and entry.
-struct Made {
-    glb: Option<Glb>,
-    encoded: Option<Arc<Encoded>>,
-}
 
 impl StandardTiles {
     fn tileset_layers(&self) -> Result<(Arc<SceneSnapshot>, TilesetLayers), StandardError> {
@@ -235,34 +260,47 @@ impl StandardTiles {
         content: Content,
         key: TileKey,
         models: &ModelCache,
-    ) -> Result<Made, StandardError> {
+    ) -> Result<Arc<Encoded>, StandardError> {
         let (slot, _) = layers
             .layer(content)
             .ok_or_else(|| StandardError::NotFound(format!("the scene has no {} layer", content.name())))?;
         let store = &self.scene.store;
+        let quality = &snap.manifest.quality;
         let failed = |e: &dyn std::fmt::Display| {
             StandardError::Unavailable(format!("3D Tiles {} tile {key}: {e}", content.name()))
         };
-        let tile = store.tile(snap, slot, key, &snap.manifest.quality).map_err(|e| failed(&e))?;
+        let tile = store.tile(snap, slot, key, quality).map_err(|e| failed(&e))?;
+        // What the GLB is made of, known before it is built: the layer's
+        // tile, and the ground under it (the height tiles its footprint
+        // reads) or the models (an edited model file is a new version).
+        let mut parts = vec![FORMAT_GLB, content as u64, u64::from(key.level), u64::from(key.x), u64::from(key.y)];
+        parts.push(tile.content_hash);
+        let height_level = layers.height.and_then(|h| {
+            let r = snap.slots[h].source.as_ref()?.info().resolution?;
+            Some(data_level(&snap.grid, Some(r)).min(key.level))
+        });
+        match (&*tile.payload, layers.height) {
+            (Payload::Mesh(mesh), Some(h)) => {
+                let level = height_level.unwrap_or(key.level);
+                parts.extend(ground_read(snap, store, h, level, mesh).map_err(|e| failed(&e))?);
+            }
+            (Payload::Instances(_), _) => parts.push(snap.slots[slot].effective_version),
+            _ => {}
+        }
+        let address = address_of(&parts);
+        if let Some(e) = self.encoded.get(&address) {
+            return Ok(e);
+        }
         let glb = match (content, &*tile.payload) {
             (Content::Buildings, Payload::Mesh(mesh)) => {
-                let height_level = layers.height.and_then(|h| {
-                    let r = snap.slots[h].source.as_ref()?.info().resolution?;
-                    Some(data_level(&snap.grid, Some(r)).min(key.level))
-                });
                 let ground = Ground {
                     store,
                     snap,
                     slot: layers.height,
                     level: height_level.unwrap_or(key.level),
                     tiles: Mutex::new(HashMap::new()),
-                    read: Mutex::new(Vec::new()),
                 };
-                let glb = buildings_glb(mesh, &snap.grid, key, &|lon, lat| ground.height(lon, lat))
-                    .map_err(|e| failed(&e))?;
-                let mut made_of = vec![tile.content_hash];
-                made_of.extend(ground.read.into_inner().unwrap_or_else(std::sync::PoisonError::into_inner));
-                (glb, made_of)
+                buildings_glb(mesh, &snap.grid, key, &|lon, lat| ground.height(lon, lat)).map_err(|e| failed(&e))?
             }
             (Content::Instances, Payload::Instances(instances)) => {
                 let scene_models = crate::scene_tiles::SceneInstances::new(store, snap, snap.manifest.quality, models);
@@ -276,29 +314,26 @@ impl StandardTiles {
                         indices: m.indices.clone(),
                     })
                 };
-                let made = instances_glb(instances, &model, &snap.grid, key).map_err(|e| failed(&e))?;
-                // The models too: an edited model file is a new version.
-                (made.glb, vec![tile.content_hash, snap.slots[slot].effective_version])
+                instances_glb(instances, &model, &snap.grid, key).map_err(|e| failed(&e))?.glb
             }
             (_, other) => {
                 return Err(failed(&format!("the layer's source gave a {} tile", other.kind().name())));
             }
         };
-        let (glb, made_of) = glb;
-        let Some(glb) = glb else { return Ok(Made { glb: None, encoded: None }) };
-        let mut parts = vec![FORMAT_GLB, content as u64, u64::from(key.level), u64::from(key.x), u64::from(key.y)];
-        parts.extend(made_of);
-        let address = address_of(&parts);
-        let encoded = match self.encoded.get(&address) {
-            Some(e) => e,
-            None => {
+        let encoded = Arc::new(match glb {
+            Some(glb) => {
                 self.counters.glb_built.fetch_add(1, Ordering::Relaxed);
-                let e = Arc::new(Encoded::new(glb.bytes.clone(), "model/gltf-binary"));
-                self.encoded.insert(address, Arc::clone(&e));
-                e
+                Encoded::placed(
+                    glb.bytes,
+                    "model/gltf-binary",
+                    Placement { region: glb.region, transform: glb.transform },
+                )
             }
-        };
-        Ok(Made { glb: Some(glb), encoded: Some(encoded) })
+            // Nothing to draw: kept too, so it is not made again.
+            None => Encoded::new(Vec::new(), "model/gltf-binary"),
+        });
+        self.encoded.insert(address, Arc::clone(&encoded));
+        Ok(encoded)
     }
 
     /// The region of group `key`: its extent, and the ground's heights
@@ -382,10 +417,14 @@ impl StandardTiles {
                 let (name, models) = (job_name, &this.models);
                 if glb {
                     let made = this.content_tile(&job_snap, &job_layers, content, key, models)?;
-                    return made.encoded.ok_or_else(|| StandardError::NotFound(format!("{name} has nothing to draw")));
+                    return if made.placement.is_some() {
+                        Ok(made)
+                    } else {
+                        Err(StandardError::NotFound(format!("{name} has nothing to draw")))
+                    };
                 }
                 // The group's tiles in parallel, on the tile pool.
-                let made: Vec<(TileKey, Made)> = job_layers
+                let made: Vec<(TileKey, Arc<Encoded>)> = job_layers
                     .contents(&job_snap, content, key)
                     .into_par_iter()
                     .map(|tile| Ok((tile, this.content_tile(&job_snap, &job_layers, content, tile, models)?)))
@@ -395,8 +434,13 @@ impl StandardTiles {
                 let entries: Vec<TilesetEntry> = made
                     .iter()
                     .filter_map(|(tile, m)| {
-                        let glb = m.glb.as_ref()?;
-                        Some(TilesetEntry::new(format!("../../../{}", uri(content, *tile, "glb")), glb, 0.0))
+                        let p = m.placement.as_ref()?;
+                        Some(TilesetEntry {
+                            uri: format!("../../../{}", uri(content, *tile, "glb")),
+                            region: p.region,
+                            transform: p.transform,
+                            geometric_error_m: 0.0,
+                        })
                     })
                     .collect();
                 let doc = tileset_json(&job_layers.version, &entries, geometric_error_for_level(&job_snap.grid, level));
