@@ -80,8 +80,12 @@ impl SceneSnapshot {
     }
 
     pub fn layer(&self, name: &str) -> Option<&Slot> {
-        let id = self.manifest.layers.get(name)?;
-        self.slots.iter().find(|s| &s.spec.id == id)
+        self.layer_index(name).map(|i| &self.slots[i])
+    }
+
+    /// The slot of the source that draws layer `name`.
+    pub fn layer_index(&self, name: &str) -> Option<usize> {
+        self.index_of(self.manifest.layers.get(name)?)
     }
 
     /// Recomputes effective versions, in graph order.

@@ -1,7 +1,7 @@
-//! relief's terrain in the standard tile formats that 3D clients already read.
-//!
-//! This first piece serves CesiumJS and Cesium-native: height tiles become
-//! quantized-mesh-1.0 terrain.
+//! relief's tiles in the standard formats that 3D clients already read:
+//! quantized-mesh-1.0 terrain (CesiumJS, Cesium-native), Web Mercator
+//! Terrarium and imagery PNG (MapLibre GL JS, deck.gl) and 3D Tiles 1.1 GLB
+//! content. The daemon's `standard/` serves them under `/tiles/`.
 //!
 //! - `rtin.rs`: [`Rtin`], the right-triangulated irregular network (Evans et
 //!   al. 2001, as in Mapbox's Martini) over a height tile's (2^k+1)^2 samples,

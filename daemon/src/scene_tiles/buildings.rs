@@ -21,11 +21,15 @@ impl<'a> SceneBuildings<'a> {
     /// None when the scene has no `buildings` layer (or its source is not
     /// loaded): then no buildings pass is built.
     pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Option<Self> {
-        let index = snap.manifest.layers.get("buildings").and_then(|id| snap.index_of(id))?;
+        let index = snap.layer_index("buildings")?;
         let source = snap.slots[index].source.as_ref()?;
-        let min_level = source.info().details.get("min_level").and_then(|l| l.parse().ok()).unwrap_or(0);
-        Some(Self { store, snap, quality, index, min_level })
+        Some(Self { store, snap, quality, index, min_level: building_min_level(&source.info()) })
     }
+}
+
+/// The coarsest level a building source makes meshes at (`min_level`).
+pub fn building_min_level(info: &relief_source::SourceInfo) -> u8 {
+    info.details.get("min_level").and_then(|l| l.parse().ok()).unwrap_or(0)
 }
 
 impl MeshTiles for SceneBuildings<'_> {

@@ -76,15 +76,9 @@ impl<'a> SceneInstances<'a> {
         quality: Quality,
         models: &'a ModelCache,
     ) -> Option<Self> {
-        let index = snap.manifest.layers.get("instances").and_then(|id| snap.index_of(id))?;
+        let index = snap.layer_index("instances")?;
         let info = snap.slots[index].source.as_ref()?.info();
-        // The source's level ("15", or "14 (default: ...)"); else the level
-        // scatter would choose for this grid (tiles about 2 km across).
-        let level = info
-            .details
-            .get("level")
-            .and_then(|l| l.split_whitespace().next()?.parse().ok())
-            .unwrap_or_else(|| relief_source_ops::scatter_default_level(&snap.grid));
+        let level = instance_level(&info, &snap.grid);
         let files = info
             .files
             .iter()
@@ -93,6 +87,16 @@ impl<'a> SceneInstances<'a> {
             .collect();
         Some(Self { store, snap, quality, index, level, files, models })
     }
+}
+
+/// The level an instance source places its instances at: its own
+/// ("15", or "14 (default: ...)"); else the level scatter would choose for
+/// this grid (tiles about 2 km across).
+pub fn instance_level(info: &relief_source::SourceInfo, grid: &relief_source::TileGrid) -> u8 {
+    info.details
+        .get("level")
+        .and_then(|l| l.split_whitespace().next()?.parse().ok())
+        .unwrap_or_else(|| relief_source_ops::scatter_default_level(grid))
 }
 
 impl InstanceTiles for SceneInstances<'_> {

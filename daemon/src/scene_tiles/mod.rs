@@ -9,6 +9,6 @@ mod instances;
 mod layer;
 mod terrain;
 
-pub use buildings::SceneBuildings;
-pub use instances::{ModelCache, SceneInstances};
+pub use buildings::{SceneBuildings, building_min_level};
+pub use instances::{ModelCache, SceneInstances, instance_level};
 pub use terrain::SceneTerrain;

@@ -24,7 +24,7 @@ pub struct SceneTerrain<'a> {
 
 impl<'a> SceneTerrain<'a> {
     pub fn new(store: &'a TileStore, snap: &'a SceneSnapshot, quality: Quality) -> Self {
-        let layer = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
+        let layer = |name: &str| snap.layer_index(name);
         let height = layer("height");
         // Refine down to the finest data's own sample spacing (heights or
         // imagery: colour is stored per vertex, so a fine orthophoto over a
@@ -34,13 +34,8 @@ impl<'a> SceneTerrain<'a> {
             .flatten()
             .filter_map(|i| snap.slots[i].source.as_ref().and_then(|s| s.info().resolution))
             .reduce(f64::min);
-        let max_level = resolution.map_or(12, |r| {
-            let mut level = 0u8;
-            while level < 20 && snap.grid.sample_step(level) > r {
-                level += 1;
-            }
-            (level + 1).min(relief_source::MAX_LEVEL - 1)
-        });
+        let max_level =
+            resolution.map_or(12, |r| (snap.grid.level_for_spacing(r).min(20) + 1).min(relief_source::MAX_LEVEL - 1));
         Self { store, snap, quality, height, color: layer("color"), water: layer("water"), max_level }
     }
 }
@@ -50,11 +45,7 @@ impl SceneTerrain<'_> {
     /// spacing), or None without one.
     pub fn height_level(&self) -> Option<u8> {
         let r = self.snap.slots[self.height?].source.as_ref()?.info().resolution?;
-        let mut level = 0u8;
-        while level < relief_source::MAX_LEVEL - 1 && self.snap.grid.sample_step(level) > r {
-            level += 1;
-        }
-        Some(level)
+        Some(self.snap.grid.level_for_spacing(r))
     }
 
     /// The corner sample of `level` nearest the middle of the height

@@ -44,15 +44,14 @@ impl TerrainLayer {
                 grid.crs()
             )));
         }
-        let layer = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
-        let height = layer("height").ok_or_else(|| {
+        let height = snap.layer_index("height").ok_or_else(|| {
             StandardError::NotFound("the scene has no height layer, so it has no terrain to serve".into())
         })?;
         let slot = &snap.slots[height];
         let info = slot.source.as_ref().map(|s| s.info()).unwrap_or_default();
         let max_zoom = data_level(grid, info.resolution);
         let data = info.extent.and_then(|e| e.intersection(&grid.extent())).unwrap_or_else(|| grid.extent());
-        let water = layer("water");
+        let water = snap.layer_index("water");
         let error_m = Picture::of(&snap.manifest).terrain_mesh_error_m;
         let mut made_of = vec![boot, slot.effective_version, error_m.to_bits()];
         made_of.extend(water.map(|w| snap.slots[w].effective_version));
@@ -130,7 +129,7 @@ impl TerrainLayer {
 /// The level whose samples are a source's own (the first at or finer than
 /// its data's `resolution`, in grid units); 12 when it is not known.
 pub fn data_level(grid: &TileGrid, resolution: Option<f64>) -> u8 {
-    resolution.map_or(12, |r| (0..20).find(|&l| grid.sample_step(l) <= r).unwrap_or(20))
+    resolution.map_or(12, |r| grid.level_for_spacing(r).min(20))
 }
 
 /// The tiles of level `z` an extent overlaps (rows from the north), or

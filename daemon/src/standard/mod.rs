@@ -25,8 +25,7 @@ mod tiles;
 mod tileset;
 mod xyz;
 
-pub use changes::{MAX_CHANGE_STREAMS, Notice, Schemes};
 pub use layer::TerrainLayer;
 pub use tiles::{Answer, CacheRule, Encoded, StandardError, StandardTiles};
-pub use tileset::{Content, TilesetLayers};
-pub use xyz::{XyzKind, XyzLayer};
+pub use tileset::Content;
+pub use xyz::XyzKind;

@@ -17,23 +17,26 @@
 //! tile's content hash, and the ground under `on_ground` buildings), so an
 //! edit elsewhere costs nothing again.
 
-use std::collections::HashMap;
+use std::sync::Arc;
 use std::sync::atomic::Ordering;
-use std::sync::{Arc, Mutex};
+
+use std::cell::RefCell;
 
 use rayon::prelude::*;
+use relief_source::GenerateContext;
 use relief_source::{Payload, TileKey};
+use relief_source_ops::HeightWindow;
 use relief_standard_tiles::{
     ModelMesh, TilesetEntry, buildings_glb, geometric_error_for_level, instances_glb, tileset_json,
 };
 
-use super::ground::Ground;
+use super::ground::HeightLayer;
 use super::layer::{covering, data_level};
 use super::tiles::{
     Answer, CacheRule, Encoded, FORMAT_GLB, Placement, StandardError, StandardTiles, address_of, version_of,
 };
 use crate::graph::SceneSnapshot;
-use crate::scene_tiles::ModelCache;
+use crate::scene_tiles::{ModelCache, building_min_level, instance_level};
 
 /// The level of building content unless the source asks for a finer one:
 /// tiles about 1.2 km tall, what the renderer draws buildings at near the
@@ -89,28 +92,21 @@ impl TilesetLayers {
                 grid.crs()
             )));
         }
-        let slot = |name: &str| snap.manifest.layers.get(name).and_then(|id| snap.index_of(id));
         let mut layers = Vec::new();
-        if let Some(i) = slot("buildings") {
+        if let Some(i) = snap.layer_index("buildings") {
             let info = snap.slots[i].source.as_ref().map(|s| s.info()).unwrap_or_default();
-            let min: u8 = info.details.get("min_level").and_then(|l| l.parse().ok()).unwrap_or(0);
-            layers.push((Content::Buildings, i, min.max(BUILDING_LEVEL)));
+            layers.push((Content::Buildings, i, building_min_level(&info).max(BUILDING_LEVEL)));
         }
-        if let Some(i) = slot("instances") {
+        if let Some(i) = snap.layer_index("instances") {
             let info = snap.slots[i].source.as_ref().map(|s| s.info()).unwrap_or_default();
-            let level = info
-                .details
-                .get("level")
-                .and_then(|l| l.split_whitespace().next()?.parse().ok())
-                .unwrap_or_else(|| relief_source_ops::scatter_default_level(grid));
-            layers.push((Content::Instances, i, level));
+            layers.push((Content::Instances, i, instance_level(&info, grid)));
         }
         if layers.is_empty() {
             return Err(StandardError::NotFound(
                 "the scene has no buildings or instances layer, so it has no 3D Tiles".into(),
             ));
         }
-        let height = slot("height");
+        let height = snap.layer_index("height");
         let mut made_of = vec![boot];
         made_of.extend(layers.iter().map(|&(_, i, _)| snap.slots[i].effective_version));
         made_of.extend(height.map(|h| snap.slots[h].effective_version));
@@ -293,14 +289,15 @@ impl StandardTiles {
         }
         let glb = match (content, &*tile.payload) {
             (Content::Buildings, Payload::Mesh(mesh)) => {
-                let ground = Ground {
-                    store,
-                    snap,
-                    slot: layers.height,
-                    level: height_level.unwrap_or(key.level),
-                    tiles: Mutex::new(HashMap::new()),
+                let layer = layers.height.map(|slot| HeightLayer { store, snap, slot });
+                let ctx = layer.as_ref().map(|inputs| GenerateContext { grid: &snap.grid, quality, inputs });
+                let level = height_level.unwrap_or(key.level);
+                let window = ctx.as_ref().map(|ctx| RefCell::new(HeightWindow::new(ctx, 0, level)));
+                let ground = |lon, lat| {
+                    let h = window.as_ref().and_then(|w| w.borrow_mut().height_at(lon, lat).ok());
+                    h.map_or(f64::NAN, f64::from)
                 };
-                buildings_glb(mesh, &snap.grid, key, &|lon, lat| ground.height(lon, lat)).map_err(|e| failed(&e))?
+                buildings_glb(mesh, &snap.grid, key, &ground).map_err(|e| failed(&e))?
             }
             (Content::Instances, Payload::Instances(instances)) => {
                 let scene_models = crate::scene_tiles::SceneInstances::new(store, snap, snap.manifest.quality, models);

@@ -67,7 +67,7 @@ impl XyzLayer {
                 kind.name()
             )));
         }
-        let slot = snap.manifest.layers.get(kind.layer()).and_then(|id| snap.index_of(id)).ok_or_else(|| {
+        let slot = snap.layer_index(kind.layer()).ok_or_else(|| {
             StandardError::NotFound(format!(
                 "the scene has no {} layer, so it has no {} tiles",
                 kind.layer(),

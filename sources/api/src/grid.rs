@@ -310,6 +310,13 @@ impl TileGrid {
         self.tile_span(level).0 / f64::from(self.tile_size)
     }
 
+    /// The first level whose samples are at least as fine as `spacing` (CRS
+    /// units): where data of that spacing has its own samples; at most
+    /// `MAX_LEVEL - 1`.
+    pub fn level_for_spacing(&self, spacing: f64) -> u8 {
+        (0..MAX_LEVEL - 1).find(|&l| self.sample_step(l) <= spacing).unwrap_or(MAX_LEVEL - 1)
+    }
+
     /// The point of global corner sample (gx, gy) at `level` (gx east, gy
     /// south of the grid's north-west corner; any integer).
     pub fn sample_point(&self, level: u8, gx: i64, gy: i64) -> (f64, f64) {

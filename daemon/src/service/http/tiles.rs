@@ -104,25 +104,47 @@ fn number<T: std::str::FromStr>(what: &str, text: &str) -> Result<T, StandardErr
     })
 }
 
+/// What a tile's path names: its level, column, row and extension.
+struct TilePath {
+    z: u8,
+    x: u32,
+    y: u32,
+    extension: &'static str,
+}
+
+/// A tile's path `z/x/{y}.{extension}`: 404 for a file that is not `what`
+/// (one of `extensions`), 400 for a number that is not one or a level past
+/// `deepest` (a `level` or a `zoom`, as `depth` names it).
+fn tile_path(
+    (z, x, file): (&str, &str, &str),
+    what: &str,
+    extensions: &[&'static str],
+    (depth, deepest): (&str, u8),
+) -> Result<TilePath, StandardError> {
+    let found = extensions.iter().find_map(|e| Some((file.strip_suffix(e)?.strip_suffix('.')?, *e)));
+    let Some((y, extension)) = found else {
+        let asked: Vec<String> = extensions.iter().map(|e| format!("{{z}}/{{x}}/{{y}}.{e}")).collect();
+        return Err(StandardError::NotFound(format!(
+            "'{}' is not {what}: ask for {}",
+            relief_source::echo::echoed(file),
+            asked.join(" or ")
+        )));
+    };
+    let z: u8 = number(depth, z)?;
+    if z > deepest {
+        return Err(StandardError::Invalid(format!("{depth} {z} is past the deepest, {deepest}")));
+    }
+    Ok(TilePath { z, x: number("column", x)?, y: number("row", y)?, extension })
+}
+
 async fn terrain_tile(
     State(c): Shared,
     Path((z, x, file)): Path<(String, String, String)>,
     Query(q): Params,
     headers: HeaderMap,
 ) -> Result<Response, TileError> {
-    let y = file.strip_suffix(".terrain").ok_or_else(|| {
-        StandardError::NotFound(format!(
-            "'{}' is not a terrain tile: ask for {{z}}/{{x}}/{{y}}.terrain",
-            relief_source::echo::echoed(&file)
-        ))
-    })?;
-    let z: u8 = number("level", &z)?;
-    if z > relief_source::MAX_LEVEL {
-        return Err(
-            StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into()
-        );
-    }
-    let (x, y) = (number("column", &x)?, number("row", y)?);
+    let TilePath { z, x, y, .. } =
+        tile_path((&z, &x, &file), "a terrain tile", &["terrain"], ("level", relief_source::MAX_LEVEL))?;
     let accept = headers.get(header::ACCEPT).and_then(|v| v.to_str().ok());
     let answer = c.standard.terrain_tile(z, x, y, q.get("v").map(String::as_str), accept).await?;
     Ok(tile_response(&c, &answer, &headers))
@@ -165,22 +187,9 @@ async fn xyz_tile<const KIND: u8>(
     headers: HeaderMap,
 ) -> Result<Response, TileError> {
     let kind = xyz_kind(KIND);
-    let y = file.strip_suffix(".png").ok_or_else(|| {
-        StandardError::NotFound(format!(
-            "'{}' is not a {} tile: ask for {{z}}/{{x}}/{{y}}.png",
-            relief_source::echo::echoed(&file),
-            kind.name()
-        ))
-    })?;
-    let z: u8 = number("zoom", &z)?;
-    if z > relief_standard_tiles::XYZ_MAX_ZOOM {
-        return Err(StandardError::Invalid(format!(
-            "zoom {z} is past the deepest, {}",
-            relief_standard_tiles::XYZ_MAX_ZOOM
-        ))
-        .into());
-    }
-    let (x, y) = (number("column", &x)?, number("row", y)?);
+    let what = format!("a {} tile", kind.name());
+    let TilePath { z, x, y, .. } =
+        tile_path((&z, &x, &file), &what, &["png"], ("zoom", relief_standard_tiles::XYZ_MAX_ZOOM))?;
     let answer = c.standard.xyz_tile(kind, z, x, y, q.get("v").map(String::as_str)).await?;
     Ok(tile_response(&c, &answer, &headers))
 }
@@ -206,24 +215,9 @@ async fn tileset_content(
             .into());
         }
     };
-    let (y, glb) = match (file.strip_suffix(".glb"), file.strip_suffix(".json")) {
-        (Some(y), _) => (y, true),
-        (_, Some(y)) => (y, false),
-        _ => {
-            return Err(StandardError::NotFound(format!(
-                "'{}' is not part of the tileset: ask for {{z}}/{{x}}/{{y}}.glb or .json",
-                relief_source::echo::echoed(&file)
-            ))
-            .into());
-        }
-    };
-    let z: u8 = number("level", &z)?;
-    if z > relief_source::MAX_LEVEL {
-        return Err(
-            StandardError::Invalid(format!("level {z} is past the deepest, {}", relief_source::MAX_LEVEL)).into()
-        );
-    }
-    let key = relief_source::TileKey::new(z, number("column", &x)?, number("row", y)?);
+    let path =
+        tile_path((&z, &x, &file), "part of the tileset", &["glb", "json"], ("level", relief_source::MAX_LEVEL))?;
+    let (key, glb) = (relief_source::TileKey::new(path.z, path.x, path.y), path.extension == "glb");
     let answer = c.standard.tileset_part(content, key, glb, q.get("v").map(String::as_str)).await?;
     Ok(tile_response(&c, &answer, &headers))
 }
