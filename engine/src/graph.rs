@@ -254,6 +254,8 @@ pub fn build(
     previous: Option<&SceneSnapshot>,
 ) -> Result<(SceneSnapshot, Vec<LoadError>), Vec<LoadError>> {
     relief_source_gdal::guard::set_roots(&manifest.roots);
+    let reaches_objects = manifest.roots.iter().any(|r| relief_source::objects::is_object(r));
+    relief_source_gdal::objects::configure_storage(&manifest.storage, reaches_objects);
     let generation = previous.map_or(1, |p| p.generation + 1);
     let same_grid =
         previous.is_some_and(|p| p.manifest.grid == manifest.grid && p.manifest.tile_size == manifest.tile_size);

@@ -75,6 +75,8 @@ struct RawManifest {
     cache: RawCache,
     #[serde(default)]
     watch: RawWatch,
+    #[serde(default)]
+    storage: RawStorage,
     camera: Option<RawCamera>,
     #[serde(default)]
     sun: SunSection,
@@ -222,6 +224,16 @@ struct RawWatch {
     write_timeout_ms: Option<u64>,
     fast_path: Option<bool>,
     poll_ms: Option<u64>,
+    poll_s: Option<f64>,
+}
+
+/// `[storage]`: where the scene's objects are, over the AWS environment.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawStorage {
+    endpoint: Option<String>,
+    region: Option<String>,
+    anonymous: Option<bool>,
 }
 
 /// How file changes are picked up: the `[watch]` section. The quiet period
@@ -242,11 +254,25 @@ pub struct WatchSettings {
     /// Also poll file fingerprints this often (0: off), for file systems
     /// without change notification.
     pub poll_ms: u64,
+    /// Ask the store for the version of every object the scene reads this
+    /// often (`poll_s`; 0: off, changes then come by `POST /api/notify`).
+    /// Local files keep change notification.
+    pub object_poll_ms: u64,
 }
+
+/// How often objects are polled unless `[watch] poll_s` says.
+pub const DEFAULT_OBJECT_POLL_MS: u64 = 5000;
 
 impl Default for WatchSettings {
     fn default() -> Self {
-        Self { settle_ms: 5, debounce_ms: 500, write_timeout_ms: 2000, fast_path: true, poll_ms: 0 }
+        Self {
+            settle_ms: 5,
+            debounce_ms: 500,
+            write_timeout_ms: 2000,
+            fast_path: true,
+            poll_ms: 0,
+            object_poll_ms: DEFAULT_OBJECT_POLL_MS,
+        }
     }
 }
 
@@ -284,6 +310,9 @@ pub struct Manifest {
     /// A Redis shared by replicas of the scene (`[cache] redis`).
     pub redis: Option<String>,
     pub watch: WatchSettings,
+    /// `[storage]`: the scene's objects' endpoint and region, over the
+    /// environment's.
+    pub storage: relief_source_gdal::objects::Storage,
 }
 
 /// Where the disk tile cache is, and how large it may grow.
@@ -353,6 +382,10 @@ impl Manifest {
 
         let mut roots = vec![base.clone()];
         for (n, given) in raw.scene.roots.iter().enumerate() {
+            if let Some(object) = relief_source::objects::from_url(given) {
+                roots.push(object);
+                continue;
+            }
             let root = base.join(given);
             if !root.is_dir() {
                 return Err(field(&format!("scene.roots[{n}]"), format!("{} is not a folder", root.display())));
@@ -507,6 +540,26 @@ impl Manifest {
         {
             return Err(field("cache.redis", format!("'{url}' is not a redis://HOST:PORT or unix:///PATH address")));
         }
+        let storage = relief_source_gdal::objects::Storage {
+            endpoint: raw.storage.endpoint.filter(|e| !e.trim().is_empty()),
+            region: raw.storage.region.filter(|r| !r.trim().is_empty()),
+            anonymous: raw.storage.anonymous.unwrap_or(false),
+        };
+        if let Some(endpoint) = &storage.endpoint
+            && !(endpoint.starts_with("http://") || endpoint.starts_with("https://"))
+        {
+            return Err(field("storage.endpoint", format!("'{endpoint}' is not an http:// or https:// URL")));
+        }
+        // Objects the manifest names open their buckets and hosts to the
+        // scene's files (a VRT object's members beside it).
+        for source in &sources {
+            for object_root in source.paths.iter().filter_map(|p| relief_source::objects::root_of(p)) {
+                let root = PathBuf::from(object_root);
+                if !roots.contains(&root) {
+                    roots.push(root);
+                }
+            }
+        }
         let defaults = WatchSettings::default();
         let watch = WatchSettings {
             settle_ms: raw.watch.settle_ms.unwrap_or(defaults.settle_ms),
@@ -514,6 +567,13 @@ impl Manifest {
             write_timeout_ms: raw.watch.write_timeout_ms.unwrap_or(defaults.write_timeout_ms),
             fast_path: raw.watch.fast_path.unwrap_or(defaults.fast_path),
             poll_ms: raw.watch.poll_ms.unwrap_or(defaults.poll_ms),
+            object_poll_ms: match raw.watch.poll_s {
+                None => defaults.object_poll_ms,
+                Some(s) if s.is_finite() && (s == 0.0 || (0.05..=3600.0).contains(&s)) => (s * 1000.0).round() as u64,
+                Some(s) => {
+                    return Err(field("watch.poll_s", format!("{s} is not 0 (off) or 0.05 to 3600 seconds")));
+                }
+            },
         };
         for (name, value, max) in [
             ("watch.settle_ms", watch.settle_ms, 10_000),
@@ -563,6 +623,7 @@ impl Manifest {
             disk,
             redis,
             watch,
+            storage,
         })
     }
 }
@@ -571,6 +632,11 @@ impl Manifest {
 /// `[...]`, as in `tiles/*.tif`) is every file it matches, sorted, and
 /// must match at least one.
 fn expand(base: &Path, given: &str) -> Result<Vec<PathBuf>, String> {
+    // An object (`s3://bucket/key`, `https://host/path`): read as GDAL
+    // names it. No patterns: a listing is not a version.
+    if let Some(object) = relief_source::objects::from_url(given) {
+        return Ok(vec![object]);
+    }
     if let Some(why) = relief_source_gdal::guard::refusal(given) {
         return Err(format!("'{}' is not a scene file: {why}", relief_source::echo::echoed(given)));
     }

@@ -117,6 +117,10 @@ pub fn is_sqlite(path: &Path) -> bool {
 /// journals left out.
 pub fn dataset_files(primary: &Path) -> Vec<PathBuf> {
     let mut files = vec![primary.to_path_buf()];
+    // An object stands alone: GDAL is told not to look for side objects.
+    if crate::objects::is_object(primary) {
+        return files;
+    }
     let Some((dir, stem)) = dataset_key(primary) else {
         return files;
     };
@@ -151,9 +155,14 @@ impl FileStamp {
     /// No file seen (a store not yet reading one).
     pub const NONE: Self = Self { len: 0, modified: None, changed: (0, 0), dev: 0, ino: 0 };
 
-    /// The file's stamp now; None when it cannot be read.
+    /// The file's stamp now; None when it cannot be read. An object's is
+    /// its version as last asked of the store (`objects::version`): its
+    /// size, Last-Modified and ETag.
     pub fn of(path: &Path) -> Option<Self> {
         use std::os::unix::fs::MetadataExt;
+        if crate::objects::is_object(path) {
+            return crate::objects::version(path, false).ok().map(|v| Self::object(&v));
+        }
         let meta = std::fs::metadata(path).ok()?;
         Some(Self {
             len: meta.len(),
@@ -162,6 +171,18 @@ impl FileStamp {
             dev: meta.dev(),
             ino: meta.ino(),
         })
+    }
+
+    /// An object's version as a stamp: its ETag's hash stands for the inode
+    /// (a new ETag is a new file), on a device no file has.
+    pub fn object(version: &crate::objects::ObjectVersion) -> Self {
+        Self {
+            len: version.len,
+            modified: version.modified.map(|s| std::time::UNIX_EPOCH + std::time::Duration::from_secs(s)),
+            changed: (0, 0),
+            dev: u64::MAX,
+            ino: xxhash_rust::xxh3::xxh3_64(version.etag.as_bytes()),
+        }
     }
 
     /// When the file was last modified, if the system says.
@@ -184,6 +205,16 @@ impl Fingerprint {
     pub fn of(primary: &Path, what: &'static str) -> Result<Self, crate::SourceError> {
         use std::os::unix::fs::MetadataExt;
         let mut files = Vec::new();
+        if crate::objects::is_object(primary) {
+            let version = crate::objects::version(primary, false).map_err(|why| crate::SourceError::Io {
+                what,
+                path: primary.to_path_buf(),
+                source: std::io::Error::other(why),
+            })?;
+            let stamp = FileStamp::object(&version);
+            files.push((primary.to_path_buf(), stamp.len, stamp.modified, stamp.ino));
+            return Ok(Self(files));
+        }
         for (n, file) in dataset_files(primary).into_iter().enumerate() {
             match std::fs::metadata(&file) {
                 Ok(meta) if meta.len() == 0 && member(&file) == Member::SqliteWal => {}

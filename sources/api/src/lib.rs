@@ -16,6 +16,7 @@ mod features;
 pub mod files;
 pub mod geodesy;
 mod grid;
+pub mod objects;
 pub mod patches;
 mod payload;
 mod quality;

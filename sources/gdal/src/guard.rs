@@ -19,6 +19,7 @@ use std::sync::{Mutex, Once, PoisonError, RwLock};
 use quick_xml::Reader;
 use quick_xml::events::Event;
 use relief_source::files::FileStamp;
+use relief_source::objects::is_object;
 
 /// GDAL and OGR drivers relief never registers: they fetch URLs (web
 /// services, cloud APIs, databases over the network), or their files name
@@ -92,11 +93,7 @@ pub fn configure() {
         set("GML_DOWNLOAD_SCHEMA", "NO");
         set("GML_SKIP_RESOLVE_ELEMS", "ALL");
         set("OGR_SQLITE_ALLOW_EXTERNAL_ACCESS", "NO");
-        set("GDAL_HTTP_PROXY", "127.0.0.1:1");
-        set("GDAL_HTTPS_PROXY", "127.0.0.1:1");
-        set("GDAL_HTTP_TIMEOUT", "1");
-        set("GDAL_HTTP_CONNECTTIMEOUT", "1");
-        set("GDAL_HTTP_MAX_RETRY", "0");
+        block_http();
         gdal::DriverManager::register_all();
         // Only the drivers this GDAL has: GDAL warns on stderr of every
         // name in GDAL_SKIP it does not know.
@@ -114,16 +111,45 @@ pub fn configure() {
     });
 }
 
+/// Sends GDAL's HTTP to a proxy on a port nothing serves: a scene of
+/// local files reaches no network, whatever slips past the checks. A scene
+/// that names objects lifts it (`objects::configure_storage`), and then
+/// the checks below keep every object read within the scene's buckets and
+/// hosts.
+pub(crate) fn block_http() {
+    let set = |key: &str, value: &str| {
+        let _unknown_option_is_harmless = gdal::config::set_config_option(key, value);
+    };
+    set("GDAL_HTTP_PROXY", "127.0.0.1:1");
+    set("GDAL_HTTPS_PROXY", "127.0.0.1:1");
+    set("GDAL_HTTP_TIMEOUT", "1");
+    set("GDAL_HTTP_CONNECTTIMEOUT", "1");
+    set("GDAL_HTTP_MAX_RETRY", "0");
+}
+
 static ROOTS: RwLock<Vec<PathBuf>> = RwLock::new(Vec::new());
+
+/// The object prefixes scene files may name objects under: the bucket or
+/// origin of every object the manifest names, and `[scene] roots` given as
+/// object URLs.
+static OBJECT_ROOTS: RwLock<Vec<String>> = RwLock::new(Vec::new());
 
 /// The folders (besides each referencing file's own) that files named by
 /// scene files may lie under: the manifest's folder and its `[scene]
 /// roots`. Set when a manifest loads; checks made under other roots are
 /// forgotten.
 pub fn set_roots(roots: &[PathBuf]) {
-    let canonical: Vec<PathBuf> = roots.iter().filter_map(|r| std::fs::canonicalize(r).ok()).collect();
+    let (objects, local): (Vec<&PathBuf>, Vec<&PathBuf>) = roots.iter().partition(|r| is_object(r));
+    let canonical: Vec<PathBuf> = local.iter().filter_map(|r| std::fs::canonicalize(r).ok()).collect();
     *ROOTS.write().unwrap_or_else(PoisonError::into_inner) = canonical;
+    *OBJECT_ROOTS.write().unwrap_or_else(PoisonError::into_inner) =
+        objects.iter().filter_map(|r| r.to_str()).map(str::to_owned).collect();
     verdicts().clear();
+}
+
+/// True when `object` lies under one of the scene's object roots.
+fn object_within(object: &str) -> bool {
+    OBJECT_ROOTS.read().unwrap_or_else(PoisonError::into_inner).iter().any(|root| object.starts_with(root.as_str()))
 }
 
 fn roots() -> Vec<PathBuf> {
@@ -186,7 +212,9 @@ impl Walk {
         }
         self.visited.push((path.to_path_buf(), FileStamp::of(path)));
         let folders = self.own_folders(path);
-        for side in relief_source::regular::side_files(path) {
+        // GDAL is told an object has no side objects (objects::config).
+        let sides = if is_object(path) { Vec::new() } else { relief_source::regular::side_files(path) };
+        for side in sides {
             let stamp = FileStamp::of(&side);
             self.visited.push((side.clone(), stamp));
             if stamp.is_some() {
@@ -320,6 +348,25 @@ impl Walk {
         if driver_prefix(name) {
             return refused("a driver's connection string, not a file");
         }
+        let object = if is_object(Path::new(name)) {
+            Some(name.to_owned())
+        } else if relative && is_object(from) {
+            // Path joins fold an HTTP URL's `//`: objects join as text.
+            from.to_str().and_then(|f| f.rsplit_once('/')).map(|(folder, _)| format!("{folder}/{name}"))
+        } else {
+            None
+        };
+        if let Some(object) = object {
+            if !object_within(&object) {
+                return refused(
+                    "an object outside the scene's buckets and hosts (those of the objects the manifest names, and \
+                     [scene] roots)",
+                );
+            }
+            let file = PathBuf::from(object);
+            self.visited.push((file.clone(), FileStamp::of(&file)));
+            return self.dataset(&file, depth + 1);
+        }
         let file = if let Some(rest) = name.strip_prefix("/vsi") {
             let (system, inner) = rest.split_once('/').unwrap_or((rest, ""));
             if system == "subfile" {
@@ -355,7 +402,15 @@ impl Walk {
 /// archive is checked like any file).
 pub fn refusal(name: &str) -> Option<String> {
     if name.contains("://") {
-        return Some("a URL (scene files read no network data)".to_owned());
+        return Some(
+            "a URL: a scene file names an object as /vsis3/bucket/key or /vsicurl/https://host/path, in the \
+             scene's buckets and hosts"
+                .to_owned(),
+        );
+    }
+    if is_object(Path::new(name)) {
+        // Checked against the scene's buckets and hosts where named.
+        return None;
     }
     if let Some(rest) = name.strip_prefix("/vsi") {
         let system = format!("vsi{}", rest.split_once('/').map_or(rest, |(s, _)| s));
@@ -394,6 +449,9 @@ fn refuse_root(path: &Path, root: &[u8]) -> Result<(), String> {
 /// a byte-order mark and white space); None for any other file.
 fn xml_text(path: &Path) -> Result<Option<String>, String> {
     use std::io::Read;
+    if is_object(path) {
+        return object_xml_text(path);
+    }
     let Ok(file) = relief_source::regular::open_regular(path) else { return Ok(None) };
     let mut bytes = Vec::new();
     file.take(MOST_XML_BYTES + 1)
@@ -406,6 +464,26 @@ fn xml_text(path: &Path) -> Result<Option<String>, String> {
     if bytes.len() as u64 > MOST_XML_BYTES {
         return Err(format!("{}: an XML file over {} MB", path.display(), MOST_XML_BYTES >> 20));
     }
+    String::from_utf8(body.to_vec()).map(Some).map_err(|_| format!("{}: XML that is not UTF-8", path.display()))
+}
+
+/// `xml_text` of an object: its first bytes tell, before the rest is
+/// fetched (an object is most often a large COG).
+fn object_xml_text(path: &Path) -> Result<Option<String>, String> {
+    let file = crate::objects::RangeFile::open(path).map_err(|e| e.to_string())?;
+    let Ok(len) = file.len() else { return Ok(None) };
+    let mut head = vec![0u8; usize::try_from(len.min(64)).unwrap_or(64)];
+    file.read_exact_at(&mut head, 0).map_err(|e| e.to_string())?;
+    let body = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&head);
+    if body.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'<') {
+        return Ok(None);
+    }
+    if len > MOST_XML_BYTES {
+        return Err(format!("{}: an XML file over {} MB", path.display(), MOST_XML_BYTES >> 20));
+    }
+    let mut bytes = vec![0u8; usize::try_from(len).unwrap_or(0)];
+    file.read_exact_at(&mut bytes, 0).map_err(|e| e.to_string())?;
+    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
     String::from_utf8(body.to_vec()).map(Some).map_err(|_| format!("{}: XML that is not UTF-8", path.display()))
 }
 

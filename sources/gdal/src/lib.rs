@@ -32,6 +32,7 @@
 
 mod crs;
 pub mod guard;
+pub mod objects;
 mod raster;
 mod resample;
 mod source;
@@ -52,11 +53,12 @@ pub fn gdal_message(e: gdal::errors::GdalError, path: &std::path::Path, unrecogn
         gdal::errors::GdalError::NullPointer { .. } => unrecognised.to_owned(),
         other => other.to_string(),
     };
-    message
+    let message = message
         .replace(&format!("`{}' ", path.display()), "")
         .replace(&path.display().to_string(), "the file")
         .trim()
-        .to_owned()
+        .to_owned();
+    objects::redact(&message)
 }
 
 /// Checks that GDAL and PROJ know a CRS; returns its short description.

@@ -54,10 +54,12 @@ pub fn configure_gdal() {
         if std::env::var_os("GDAL_DISABLE_READDIR_ON_OPEN").is_none() {
             let _ = gdal::config::set_config_option("GDAL_DISABLE_READDIR_ON_OPEN", "TRUE");
         }
+        // GDAL's words can hold an object's URL: no query (a signature) in a log.
         gdal::config::set_error_handler(|class, code, msg| match class {
-            CplErrType::Fatal | CplErrType::Failure => tracing::debug!(code, "gdal: {msg}"),
-            _ => tracing::trace!(code, "gdal: {msg}"),
+            CplErrType::Fatal | CplErrType::Failure => tracing::debug!(code, "gdal: {}", crate::objects::redact(msg)),
+            _ => tracing::trace!(code, "gdal: {}", crate::objects::redact(msg)),
         });
+        relief_source::objects::set_version_of(crate::objects::version);
     });
 }
 

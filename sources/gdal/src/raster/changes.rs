@@ -8,7 +8,6 @@
 //! blocks may.
 
 use std::collections::HashMap;
-use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
 use gdal::raster::RasterBand;
@@ -249,7 +248,7 @@ fn image_level(file: &Path, image: &tiff::Image, hash_bytes: bool) -> Result<Lev
     let planes = image.offsets.len() / blocks;
     image.check_within(file)?;
     let handle = if hash_bytes {
-        Some(relief_source::regular::open_regular(file).map_err(|source| SourceError::Io {
+        Some(crate::objects::RangeFile::open(file).map_err(|source| SourceError::Io {
             what: "raster",
             path: file.into(),
             source,

@@ -364,9 +364,12 @@ pub(crate) fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
     // GDAL opens it, and the side files it looks for, itself: a pipe in
     // their place would block it for good.
     // (relief's own VRTs in GDAL's memory were written from checked files.)
+    let object = relief_source::objects::is_object(path);
     if !path.starts_with(crate::guard::OWN_MEMORY_FILES) {
-        relief_source::regular::check_for_gdal(path, false)
-            .map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
+        if !object {
+            relief_source::regular::check_for_gdal(path, false)
+                .map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
+        }
         crate::guard::check_dataset(path).map_err(|e| format_err(format!("cannot open raster: {e}"), path))?;
     }
     let options = DatasetOptions {
@@ -375,6 +378,9 @@ pub(crate) fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
             | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
         ..DatasetOptions::default()
     };
+    // An object's "folder" is never listed, nor side objects asked for one
+    // by one: a request each, and a COG has none.
+    let _empty_folder = object.then(|| crate::objects::EmptyFolder::set());
     Dataset::open_ex(path, options).map_err(|e| {
         let message = crate::gdal_message(e, path, "no GDAL driver recognises it (corrupt, truncated or not a raster)");
         format_err(format!("cannot open raster: {message}"), path)

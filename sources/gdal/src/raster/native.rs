@@ -10,8 +10,6 @@
 //! its size) is left to GDAL.
 
 use std::cell::RefCell;
-use std::fs::File;
-use std::os::unix::fs::FileExt;
 use std::path::Path;
 
 use gdal::Dataset;
@@ -21,6 +19,7 @@ use libdeflater::Decompressor;
 use super::pixels::exact_i16;
 use super::tiff::{self, Image};
 use super::{FileStamp, PixelRect};
+use crate::objects::RangeFile;
 
 /// A file whose images relief decodes, and the file they were read from,
 /// open while this version is read.
@@ -28,7 +27,7 @@ use super::{FileStamp, PixelRect};
 pub(crate) struct Native {
     /// The file as its block tables were read (reads check it still is).
     pub stamp: FileStamp,
-    file: File,
+    file: RangeFile,
     /// The band's base image and its overviews decoded here (any other
     /// level is read through GDAL or halved).
     images: Vec<Level>,
@@ -146,7 +145,7 @@ impl Native {
             return None;
         }
         let stamp = FileStamp::of(path)?;
-        let file = relief_source::regular::open_regular(path).ok()?;
+        let file = RangeFile::open(path).ok()?;
         let images = tiff::images(path)?;
         let gdal_type = gdal_band.band_type();
         // Masks aside, the base image first, then its overviews.
@@ -405,7 +404,7 @@ struct Scratch {
 
 impl Scratch {
     /// The decoded bytes of one block: `expect` bytes, or None.
-    fn block(&mut self, file: &File, image: &Image, offset: u64, size: u64, expect: usize) -> Option<&mut [u8]> {
+    fn block(&mut self, file: &RangeFile, image: &Image, offset: u64, size: u64, expect: usize) -> Option<&mut [u8]> {
         grow(&mut self.raw, expect);
         if image.compression == NONE {
             // A raw block shorter than its samples is GDAL's to read (and to complain of).

@@ -6,14 +6,13 @@
 //! once per version of it (its stamp): opening it, signing its blocks and
 //! decoding them ask for the same ones.
 
-use std::fs::File;
-use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 
 use moka::sync::Cache;
 
 use super::FileStamp;
+use crate::objects::RangeFile;
 
 /// One image of the file.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -45,9 +44,11 @@ pub(crate) struct Image {
 impl Image {
     /// Fails when a block lies past the end of `file` (a file cut short).
     pub(crate) fn check_within(&self, file: &Path) -> Result<(), relief_source::SourceError> {
-        let length = std::fs::metadata(file)
-            .map_err(|source| relief_source::SourceError::Io { what: "raster", path: file.into(), source })?
-            .len();
+        let length = RangeFile::open(file).and_then(|f| f.len()).map_err(|source| relief_source::SourceError::Io {
+            what: "raster",
+            path: file.into(),
+            source,
+        })?;
         match (0..self.offsets.len()).find(|&i| self.offsets[i].saturating_add(self.sizes[i]) > length) {
             None => Ok(()),
             Some(i) => Err(super::format_err(
@@ -117,7 +118,7 @@ pub(crate) fn images(path: &Path) -> Option<Arc<[Image]>> {
 
 /// Every image of the TIFF at `path`, read from its directories.
 fn read(path: &Path) -> Option<Vec<Image>> {
-    let file = relief_source::regular::open_regular(path).ok()?;
+    let file = RangeFile::open(path).ok()?;
     let mut head = [0u8; 16];
     file.read_exact_at(&mut head[..8], 0).ok()?;
     let little = match &head[..2] {
@@ -147,7 +148,7 @@ fn read(path: &Path) -> Option<Vec<Image>> {
 }
 
 struct Reader<'a> {
-    file: &'a File,
+    file: &'a RangeFile,
     little: bool,
 }
 
