@@ -212,6 +212,8 @@ pub fn scene_state(scene: &Scene, hub: &FrameHub, standard: &StandardTiles) -> p
                 .collect(),
             raster_cache_bytes: relief_source_gdal::cached_bytes(),
             raster_cache_budget_bytes: relief_source_gdal::block_budget(),
+            object_bytes_read: relief_source_gdal::objects::bytes_read(),
+            object_version_checks: relief_source_gdal::objects::version_checks(),
             stream_frames_carried_over: frames.frames_carried_over,
             memory: [
                 ("tile cache", c.bytes),

@@ -151,6 +151,15 @@ async fn reload(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Byt
     reply(c.scene.reload(scope, body(&bytes, "ReloadRequest")?).await)
 }
 
+/// An S3 event notification (the JSON a bucket's webhook sends).
+async fn notify(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::SceneState> {
+    let event: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
+        HttpError(Status::invalid_argument(format!("invalid JSON body for an S3 event notification: {e}")))
+    })?;
+    let objects = relief_engine::watcher::event_objects(&event).map_err(|e| HttpError(Status::invalid_argument(e)))?;
+    reply(c.scene.notify_objects(scope, objects).await)
+}
+
 async fn set_parameter(State(c): Shared, Extension(scope): Extension<Scope>, bytes: Bytes) -> Reply<pb::SceneState> {
     reply(c.scene.set_source_parameter(scope, body(&bytes, "SetSourceParameterRequest")?).await)
 }
@@ -351,6 +360,7 @@ const ROUTES: &[(&str, &str, &str)] = &[
     ("GET", "/api/wait?generation=N&timeout_ms=T", "SceneState once generation N is served"),
     ("POST", "/api/reload", "ReloadRequest -> SceneState"),
     ("POST", "/api/parameters", "SetSourceParameterRequest -> SceneState"),
+    ("POST", "/api/notify", "an S3 event notification (Records[].s3.bucket.name, .object.key) -> SceneState"),
     ("GET", "/api/camera", "the scene Camera"),
     ("PUT", "/api/camera", "Camera -> Camera (SetCamera)"),
     ("GET", "/api/render?camera=lon,lat,alt,heading,pitch,roll&fov=&width=&height=&format=png|rgba", "the image"),
@@ -413,6 +423,7 @@ pub fn router(calls: Arc<Calls>, grpc: Router) -> Router {
         .route("/api/wait", get(wait))
         .route("/api/reload", post(reload))
         .route("/api/parameters", post(set_parameter))
+        .route("/api/notify", post(notify))
         .route("/api/camera", get(get_camera).put(set_camera))
         .route("/api/render", get(render_image).post(render_json))
         .route("/api/frames", get(frames))

@@ -130,6 +130,23 @@ impl SceneCalls {
         Ok(self.state())
     }
 
+    /// Reads again, at once, the sources of the objects an S3 event notice
+    /// names (objects the scene does not read are ignored): the webhook
+    /// S3, MinIO and others call when an object is written or removed.
+    pub async fn notify_objects(&self, scope: Scope, objects: Vec<std::path::PathBuf>) -> Result<SceneState, Status> {
+        scope.require_control("reload objects")?;
+        let scene = Arc::clone(&self.scene);
+        tokio::task::spawn_blocking(move || {
+            let ids: Vec<String> = relief_engine::watcher::noticed(&scene, &objects).into_iter().collect();
+            if !ids.is_empty() {
+                scene.refresh(Some(&ids), "objects changed (notice)", true);
+            }
+        })
+        .await
+        .map_err(|_| Status::internal("reload task failed"))?;
+        Ok(self.state())
+    }
+
     pub async fn reload(&self, scope: Scope, r: ReloadRequest) -> Result<SceneState, Status> {
         scope.require_control("reload sources")?;
         let ids = r.source_ids;

@@ -50,8 +50,10 @@ use tokio_util::sync::CancellationToken;
 use crate::manifest::WatchSettings;
 use crate::scene::Scene;
 
+mod objects;
 mod saves;
 
+pub use objects::{event_objects, noticed};
 use saves::{Busy, Change, Pending, Ready, busy, change, readiness};
 
 /// What a group of files belongs to.
@@ -72,7 +74,8 @@ fn interests(scene: &Scene) -> HashMap<(PathBuf, String), BTreeSet<Target>> {
             .map(|s| s.info().files)
             .filter(|f| !f.is_empty())
             .unwrap_or_else(|| slot.spec.paths.clone());
-        for file in files {
+        // Objects are polled (`objects`), not watched.
+        for file in files.into_iter().filter(|f| !relief_source::objects::is_object(f)) {
             if let Some(key) = dataset_key(&file) {
                 map.entry(key).or_default().insert(Target::Source(slot.spec.id.clone()));
             }
@@ -137,6 +140,12 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
         .collect();
     let mut poll = (settings.poll_ms > 0).then(|| tokio::time::interval(Duration::from_millis(settings.poll_ms)));
     let mut seen_generation = scene.snapshot().generation;
+    let mut object_poll =
+        (settings.object_poll_ms > 0).then(|| tokio::time::interval(Duration::from_millis(settings.object_poll_ms)));
+    if let Some(p) = object_poll.as_mut() {
+        p.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    }
+    let mut polled = Some(objects::Polled::default());
     let mut tick = tokio::time::interval(Duration::from_millis(settings.settle_ms.clamp(1, 50)));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
 
@@ -145,6 +154,24 @@ async fn run(watch: FileWatch, shutdown: CancellationToken) -> anyhow::Result<()
             () = shutdown.cancelled() => return Ok(()),
             Some(event) = rx.recv() => note(&event, &groups, &mut pending),
             _ = tick.tick() => {}
+            _ = async { object_poll.as_mut().expect("guarded").tick().await }, if object_poll.is_some() => {
+                // One HEAD per object the scene reads, off the runtime; the
+                // sources whose objects changed are read at once (a store
+                // replaces an object whole: there is no save to wait out).
+                let s = Arc::clone(&scene);
+                let mut p = polled.take().unwrap_or_default();
+                let (p, changed) = tokio::task::spawn_blocking(move || {
+                    let changed = p.changed(&s);
+                    (p, changed)
+                })
+                .await?;
+                polled = Some(p);
+                if !changed.is_empty() {
+                    let s = Arc::clone(&scene);
+                    let ids: Vec<String> = changed.into_iter().collect();
+                    tokio::task::spawn_blocking(move || s.refresh(Some(&ids), "objects changed (polled)", true)).await?;
+                }
+            }
             _ = async { poll.as_mut().expect("guarded").tick().await }, if poll.is_some() => {
                 // Polling finds changes notify missed; it reads only quietly.
                 let now = Instant::now();

@@ -47,6 +47,13 @@ impl Drop for EmptyFolder {
     }
 }
 
+static VERSION_CHECKS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// Versions asked of the stores since start (a request each).
+pub fn version_checks() -> u64 {
+    VERSION_CHECKS.load(std::sync::atomic::Ordering::Relaxed)
+}
+
 /// Versions as last asked of the servers.
 fn known() -> std::sync::MutexGuard<'static, HashMap<PathBuf, ObjectVersion>> {
     static KNOWN: LazyLock<Mutex<HashMap<PathBuf, ObjectVersion>>> = LazyLock::new(Mutex::default);
@@ -65,6 +72,7 @@ pub fn version(path: &Path, fresh: bool) -> Result<ObjectVersion, String> {
         return Ok(v.clone());
     }
     vsi::forget(path);
+    VERSION_CHECKS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let asked = vsi::headers(path).map_err(|e| describe(path, &e)).and_then(|headers| {
         let find = |name: &str| headers.iter().find(|(k, _)| k.eq_ignore_ascii_case(name)).map(|(_, v)| v.clone());
         let len = find("Content-Range")

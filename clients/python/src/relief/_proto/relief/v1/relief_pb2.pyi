@@ -222,7 +222,7 @@ class EffectState(_message.Message):
     def __init__(self, name: _Optional[str] = ..., sources: _Optional[_Iterable[str]] = ..., ran: _Optional[bool] = ..., last_cost_ms: _Optional[float] = ...) -> None: ...
 
 class Counters(_message.Message):
-    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "source_reads", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes", "stream_frames_carried_over", "renderer_caches", "memory", "standard_tiles")
+    __slots__ = ("tiles_generated", "cache_hits", "cache_misses", "cache_entries", "cache_bytes", "cache_budget_bytes", "frames_rendered", "reads_retried", "source_reads", "frame_views", "frame_streams", "open_views", "stream_frames_rendered", "outer_stores", "raster_cache_bytes", "raster_cache_budget_bytes", "stream_frames_carried_over", "renderer_caches", "memory", "standard_tiles", "object_bytes_read", "object_version_checks")
     TILES_GENERATED_FIELD_NUMBER: _ClassVar[int]
     CACHE_HITS_FIELD_NUMBER: _ClassVar[int]
     CACHE_MISSES_FIELD_NUMBER: _ClassVar[int]
@@ -243,6 +243,8 @@ class Counters(_message.Message):
     RENDERER_CACHES_FIELD_NUMBER: _ClassVar[int]
     MEMORY_FIELD_NUMBER: _ClassVar[int]
     STANDARD_TILES_FIELD_NUMBER: _ClassVar[int]
+    OBJECT_BYTES_READ_FIELD_NUMBER: _ClassVar[int]
+    OBJECT_VERSION_CHECKS_FIELD_NUMBER: _ClassVar[int]
     tiles_generated: int
     cache_hits: int
     cache_misses: int
@@ -263,7 +265,9 @@ class Counters(_message.Message):
     renderer_caches: CacheWork
     memory: _containers.RepeatedCompositeFieldContainer[MemoryUse]
     standard_tiles: StandardTiles
-    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., source_reads: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ..., stream_frames_carried_over: _Optional[int] = ..., renderer_caches: _Optional[_Union[CacheWork, _Mapping]] = ..., memory: _Optional[_Iterable[_Union[MemoryUse, _Mapping]]] = ..., standard_tiles: _Optional[_Union[StandardTiles, _Mapping]] = ...) -> None: ...
+    object_bytes_read: int
+    object_version_checks: int
+    def __init__(self, tiles_generated: _Optional[int] = ..., cache_hits: _Optional[int] = ..., cache_misses: _Optional[int] = ..., cache_entries: _Optional[int] = ..., cache_bytes: _Optional[int] = ..., cache_budget_bytes: _Optional[int] = ..., frames_rendered: _Optional[int] = ..., reads_retried: _Optional[int] = ..., source_reads: _Optional[int] = ..., frame_views: _Optional[int] = ..., frame_streams: _Optional[int] = ..., open_views: _Optional[int] = ..., stream_frames_rendered: _Optional[int] = ..., outer_stores: _Optional[_Iterable[_Union[OuterStore, _Mapping]]] = ..., raster_cache_bytes: _Optional[int] = ..., raster_cache_budget_bytes: _Optional[int] = ..., stream_frames_carried_over: _Optional[int] = ..., renderer_caches: _Optional[_Union[CacheWork, _Mapping]] = ..., memory: _Optional[_Iterable[_Union[MemoryUse, _Mapping]]] = ..., standard_tiles: _Optional[_Union[StandardTiles, _Mapping]] = ..., object_bytes_read: _Optional[int] = ..., object_version_checks: _Optional[int] = ...) -> None: ...
 
 class StandardTiles(_message.Message):
     __slots__ = ("terrain_tiles_built", "terrain_tiles_served", "not_modified", "change_notices_sent", "change_streams", "encoded_bytes", "terrarium_tiles_built", "imagery_tiles_built", "glb_tiles_built")
