@@ -123,6 +123,9 @@ pub fn tile_address(source: u128, quality: &impl std::hash::Hash, key: relief_so
 /// modification time.
 pub fn file_digest(path: &Path) -> std::io::Result<u128> {
     use std::collections::HashMap;
+    if relief_source::objects::is_object(path) {
+        return object_digest(path);
+    }
     use std::time::{Duration, SystemTime};
     const SETTLED: Duration = Duration::from_secs(2);
     /// Files remembered at most (a scene's files; past it, forgotten).
@@ -151,6 +154,22 @@ pub fn file_digest(path: &Path) -> std::io::Result<u128> {
         known.insert(path.to_path_buf(), (then, digest));
     }
     Ok(digest)
+}
+
+/// An object's digest: its URL and its version as the store gives it
+/// (ETag, size, and Last-Modified where the server sends no ETag). An S3
+/// ETag is the object's bytes' MD5 (or its parts'), so replicas reading the
+/// same object version agree on its tiles' addresses without reading it.
+fn object_digest(path: &Path) -> std::io::Result<u128> {
+    let version = relief_source::objects::version(path, false).map_err(std::io::Error::other)?;
+    let mut h = Xxh3::new();
+    h.update(path.to_string_lossy().as_bytes());
+    h.update(version.etag.as_bytes());
+    h.update(&version.len.to_le_bytes());
+    if version.etag.is_empty() {
+        h.update(&version.modified.unwrap_or_default().to_le_bytes());
+    }
+    Ok(h.digest128())
 }
 
 fn hash_file(path: &Path) -> std::io::Result<u128> {

@@ -72,7 +72,12 @@ impl SceneCalls {
                 let state = convert::scene_state(scene, &hub, &standard);
                 SceneEvent { generation: state.generation, event: Some(scene_event::Event::Snapshot(state)) }
             };
-            if tx.send(Ok(snapshot(&scene))).await.is_err() {
+            let first = snapshot(&scene);
+            // A generation ahead of this scene's came from another replica
+            // (behind a load balancer, each counts its own): the snapshot
+            // is where the viewer stands now, and every later event follows.
+            let from = from.min(first.generation);
+            if tx.send(Ok(first)).await.is_err() {
                 return;
             }
             loop {
