@@ -16,6 +16,7 @@ pub mod probe;
 pub mod qgis;
 pub mod redis;
 pub mod reference;
+pub mod s3;
 pub mod scenes;
 pub mod surface;
 pub mod tiles;
