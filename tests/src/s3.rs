@@ -300,9 +300,11 @@ impl HttpServer {
     /// tests), so a free one is picked here and a start that lost it to
     /// another process is tried again.
     pub fn start(dir: &Path) -> anyhow::Result<Self> {
+        // Not `npm::available`, which says the test is skipped: it fails.
+        let node = Command::new("node").arg("--version").output().is_ok_and(|o| o.status.success());
         ensure!(
-            crate::npm::available(),
-            "the HTTP server of the object tests is npm's http-server: run `bash scripts/setup.sh` to install node and npm"
+            node,
+            "no node for npm's http-server: run `bash scripts/setup.sh` to install node and npm (CI has them)"
         );
         let bin = crate::npm::node_modules()?.join(".bin/http-server");
         ensure!(bin.exists(), "no {} after npm ci: is http-server in tests/npm/package.json?", bin.display());
