@@ -34,8 +34,15 @@ impl Reliefd {
     /// `env LD_PRELOAD=... VAR=...` keeps reliefd's own process id, which
     /// `pid` and the benches' resident sets read.
     pub fn start(manifest: &Path, extra: &[&str]) -> anyhow::Result<Self> {
+        Self::start_with_env(manifest, extra, &[])
+    }
+
+    /// `start`, with `env` added to reliefd's environment (the AWS
+    /// variables of an object store, say).
+    pub fn start_with_env(manifest: &Path, extra: &[&str], env: &[(String, String)]) -> anyhow::Result<Self> {
         let cache = tempfile::tempdir()?;
         let mut child = wrapped(crate::bin("reliefd"))
+            .envs(env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
             .env("XDG_CACHE_HOME", cache.path())
             .arg("serve")
             .arg(manifest)
