@@ -382,7 +382,7 @@ impl Manifest {
 
         let mut roots = vec![base.clone()];
         for (n, given) in raw.scene.roots.iter().enumerate() {
-            if let Some(object) = relief_source::objects::from_url(given) {
+            if let Some(object) = relief_source::objects::root_from_url(given) {
                 roots.push(object);
                 continue;
             }

@@ -5,14 +5,14 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum SourceError {
-    #[error("cannot read {what}: {source}: {}", path.display())]
+    #[error("cannot read {what}: {source}: {}", crate::objects::display(path))]
     Io {
         what: &'static str,
         path: PathBuf,
         #[source]
         source: std::io::Error,
     },
-    #[error("{message}: {}", path.display())]
+    #[error("{message}: {}", crate::objects::display(path))]
     Format { message: String, path: PathBuf },
     #[error("unknown or unusable CRS '{crs}': {message}{}", path_suffix(path.as_ref()))]
     Crs { crs: String, message: String, path: Option<PathBuf> },
@@ -24,16 +24,16 @@ pub enum SourceError {
     Unsupported(&'static str),
     /// The file changed while it was read: a writer is at work. Not an
     /// error of the data; read again once the writer is done.
-    #[error("file changed while it was being read: {}", path.display())]
+    #[error("file changed while it was being read: {}", crate::objects::display(path))]
     Changing { path: PathBuf },
     /// Another program holds the file locked (a database in the middle of
     /// a write). Shown on the source, and read again later.
-    #[error("{message}: {}", path.display())]
+    #[error("{message}: {}", crate::objects::display(path))]
     Locked { message: String, path: PathBuf },
 }
 
 fn path_suffix(path: Option<&PathBuf>) -> String {
-    path.map(|p| format!(": {}", p.display())).unwrap_or_default()
+    path.map(|p| format!(": {}", crate::objects::display(p))).unwrap_or_default()
 }
 
 impl SourceError {

@@ -65,6 +65,24 @@ pub fn from_url(url: &str) -> Option<PathBuf> {
     (lower.starts_with("https://") || lower.starts_with("http://")).then(|| PathBuf::from(format!("{HTTP}{url}")))
 }
 
+/// GDAL's form of a `[scene] roots` URL: a bucket (`s3://bucket`), a
+/// prefix in one (`s3://bucket/dems/`) or a host's (`https://host/dems`),
+/// always ending in `/` so a root matches whole names only (`dems/` is not
+/// a prefix of `dems2/`). None for anything else.
+pub fn root_from_url(url: &str) -> Option<PathBuf> {
+    let gdal = if let Some(rest) = url.strip_prefix("s3://") {
+        let bucket = rest.split('/').next().filter(|b| !b.is_empty())?;
+        format!("{S3}{}", if rest.len() > bucket.len() { rest.to_owned() } else { format!("{bucket}/") })
+    } else {
+        let lower = url.get(..8).map(str::to_ascii_lowercase).unwrap_or_default();
+        if !(lower.starts_with("https://") || lower.starts_with("http://")) {
+            return None;
+        }
+        format!("{HTTP}{}", without_query(url))
+    };
+    Some(PathBuf::from(if gdal.ends_with('/') { gdal } else { format!("{gdal}/") }))
+}
+
 /// The object's URL as a user wrote it (`s3://bucket/key`, `https://...`),
 /// with any query string (a presigned URL's signature) left out; None for
 /// a local path.
@@ -73,6 +91,12 @@ pub fn shown(path: &Path) -> Option<String> {
     let url =
         if let Some(rest) = p.strip_prefix(S3) { format!("s3://{rest}") } else { p.strip_prefix(HTTP)?.to_owned() };
     Some(without_query(&url).to_owned())
+}
+
+/// How a path is named to a user: an object by its URL (`shown`), a file
+/// by its path.
+pub fn display(path: &Path) -> String {
+    shown(path).unwrap_or_else(|| path.display().to_string())
 }
 
 /// `url` without its query string and fragment.
@@ -118,5 +142,10 @@ mod tests {
         assert_eq!(root_of(&object).as_deref(), Some("/vsis3/dem/"));
         assert_eq!(root_of(&signed).as_deref(), Some("/vsicurl/https://h.example/"));
         assert_eq!(root_of(Path::new("/data/dem.tif")), None);
+        assert_eq!(root_from_url("s3://dem"), Some(PathBuf::from("/vsis3/dem/")));
+        assert_eq!(root_from_url("s3://dem/alps"), Some(PathBuf::from("/vsis3/dem/alps/")));
+        assert_eq!(root_from_url("https://h.example/cop/"), Some(PathBuf::from("/vsicurl/https://h.example/cop/")));
+        assert_eq!(root_from_url("s3://"), None);
+        assert_eq!(root_from_url("tiles"), None);
     }
 }

@@ -142,8 +142,12 @@ pub fn set_roots(roots: &[PathBuf]) {
     let (objects, local): (Vec<&PathBuf>, Vec<&PathBuf>) = roots.iter().partition(|r| is_object(r));
     let canonical: Vec<PathBuf> = local.iter().filter_map(|r| std::fs::canonicalize(r).ok()).collect();
     *ROOTS.write().unwrap_or_else(PoisonError::into_inner) = canonical;
-    *OBJECT_ROOTS.write().unwrap_or_else(PoisonError::into_inner) =
-        objects.iter().filter_map(|r| r.to_str()).map(str::to_owned).collect();
+    // Whole path parts only: `dems/` is not a prefix of `dems2/...`.
+    *OBJECT_ROOTS.write().unwrap_or_else(PoisonError::into_inner) = objects
+        .iter()
+        .filter_map(|r| r.to_str())
+        .map(|r| if r.ends_with('/') { r.to_owned() } else { format!("{r}/") })
+        .collect();
     verdicts().clear();
 }
 

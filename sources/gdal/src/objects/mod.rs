@@ -97,9 +97,20 @@ pub fn version(path: &Path, fresh: bool) -> Result<ObjectVersion, String> {
     asked
 }
 
-/// An error about the object at `path`, in words: its URL (no query) and
-/// what the server or GDAL said, secrets removed.
-pub fn describe(path: &Path, why: &str) -> String {
-    let url = relief_source::objects::shown(path).unwrap_or_else(|| path.display().to_string());
-    format!("{url}: {}", redact(why))
+/// What went wrong with an object, in words a user can act on: GDAL's or
+/// the server's message, secrets removed, with what an HTTP status means.
+/// (The error it goes into names the object's URL.)
+pub fn describe(_path: &Path, why: &str) -> String {
+    let why = redact(why);
+    let status = why.rsplit_once(": ").map(|(_, code)| code.trim());
+    let meaning = match status {
+        Some("0") => " (no answer: the store is down or cannot be reached)",
+        Some("401" | "403") => " (access denied: the credentials were refused or may not read it)",
+        Some("404") => " (not found)",
+        Some(code) if code.starts_with('5') && code.len() == 3 => {
+            " (the store failed; it is asked again at the next poll)"
+        }
+        _ => "",
+    };
+    format!("{why}{meaning}")
 }

@@ -48,6 +48,7 @@ impl RangeFile {
                     .and_then(|mut f| f.read_exact_at(buf, offset))
                     .map_err(|why| std::io::Error::other(super::describe(path, &why)))?;
                 BYTES_READ.fetch_add(buf.len() as u64, Ordering::Relaxed);
+                tracing::trace!(object = %path.display(), offset, len = buf.len(), "object range read");
                 Ok(())
             }
         }

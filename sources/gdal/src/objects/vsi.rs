@@ -44,7 +44,10 @@ pub(super) fn headers(path: &Path) -> Result<Vec<(String, String)>, String> {
         VSIGetFileMetadata(name.as_ptr(), domain.as_ptr(), std::ptr::null_mut())
     };
     if list.is_null() {
-        return Err(why_missing(path));
+        // GDAL's own words for the failed request (a 403, a refused
+        // connection) come first; a stat tells a missing object otherwise.
+        let said = last_error("");
+        return Err(if said.is_empty() { why_missing(path) } else { said });
     }
     let mut out = Vec::new();
     // SAFETY: see above; the walk stops at the terminating NULL.

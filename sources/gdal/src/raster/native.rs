@@ -433,6 +433,7 @@ fn grow(buffer: &mut Vec<u8>, len: usize) {
 
 #[cfg(test)]
 mod tests {
+    use std::os::unix::fs::FileExt;
     use std::path::PathBuf;
 
     use gdal::DriverManager;
