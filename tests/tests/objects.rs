@@ -322,3 +322,66 @@ async fn a_cog_on_a_plain_http_host_is_read_by_ranges_and_its_etag_change_reload
     daemon.stop(&[])?;
     Ok(())
 }
+
+/// Vector data on object storage: a GeoPackage, a FlatGeobuf and a
+/// shapefile in a zip, read as the same files on disk are; a GeoPackage
+/// overwritten with one parcel more is read again on its notice.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn vector_objects_are_read_and_reloaded() -> anyhow::Result<()> {
+    use std::io::Write;
+    let s3 = S3Server::start()?;
+    s3.create_bucket("vectors")?;
+    let dir = tempfile::tempdir()?;
+    let parcels = |n: usize| {
+        let squares: Vec<(&str, f64, f64, f64)> =
+            (0..n).map(|i| ("{\"name\": \"p\"}", 10.2 + 0.01 * i as f64, 45.2, 0.005)).collect();
+        relief_tests::vectors::squares(&squares)
+    };
+    let gpkg = relief_tests::vectors::geopackage(&dir.path().join("town.gpkg"), &[("parcels", &parcels(3))])?;
+    let fgb = dir.path().join("parcels.fgb");
+    let status = std::process::Command::new("ogr2ogr").args(["-q", "-f", "FlatGeobuf"]).arg(&fgb).arg(&gpkg).status()?;
+    anyhow::ensure!(status.success(), "ogr2ogr failed");
+    let shp_dir = dir.path().join("shp");
+    std::fs::create_dir(&shp_dir)?;
+    relief_tests::vectors::shapefile(&shp_dir, "lots", &parcels(4))?;
+    let zipped = dir.path().join("lots.zip");
+    let mut zip = zip::ZipWriter::new(std::fs::File::create(&zipped)?);
+    for entry in std::fs::read_dir(&shp_dir)? {
+        let path = entry?.path();
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_owned();
+        zip.start_file(name, zip::write::SimpleFileOptions::default())?;
+        zip.write_all(&std::fs::read(&path)?)?;
+    }
+    zip.finish()?;
+    for (key, path) in [("town.gpkg", &gpkg), ("parcels.fgb", &fgb), ("lots.zip", &zipped)] {
+        s3.put_file("vectors", key, path)?;
+    }
+    fixtures::write_dem(&dir.path().join("hill.tif"), &fixtures::hill_spec(), fixtures::hill)?;
+    let text = "[scene]\nname = \"vectors\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"hill.tif\"\n\n\
+                [[source]]\nid = \"gpkg\"\nkind = \"ogr\"\npath = \"s3://vectors/town.gpkg\"\nlayer = \"parcels\"\n\n\
+                [[source]]\nid = \"fgb\"\nkind = \"ogr\"\npath = \"s3://vectors/parcels.fgb\"\n\n\
+                [[source]]\nid = \"zipped\"\nkind = \"ogr\"\npath = \"s3://vectors/lots.zip\"\n\n\
+                [layers]\nheight = \"dem\"\n\n[cache]\ndisk_mb = 0\n\n[watch]\npoll_s = 0\n";
+    let manifest = dir.path().join("scene.toml");
+    std::fs::write(&manifest, text)?;
+    let daemon = Reliefd::start_with_env(&manifest, &[], &s3.env())?;
+    let features = |s: &serde_json::Value, id: &str| -> String {
+        let source = s["sources"].as_array().and_then(|a| a.iter().find(|x| x["id"] == id)).cloned();
+        let source = source.unwrap_or_default();
+        format!("{} {}", source["status"], source["details"]["features"])
+    };
+    let s = state(&daemon)?;
+    assert_eq!(features(&s, "gpkg"), "\"SOURCE_STATUS_READY\" \"3\"", "{s}");
+    assert_eq!(features(&s, "fgb"), "\"SOURCE_STATUS_READY\" \"3\"", "{s}");
+    assert_eq!(features(&s, "zipped"), "\"SOURCE_STATUS_READY\" \"4\"", "{s}");
+
+    std::fs::remove_file(&gpkg)?;
+    relief_tests::vectors::geopackage(&gpkg, &[("parcels", &parcels(4))])?;
+    s3.put_file("vectors", "town.gpkg", &gpkg)?;
+    let event = serde_json::json!({"Records": [{"s3": {"bucket": {"name": "vectors"}, "object": {"key": "town.gpkg"}}}]});
+    let reply = http::request("POST", &format!("{}/api/notify", daemon.url()), Some(&event.to_string()))?;
+    assert_eq!(features(&reply.json()?, "gpkg"), "\"SOURCE_STATUS_READY\" \"4\"");
+    assert_eq!(features(&reply.json()?, "fgb"), "\"SOURCE_STATUS_READY\" \"3\"", "only the named object's source");
+    daemon.stop(&[])?;
+    Ok(())
+}

@@ -53,12 +53,15 @@ fn which(layer: Option<&str>) -> String {
 }
 
 fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
+    let object = relief_source::objects::is_object(path);
     // GDAL opens it, and the side files it looks for, itself: a pipe in
     // their place would block it for good. A folder is a dataset too.
-    relief_source::regular::check_for_gdal(path, true).map_err(|e| SourceError::Format {
-        path: path.to_path_buf(),
-        message: format!("cannot open{}: {e}", which(layer)),
-    })?;
+    if !object {
+        relief_source::regular::check_for_gdal(path, true).map_err(|e| SourceError::Format {
+            path: path.to_path_buf(),
+            message: format!("cannot open{}: {e}", which(layer)),
+        })?;
+    }
     relief_source_gdal::configure_gdal();
     relief_source_gdal::guard::check_dataset(path).map_err(|e| SourceError::Format {
         path: path.to_path_buf(),
@@ -70,7 +73,12 @@ fn open(path: &Path, layer: Option<&str>) -> Result<Dataset, SourceError> {
             | GdalOpenFlags::GDAL_OF_VERBOSE_ERROR,
         ..DatasetOptions::default()
     };
-    Dataset::open_ex(path, options).map_err(|e| failure(e, path, layer, "not a vector dataset GDAL can read"))
+    // An object is opened without listing its "folder"; a zip of a
+    // shapefile (or of any vector files) is read inside the object.
+    let _empty_folder = object.then(relief_source_gdal::objects::EmptyFolder::set);
+    let zipped = object && path.extension().is_some_and(|e| e.eq_ignore_ascii_case("zip"));
+    let opened = if zipped { PathBuf::from(format!("/vsizip/{}", path.display())) } else { path.to_path_buf() };
+    Dataset::open_ex(&opened, options).map_err(|e| failure(e, path, layer, "not a vector dataset GDAL can read"))
 }
 
 impl VectorFormat for Ogr {
