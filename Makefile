@@ -38,4 +38,5 @@ bench: setup
 	cargo bench -p relief-daemon --bench soak
 	cargo bench -p relief-daemon --bench standard_tiles
 	cargo bench -p relief-tests --bench cesium_edit
+	cargo bench -p relief-tests --bench objects
 	bash clients/qgis/scripts/bench.sh
