@@ -582,6 +582,17 @@ impl Scene {
             for (q, key, _) in &to_build {
                 by_quality.entry(*q).or_default().push((i, *key));
             }
+            if self.store.shares_tiles() {
+                // Replicas share the tiles: every replica sees the change,
+                // and each building the tiles it held would build each of
+                // them N times. They are built when next asked for, by the
+                // first replica asked, and the others read them from the
+                // shared store under the new content address.
+                for (q, key, _) in &to_build {
+                    outcome[i].insert((*q, *key), true);
+                }
+                continue;
+            }
             let hashes: HashMap<(QualityKey, TileKey), u64> = to_build.iter().map(|(q, k, h)| ((*q, *k), *h)).collect();
             for (q, keys) in by_quality {
                 for ((_, key), built) in keys.iter().zip(self.store.build(new, &keys, &Quality::from(q))) {

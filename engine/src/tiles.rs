@@ -124,6 +124,13 @@ impl TileStore {
     }
 
     /// What each outer store did.
+    /// True when tiles are shared with other processes (Redis): replicas
+    /// of the scene then build a tile an edit touched once between them,
+    /// when it is next asked for, rather than each at once.
+    pub fn shares_tiles(&self) -> bool {
+        self.backings.counters().iter().any(|c| c.name == "redis")
+    }
+
     pub fn backing_counters(&self) -> Vec<crate::backing::BackingCounters> {
         self.backings.counters()
     }

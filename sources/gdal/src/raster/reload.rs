@@ -78,12 +78,21 @@ impl Raster {
         let (bw, bh) = (self.width().div_ceil(BLOCK), self.height().div_ceil(BLOCK));
         let old = self.store.signatures.wait().as_ref();
         let signatures = Signatures::of(&raster, options.changes, old, false)?;
+        let everything = || Changes {
+            base: vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
+            overviews: Vec::new(),
+        };
         let changes = match old {
+            // An object's new ETag is new bytes: when its block tables are
+            // as they were, a block was rewritten in place at its old size
+            // (which the layout cannot tell), so every block is read and
+            // compared. A file's stamp also moves when it is merely touched.
+            Some(old) if relief_source::objects::is_object(&self.path) => {
+                let found = old.diff(&signatures, self.size);
+                if found.base.is_empty() && found.overviews.is_empty() { everything() } else { found }
+            }
             Some(old) => old.diff(&signatures, self.size),
-            None => Changes {
-                base: vec![PixelRect { x0: 0, y0: 0, x1: self.width(), y1: self.height() }],
-                overviews: Vec::new(),
-            },
+            None => everything(),
         };
         let rects = &changes.base;
         let mut candidates: Vec<(usize, usize)> = rects
