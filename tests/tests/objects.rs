@@ -339,7 +339,8 @@ async fn vector_objects_are_read_and_reloaded() -> anyhow::Result<()> {
     };
     let gpkg = relief_tests::vectors::geopackage(&dir.path().join("town.gpkg"), &[("parcels", &parcels(3))])?;
     let fgb = dir.path().join("parcels.fgb");
-    let status = std::process::Command::new("ogr2ogr").args(["-q", "-f", "FlatGeobuf"]).arg(&fgb).arg(&gpkg).status()?;
+    let status =
+        std::process::Command::new("ogr2ogr").args(["-q", "-f", "FlatGeobuf"]).arg(&fgb).arg(&gpkg).status()?;
     anyhow::ensure!(status.success(), "ogr2ogr failed");
     let shp_dir = dir.path().join("shp");
     std::fs::create_dir(&shp_dir)?;
@@ -378,10 +379,41 @@ async fn vector_objects_are_read_and_reloaded() -> anyhow::Result<()> {
     std::fs::remove_file(&gpkg)?;
     relief_tests::vectors::geopackage(&gpkg, &[("parcels", &parcels(4))])?;
     s3.put_file("vectors", "town.gpkg", &gpkg)?;
-    let event = serde_json::json!({"Records": [{"s3": {"bucket": {"name": "vectors"}, "object": {"key": "town.gpkg"}}}]});
+    let event =
+        serde_json::json!({"Records": [{"s3": {"bucket": {"name": "vectors"}, "object": {"key": "town.gpkg"}}}]});
     let reply = http::request("POST", &format!("{}/api/notify", daemon.url()), Some(&event.to_string()))?;
     assert_eq!(features(&reply.json()?, "gpkg"), "\"SOURCE_STATUS_READY\" \"4\"");
     assert_eq!(features(&reply.json()?, "fgb"), "\"SOURCE_STATUS_READY\" \"3\"", "only the named object's source");
     daemon.stop(&[])?;
+    Ok(())
+}
+
+/// Credentials from a named profile in `~/.aws/credentials` (no key in the
+/// environment), and the endpoint from the manifest's `[storage]`.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_profile_and_a_storage_section_reach_the_store() -> anyhow::Result<()> {
+    let s3 = S3Server::start()?;
+    s3.create_bucket("profiled")?;
+    let dir = tempfile::tempdir()?;
+    let cog = tiled(dir.path(), "hill.tif", None)?;
+    s3.put_file("profiled", "hill.tif", &cog)?;
+    let home = dir.path().join("home");
+    std::fs::create_dir_all(home.join(".aws"))?;
+    std::fs::write(
+        home.join(".aws/credentials"),
+        format!("[relief-test]\naws_access_key_id = {ACCESS_KEY_ID}\naws_secret_access_key = {SECRET_ACCESS_KEY}\n"),
+    )?;
+    let env = [
+        ("HOME".to_owned(), home.to_string_lossy().into_owned()),
+        ("AWS_PROFILE".to_owned(), "relief-test".to_owned()),
+    ];
+    let storage = format!("[storage]\nendpoint = \"{}\"\nregion = \"us-east-1\"\n", s3.endpoint());
+    let daemon =
+        Reliefd::start_with_env(&manifest(dir.path(), "scene.toml", "s3://profiled/hill.tif", &storage)?, &[], &env)?;
+    let s = state(&daemon)?;
+    assert_eq!(s["sources"][0]["status"], "SOURCE_STATUS_READY", "{s}");
+    assert!((height(&daemon, PEAK).await? - fixtures::hill(PEAK.0, PEAK.1)).abs() < 1.0);
+    let log = daemon.stop(&[])?.join("\n");
+    assert!(!log.contains(SECRET_ACCESS_KEY) && !s.to_string().contains(SECRET_ACCESS_KEY));
     Ok(())
 }
