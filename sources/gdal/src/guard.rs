@@ -475,7 +475,7 @@ fn xml_text(path: &Path) -> Result<Option<String>, String> {
 /// fetched (an object is most often a large COG).
 fn object_xml_text(path: &Path) -> Result<Option<String>, String> {
     let file = crate::objects::RangeFile::open(path).map_err(|e| e.to_string())?;
-    let Ok(len) = file.len() else { return Ok(None) };
+    let Ok(len) = file.size() else { return Ok(None) };
     let mut head = vec![0u8; usize::try_from(len.min(64)).unwrap_or(64)];
     file.read_exact_at(&mut head, 0).map_err(|e| e.to_string())?;
     let body = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&head);

@@ -55,7 +55,7 @@ impl RangeFile {
     }
 
     /// The length of the file, or of the object as last asked.
-    pub fn len(&self) -> std::io::Result<u64> {
+    pub fn size(&self) -> std::io::Result<u64> {
         match self {
             Self::Local(file) => file.metadata().map(|m| m.len()),
             Self::Object(path) => super::version(path, false).map(|v| v.len).map_err(std::io::Error::other),

@@ -107,7 +107,7 @@ impl VsiFile {
         // result is handled.
         let handle = unsafe {
             CPLErrorReset();
-            VSIFOpenExL(name.as_ptr(), mode.as_ptr() as *const c_char, 1)
+            VSIFOpenExL(name.as_ptr(), mode.as_ptr().cast::<c_char>(), 1)
         };
         if handle.is_null() { Err(last_error("cannot open")) } else { Ok(Self(handle)) }
     }

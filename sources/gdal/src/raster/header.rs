@@ -380,7 +380,7 @@ pub(crate) fn open_dataset(path: &Path) -> Result<Dataset, SourceError> {
     };
     // An object's "folder" is never listed, nor side objects asked for one
     // by one: a request each, and a COG has none.
-    let _empty_folder = object.then(|| crate::objects::EmptyFolder::set());
+    let _empty_folder = object.then(crate::objects::EmptyFolder::set);
     Dataset::open_ex(path, options).map_err(|e| {
         let message = crate::gdal_message(e, path, "no GDAL driver recognises it (corrupt, truncated or not a raster)");
         format_err(format!("cannot open raster: {message}"), path)

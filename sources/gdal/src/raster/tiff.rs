@@ -44,7 +44,7 @@ pub(crate) struct Image {
 impl Image {
     /// Fails when a block lies past the end of `file` (a file cut short).
     pub(crate) fn check_within(&self, file: &Path) -> Result<(), relief_source::SourceError> {
-        let length = RangeFile::open(file).and_then(|f| f.len()).map_err(|source| relief_source::SourceError::Io {
+        let length = RangeFile::open(file).and_then(|f| f.size()).map_err(|source| relief_source::SourceError::Io {
             what: "raster",
             path: file.into(),
             source,
