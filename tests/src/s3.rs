@@ -129,15 +129,7 @@ impl S3Server {
     /// with the test key: `AWS_ENDPOINT_URL`, `AWS_ACCESS_KEY_ID`,
     /// `AWS_SECRET_ACCESS_KEY` ([`SECRET_ACCESS_KEY`]) and `AWS_REGION`.
     pub fn env(&self) -> Vec<(String, String)> {
-        [
-            ("AWS_ENDPOINT_URL", self.endpoint()),
-            ("AWS_ACCESS_KEY_ID", ACCESS_KEY_ID.into()),
-            ("AWS_SECRET_ACCESS_KEY", SECRET_ACCESS_KEY.into()),
-            ("AWS_REGION", REGION.into()),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_owned(), v))
-        .collect()
+        with_test_key(vec![("AWS_ENDPOINT_URL".into(), self.endpoint())])
     }
 
     /// GDAL's own configuration options for the same (GDAL 3.6 does not
@@ -145,17 +137,11 @@ impl S3Server {
     /// process: `AWS_S3_ENDPOINT=127.0.0.1:PORT`, `AWS_HTTPS=NO`,
     /// `AWS_VIRTUAL_HOSTING=FALSE` and the test key.
     pub fn gdal_config(&self) -> Vec<(String, String)> {
-        [
-            ("AWS_S3_ENDPOINT", format!("127.0.0.1:{}", self.server.port)),
-            ("AWS_HTTPS", "NO".into()),
-            ("AWS_VIRTUAL_HOSTING", "FALSE".into()),
-            ("AWS_ACCESS_KEY_ID", ACCESS_KEY_ID.into()),
-            ("AWS_SECRET_ACCESS_KEY", SECRET_ACCESS_KEY.into()),
-            ("AWS_REGION", REGION.into()),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_owned(), v))
-        .collect()
+        with_test_key(vec![
+            ("AWS_S3_ENDPOINT".into(), format!("127.0.0.1:{}", self.server.port)),
+            ("AWS_HTTPS".into(), "NO".into()),
+            ("AWS_VIRTUAL_HOSTING".into(), "FALSE".into()),
+        ])
     }
 
     /// Every line moto has printed: one per request
@@ -426,6 +412,16 @@ impl Drop for Server {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// `settings` and the test key and region after them.
+fn with_test_key(mut settings: Vec<(String, String)>) -> Vec<(String, String)> {
+    settings.extend([
+        ("AWS_ACCESS_KEY_ID".into(), ACCESS_KEY_ID.into()),
+        ("AWS_SECRET_ACCESS_KEY".into(), SECRET_ACCESS_KEY.into()),
+        ("AWS_REGION".into(), REGION.into()),
+    ]);
+    settings
 }
 
 /// `target/s3/bin/moto_server`, which scripts/setup.sh installs.
