@@ -80,6 +80,10 @@ pub struct Scene {
     current: RwLock<Arc<SceneSnapshot>>,
     manifest_path: PathBuf,
     manifest_error: RwLock<Option<String>>,
+    /// The manifest's text the last edit was built from: a save that left
+    /// it as it was (an editor's, or a file beside it sharing its name's
+    /// stem) makes no generation.
+    built_from: Mutex<Option<String>>,
     /// The values calls have set (laid over the manifest), and them as the
     /// state shows them.
     parameters: RwLock<(Overrides, Vec<InForce>)>,
@@ -133,8 +137,10 @@ impl Scene {
         threads: usize,
         check: ManifestCheck,
     ) -> Result<(Self, Vec<LoadError>), Vec<LoadError>> {
-        let manifest =
-            Manifest::load(manifest_path).and_then(|m| check(&m).map(|()| m)).map_err(|e| vec![LoadError::from(e)])?;
+        let text = Manifest::read(manifest_path).map_err(|e| vec![LoadError::from(e)])?;
+        let manifest = Manifest::parse(&text, manifest_path)
+            .and_then(|m| check(&m).map(|()| m))
+            .map_err(|e| vec![LoadError::from(e)])?;
         let budget = manifest.cache_budget_bytes;
         relief_source_gdal::set_block_budget(manifest.raster_budget_bytes);
         let registry = Registry::builtin();
@@ -156,6 +162,7 @@ impl Scene {
                 check,
                 current: RwLock::new(snapshot),
                 manifest_error: RwLock::new(None),
+                built_from: Mutex::new(Some(text)),
                 parameters: RwLock::new((Overrides::default(), Vec::new())),
                 registry,
                 store,
@@ -337,9 +344,17 @@ impl Scene {
         // A call's values stay in force over the edit, less those whose
         // source or effect the edit removed.
         let held = self.parameters.read().expect("scene lock is never poisoned").0.clone();
-        let built = self.read_manifest().and_then(|(text, table)| {
+        let read = self.read_manifest();
+        let unchanged = read.as_ref().is_ok_and(|(text, _)| {
+            self.built_from.lock().expect("scene lock is never poisoned").as_deref() == Some(text.as_str())
+        });
+        if unchanged && self.manifest_error.read().expect("scene lock is never poisoned").is_none() {
+            return old.generation;
+        }
+        let built = read.and_then(|(text, table)| {
             let overrides = held.still_applicable(&table);
             let built = self.build(&text, &table, &overrides, &old)?;
+            *self.built_from.lock().expect("scene lock is never poisoned") = Some(text);
             Ok((built, overrides, table))
         });
         let ((new, open_errors), overrides, table) = match built {

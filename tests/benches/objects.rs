@@ -206,7 +206,7 @@ fn overwrites(s3: &S3Server, dir: &Path, small: &Path, webhook: bool, trials: u6
     s3.put_file(BUCKET, key, &copy)?;
     // Polled every second, or not at all (notices only).
     let watch = if webhook { "\n[watch]\npoll_s = 0\n" } else { "\n[watch]\npoll_s = 1\n" };
-    let manifest = manifest(dir, &format!("{key}.toml"), &format!("s3://{BUCKET}/{key}"), watch)?;
+    let manifest = manifest(dir, &format!("scene-{key}.toml"), &format!("s3://{BUCKET}/{key}"), watch)?;
     let daemon = Reliefd::start_with_env(&manifest, &[], &s3.env())?;
     let url = daemon.url();
     let notice = serde_json::json!({"Records": [{"s3": {"bucket": {"name": BUCKET}, "object": {"key": key}}}]});

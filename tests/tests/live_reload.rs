@@ -388,3 +388,27 @@ async fn a_file_in_a_new_folder_that_a_vrt_comes_to_name_is_watched_from_then_on
     assert_eq!(edit::height_at(channel, 10.75, 45.25).await.unwrap(), Some(800.0));
     daemon.stop(&[]).unwrap();
 }
+
+/// A save that leaves the manifest's text as it was, and a file beside it
+/// sharing its name's stem (`scene.log`, an editor's `scene.toml.bak`),
+/// make no generation; an edit of the text does.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_unchanged_manifest_makes_no_generation() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = relief_tests::scenes::hill(dir.path(), "").unwrap();
+    let daemon = Reliefd::start(&manifest, &[]).unwrap();
+    let channel = daemon.channel().await.unwrap();
+    let events = Events::follow(channel.clone()).await.unwrap();
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    std::fs::write(&manifest, &text).unwrap();
+    for n in 0..5 {
+        std::fs::write(dir.path().join("scene.log"), format!("line {n}\n")).unwrap();
+        tokio::time::sleep(Duration::from_millis(150)).await;
+    }
+    tokio::time::sleep(Duration::from_millis(800)).await;
+    assert!(events.generations().is_empty(), "{:?}", events.generations());
+    std::fs::write(&manifest, text.replace("name = \"hill\"", "name = \"hill edited\"")).unwrap();
+    let state = edit::wait_for(channel, 2).await.unwrap();
+    assert_eq!(state.name, "hill edited");
+    daemon.stop(&[]).unwrap();
+}
