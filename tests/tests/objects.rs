@@ -145,6 +145,39 @@ async fn a_cog_and_a_vrt_of_objects_give_the_same_tiles_as_the_files_on_disk() -
         remote.stop(&[])?;
         on_disk.stop(&[])?;
     }
+
+    // A local VRT naming its members as object URLs, in a bucket its
+    // manifest lists under [scene] roots: the same tiles; a member
+    // overwritten is read again (members are polled as objects are).
+    let vrt = std::fs::read_to_string(dir.path().join("mosaic.vrt"))?
+        .replace("relativeToVRT=\"1\">west.tif", "relativeToVRT=\"0\">s3://same/west.tif")
+        .replace("relativeToVRT=\"1\">east.tif", "relativeToVRT=\"0\">s3://same/east.tif");
+    assert!(vrt.contains("s3://same/west.tif") && vrt.contains("s3://same/east.tif"), "{vrt}");
+    std::fs::write(dir.path().join("urls.vrt"), vrt)?;
+    let text = std::fs::read_to_string(manifest(dir.path(), "urls.toml", "urls.vrt", "[watch]\npoll_s = 0.25\n")?)?
+        .replace("[scene]\n", "[scene]\nroots = [\"s3://same\"]\n");
+    std::fs::write(dir.path().join("urls.toml"), text)?;
+    let on_disk = Reliefd::start(&manifest(dir.path(), "local.toml", "mosaic.vrt", "")?, &[])?;
+    let urls = Reliefd::start_with_env(&dir.path().join("urls.toml"), &[], &s3.env())?;
+    assert_eq!(hashes(&on_disk).await?, hashes(&urls).await?, "a VRT of object URLs gives the mosaic's tiles");
+    let s0 = state(&urls)?;
+    assert_eq!(s0["sources"][0]["status"], "SOURCE_STATUS_READY", "{s0}");
+    let before = height(&urls, SLOPE).await?;
+    let east = dir.path().join("east.tif");
+    let spec = fixtures::hill_spec();
+    let x = ((SLOPE.0 - spec.origin_x) / spec.pixel) as usize - 200;
+    let y = ((spec.origin_y - SLOPE.1) / spec.pixel) as usize;
+    edit::rewrite_window(&east, x - 4, y - 4, 8, 8, |_, _, v| v + 100.0)?;
+    s3.put_file("same", "east.tif", &east)?;
+    until(&urls, Duration::from_secs(10), |s| generation(s) > generation(&s0))?;
+    assert!((height(&urls, SLOPE).await? - before - 100.0).abs() < 1e-3, "the member's overwrite was read");
+    urls.stop(&[])?;
+    on_disk.stop(&[])?;
+
+    // Without the root, the VRT may not reach into that bucket.
+    let (code, said) = relief_tests::daemon::check(&manifest(dir.path(), "unrooted.toml", "urls.vrt", "")?)?;
+    assert_ne!(code, 0, "{said}");
+    assert!(said.contains("s3://same/west.tif") && said.contains("outside the scene's buckets"), "{said}");
     Ok(())
 }
 

@@ -346,13 +346,11 @@ impl Walk {
         if name.is_empty() {
             return refused("an empty file name");
         }
-        if let Some(why) = refusal(name) {
-            return refused(&why);
-        }
-        if driver_prefix(name) {
-            return refused("a driver's connection string, not a file");
-        }
-        let object = if is_object(Path::new(name)) {
+        // An object, as GDAL names it or as a URL (`s3://`, `https://`,
+        // which the mosaic's reader writes back in GDAL's form).
+        let object = if let Some(url) = relief_source::objects::from_url(name.trim()) {
+            Some(url.to_string_lossy().into_owned())
+        } else if is_object(Path::new(name)) {
             Some(name.to_owned())
         } else if relative && is_object(from) {
             // Path joins fold an HTTP URL's `//`: objects join as text.
@@ -370,6 +368,12 @@ impl Walk {
             let file = PathBuf::from(object);
             self.visited.push((file.clone(), FileStamp::of(&file)));
             return self.dataset(&file, depth + 1);
+        }
+        if let Some(why) = refusal(name) {
+            return refused(&why);
+        }
+        if driver_prefix(name) {
+            return refused("a driver's connection string, not a file");
         }
         let file = if let Some(rest) = name.strip_prefix("/vsi") {
             let (system, inner) = rest.split_once('/').unwrap_or((rest, ""));

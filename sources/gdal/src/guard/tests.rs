@@ -113,9 +113,12 @@ fn urls_network_file_systems_and_connection_strings_are_refused() {
     let f = folders();
     let zip = write(&f.scene.join("tiles.zip"), "a zip");
     for (name, why) in [
-        ("/vsicurl/http://127.0.0.1:9/dem.tif", "/vsicurl/"),
-        ("http://127.0.0.1:9/dem.tif", "URL"),
-        ("/vsis3/bucket/dem.tif", "/vsis3/"),
+        // Objects only in the buckets and hosts of the scene's (none here).
+        ("/vsicurl/http://127.0.0.1:9/dem.tif", "outside the scene's buckets and hosts"),
+        ("http://127.0.0.1:9/dem.tif", "outside the scene's buckets and hosts"),
+        ("s3://bucket/dem.tif", "outside the scene's buckets and hosts"),
+        ("/vsis3/bucket/dem.tif", "outside the scene's buckets and hosts"),
+        ("ftp://127.0.0.1:9/dem.tif", "URL"),
         ("/vsimem/relief/1-1.vrt", "/vsimem/"),
         ("/vsicurl_streaming/x", "/vsicurl_streaming/"),
         ("vrt://tiles/a.tif?bands=1", "URL"),

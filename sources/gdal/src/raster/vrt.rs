@@ -163,8 +163,8 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
     let last = || LAST.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let known = last().iter().find(|(p, s, _)| p == path && Some(*s) == stamp).map(|(_, _, m)| m.clone());
     if let Some(known) = known
-        && known.files.iter().all(|f| f.exists())
-        && !known.missing.iter().any(|f| f.exists())
+        && known.files.iter().all(|f| exists(f))
+        && !known.missing.iter().any(|f| exists(f))
     {
         return Ok(known);
     }
@@ -182,14 +182,42 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
     Ok(members)
 }
 
+/// The VRT's text: a local file's (a regular one) or an object's; None
+/// when it cannot be read (GDAL then says why).
+fn vrt_text(path: &Path) -> Option<String> {
+    if !relief_source::objects::is_object(path) {
+        return relief_source::regular::read_regular_to_string(path).ok();
+    }
+    let file = crate::objects::RangeFile::open(path).ok()?;
+    let mut bytes = vec![0u8; usize::try_from(file.size().ok()?).ok()?];
+    file.read_exact_at(&mut bytes, 0).ok()?;
+    String::from_utf8(bytes).ok()
+}
+
+/// A member named relative to the VRT at `vrt`: beside it, a file or an
+/// object (joined as text: a path join folds an HTTP URL's `//`).
+fn beside(vrt: &Path, name: &str) -> PathBuf {
+    match vrt.to_str().filter(|_| relief_source::objects::is_object(vrt)).and_then(|v| v.rsplit_once('/')) {
+        Some((folder, _)) => PathBuf::from(format!("{folder}/{name}")),
+        None => vrt.parent().unwrap_or(Path::new(".")).join(name),
+    }
+}
+
+/// True when a member is there: a file, or an object the store has.
+fn exists(member: &Path) -> bool {
+    if relief_source::objects::is_object(member) { FileStamp::of(member).is_some() } else { member.exists() }
+}
+
 /// Reads the VRT at `path`: its members, those missing, and what GDAL
 /// should open.
 fn parse(path: &Path) -> Result<Members, SourceError> {
     let plain = Members { open_path: path.to_path_buf(), ..Members::default() };
-    let Ok(text) = relief_source::regular::read_regular_to_string(path) else {
+    let Some(text) = vrt_text(path) else {
         return Ok(plain);
     };
-    let folder = path.parent().unwrap_or(Path::new("."));
+    // A member named as an object URL (`s3://`, `https://`) is written back
+    // as GDAL names it (`/vsis3/`, `/vsicurl/`): the copy is then opened.
+    let mut urls = false;
     let bad = |e: &dyn std::fmt::Display| format_err(format!("VRT is not valid XML: {e}"), path);
     let mut reader = Reader::from_str(&text);
     let mut writer = Writer::new(Vec::new());
@@ -249,7 +277,13 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
             }
             Event::Text(t) if in_name => {
                 let name = t.decode().map_err(|e| bad(&e))?.into_owned();
-                let file = if relative { folder.join(&name) } else { PathBuf::from(&name) };
+                let url = relief_source::objects::from_url(name.trim());
+                urls |= url.is_some();
+                let file = match url {
+                    Some(object) => object,
+                    None if relative => beside(path, &name),
+                    None => PathBuf::from(&name),
+                };
                 event = Event::Text(BytesText::new(&file.display().to_string()).into_owned());
                 if let Some((_, _, f)) = &mut held {
                     *f = Some(file);
@@ -287,7 +321,7 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
                     let (events, _, file) = held.take().expect("held");
                     let present = match &file {
                         // Not a plain file (a /vsi path, a URL): GDAL's to judge.
-                        Some(f) if f.is_absolute() && !f.exists() => false,
+                        Some(f) if f.is_absolute() && !exists(f) => false,
                         _ => true,
                     };
                     match file {
@@ -306,7 +340,7 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
                                 source.plain &= file.as_ref().is_some_and(|f| f.exists());
                                 sources.push(source);
                             }
-                            if let Some(f) = file.filter(|f| f.exists() && !files.contains(f)) {
+                            if let Some(f) = file.filter(|f| exists(f) && !files.contains(f)) {
                                 files.push(f);
                             }
                             for e in events {
@@ -319,7 +353,7 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
             None => writer.write_event(event).map_err(|e| bad(&e))?,
         }
     }
-    if missing.is_empty() {
+    if missing.is_empty() && !urls {
         return Ok(Members {
             files,
             missing,
@@ -342,5 +376,6 @@ fn parse(path: &Path) -> Result<Members, SourceError> {
     ));
     gdal::vsi::create_mem_file(&copy, writer.into_inner())
         .map_err(|e| format_err(format!("cannot write the VRT without its missing files: {e}"), path))?;
+    tracing::debug!(vrt = %path.display(), copy = %copy.display(), "VRT opened through a copy");
     Ok(Members { files, missing, holes, open_path: copy, sources, own_overviews, hides_nodata })
 }
