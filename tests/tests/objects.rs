@@ -450,3 +450,34 @@ async fn a_profile_and_a_storage_section_reach_the_store() -> anyhow::Result<()>
     assert!(!log.contains(SECRET_ACCESS_KEY) && !s.to_string().contains(SECRET_ACCESS_KEY));
     Ok(())
 }
+
+/// A notice reloads sources: it needs a control token where reliefd has
+/// tokens; a read token is refused and nothing is read.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_notice_needs_the_control_scope() -> anyhow::Result<()> {
+    use relief_tests::probe::{CONTROL, READ, token_file};
+    let s3 = S3Server::start()?;
+    s3.create_bucket("scoped")?;
+    let dir = tempfile::tempdir()?;
+    let cog = tiled(dir.path(), "hill.tif", None)?;
+    s3.put_file("scoped", "hill.tif", &cog)?;
+    let tokens = token_file(dir.path())?;
+    let scene = manifest(dir.path(), "scene.toml", "s3://scoped/hill.tif", "[watch]\npoll_s = 0\n")?;
+    let daemon = Reliefd::start_with_env(&scene, &["--token-file", &tokens], &s3.env())?;
+    raise_slope_block(&cog)?;
+    s3.put_file("scoped", "hill.tif", &cog)?;
+    let event = serde_json::json!({"Records": [{"s3": {"bucket": {"name": "scoped"}, "object": {"key": "hill.tif"}}}]});
+    let notify = |token: &str| {
+        let bearer = format!("Bearer {token}");
+        let headers = [("authorization", bearer.as_str()), ("content-type", "application/json")];
+        http::request_with("POST", &format!("{}/api/notify", daemon.url()), Some(&event.to_string()), &headers)
+    };
+    let denied = notify(READ)?;
+    assert_eq!(denied.status, 403, "{}", String::from_utf8_lossy(&denied.body));
+    assert!(String::from_utf8_lossy(&denied.body).contains("control token"));
+    let taken = notify(CONTROL)?;
+    assert_eq!(taken.status, 200, "{}", String::from_utf8_lossy(&taken.body));
+    assert_eq!(generation(&taken.json()?), 2, "the control token's notice read the object");
+    daemon.stop(&[])?;
+    Ok(())
+}
