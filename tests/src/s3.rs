@@ -163,6 +163,19 @@ impl S3Server {
         reply.header("etag").map(str::to_owned).with_context(|| format!("moto sent no ETag for s3://{bucket}/{key}"))
     }
 
+    /// Writes an object anyone may read (the canned ACL `public-read`, as
+    /// a public bucket's objects are): an unsigned GET or HEAD reads it.
+    pub fn put_public(&self, bucket: &str, key: &str, path: &Path) -> anyhow::Result<()> {
+        let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+        let host = format!("127.0.0.1:{}", self.server.port);
+        let path = uri_encode(&format!("/{bucket}/{key}"), true);
+        let mut headers = sign(&self.harness_key, "PUT", &host, &path, "s3", &bytes, SystemTime::now());
+        // Not signed: moto checks no signature while keys are not checked.
+        headers.push(("x-amz-acl".to_owned(), "public-read".to_owned()));
+        let reply = send("PUT", &format!("http://{host}{path}"), &headers, "application/octet-stream", &bytes)?;
+        reply.ok(&format!("cannot put s3://{bucket}/{key}"))
+    }
+
     /// [`S3Server::put`] with a file's bytes.
     pub fn put_file(&self, bucket: &str, key: &str, path: &Path) -> anyhow::Result<String> {
         let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;

@@ -481,3 +481,40 @@ async fn a_notice_needs_the_control_scope() -> anyhow::Result<()> {
     daemon.stop(&[])?;
     Ok(())
 }
+
+/// A public bucket: with no credentials anywhere (no keys, no profile, no
+/// `~/.aws`), requests go unsigned and a public object is read.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_public_object_is_read_without_credentials() -> anyhow::Result<()> {
+    let s3 = S3Server::start()?;
+    s3.create_bucket("public")?;
+    let dir = tempfile::tempdir()?;
+    let cog = tiled(dir.path(), "hill.tif", None)?;
+    s3.put_public("public", "hill.tif", &cog)?;
+    let home = dir.path().join("empty-home");
+    std::fs::create_dir(&home)?;
+    let env = [
+        ("HOME".to_owned(), home.to_string_lossy().into_owned()),
+        ("AWS_ENDPOINT_URL".to_owned(), s3.endpoint()),
+        ("AWS_REGION".to_owned(), "us-east-1".to_owned()),
+    ];
+    let daemon = Reliefd::start_with_env(&manifest(dir.path(), "scene.toml", "s3://public/hill.tif", "")?, &[], &env)?;
+    let s = state(&daemon)?;
+    assert_eq!(s["sources"][0]["status"], "SOURCE_STATUS_READY", "{s}");
+    assert!((height(&daemon, PEAK).await? - fixtures::hill(PEAK.0, PEAK.1)).abs() < 1.0);
+    daemon.stop(&[])?;
+    // The requests were unsigned: a private object is refused to them.
+    s3.put_file("public", "private.tif", &cog)?;
+    let private = manifest(dir.path(), "private.toml", "s3://public/private.tif", "")?;
+    let refused = Reliefd::start_with_env(&private, &["--keep-going"], &env);
+    let said = match refused {
+        Ok(daemon) => {
+            let error = source_error(&state(&daemon)?);
+            daemon.stop(&["access denied", "cannot read raster"])?;
+            error
+        }
+        Err(e) => e.to_string(),
+    };
+    assert!(said.contains("access denied") && said.contains("s3://public/private.tif"), "{said}");
+    Ok(())
+}
