@@ -14,9 +14,27 @@ use crate::tiles::TileStore;
 /// Works out every slot's address of `snap` that is not known yet, inputs
 /// first; the indices of the slots that got one now.
 pub fn fill(snap: &SceneSnapshot) -> Vec<usize> {
+    fill_where(snap, |_| true)
+}
+
+/// Works out, before `snap` is served, the addresses of the slots that
+/// read only objects: an object's part of an address is its version (no
+/// bytes hashed), so it costs nothing, and every tile made from the first
+/// is known to the outer stores (replicas find each other's tiles at once).
+pub fn fill_objects(snap: &SceneSnapshot) {
+    fill_where(snap, |slot| {
+        slot.source.as_ref().is_some_and(|s| {
+            let files = s.info().files;
+            !files.is_empty() && files.iter().all(|f| relief_source::objects::is_object(f))
+        })
+    });
+}
+
+/// `fill`, for the slots `wanted` takes.
+fn fill_where(snap: &SceneSnapshot, wanted: impl Fn(&crate::graph::Slot) -> bool) -> Vec<usize> {
     let mut found = Vec::new();
     for (index, slot) in snap.slots.iter().enumerate() {
-        if slot.content.is_worked_out() {
+        if slot.content.is_worked_out() || !wanted(slot) {
             continue;
         }
         let inputs: Option<Vec<u128>> = slot.inputs.iter().map(|&i| snap.slots[i].content.get()).collect();
@@ -91,6 +109,10 @@ fn run(shared: &Shared, store: &Weak<TileStore>) {
     // out once the scene has been still for `STILL`, if the latest
     // snapshot still has them.
     let mut pending: HashSet<(String, u128)> = HashSet::new();
+    // Sources whose tiles went out under their address (a source's
+    // address may have been worked out before it was served:
+    // `fill_objects`).
+    let mut persisted: HashSet<(String, u128)> = HashSet::new();
     let mut latest: Option<Arc<SceneSnapshot>> = None;
     loop {
         let next = {
@@ -115,10 +137,13 @@ fn run(shared: &Shared, store: &Weak<TileStore>) {
         };
         match next {
             Some(snap) => {
-                for index in fill(&snap) {
-                    let slot = &snap.slots[index];
+                fill(&snap);
+                for slot in &snap.slots {
                     if let Some(address) = slot.content.get() {
-                        pending.insert((slot.spec.id.clone(), address));
+                        let key = (slot.spec.id.clone(), address);
+                        if !persisted.contains(&key) {
+                            pending.insert(key);
+                        }
                     }
                 }
                 latest = Some(snap);
@@ -131,6 +156,11 @@ fn run(shared: &Shared, store: &Weak<TileStore>) {
                         store.persist(slot);
                     }
                 }
+                persisted = slots
+                    .iter()
+                    .filter_map(|slot| slot.content.get().map(|a| (slot.spec.id.clone(), a)))
+                    .filter(|key| pending.contains(key) || persisted.contains(key))
+                    .collect();
                 pending.clear();
             }
         }

@@ -151,6 +151,9 @@ impl Scene {
         let (generation, _) = watch::channel(snapshot.generation);
         let (events, _) = broadcast::channel(EVENT_BACKLOG);
         let store = Arc::new(TileStore::new(budget, threads).with_backings(outer_stores(&snapshot.manifest)));
+        if store.has_backings() {
+            crate::addressing::fill_objects(&snapshot);
+        }
         let snapshot = Arc::new(snapshot);
         let content = ContentKeys::start(Arc::downgrade(&store));
         if store.has_backings() {
@@ -224,6 +227,9 @@ impl Scene {
 
     /// Serves `new` from now on (its content addresses worked out behind).
     fn swap(&self, new: SceneSnapshot) {
+        if self.store.has_backings() {
+            crate::addressing::fill_objects(&new);
+        }
         let new = Arc::new(new);
         *self.current.write().expect("scene lock is never poisoned") = Arc::clone(&new);
         if self.store.has_backings() {
