@@ -50,6 +50,17 @@ fn tiled(dir: &Path, name: &str, window: Option<(usize, usize, usize, usize)>) -
     Ok(path)
 }
 
+/// The S3 server with the hill's tiled COG at `s3://{bucket}/hill.tif`,
+/// the folder holding its file, and the file.
+fn hill_object(bucket: &str) -> anyhow::Result<(S3Server, tempfile::TempDir, PathBuf)> {
+    let s3 = S3Server::start()?;
+    s3.create_bucket(bucket)?;
+    let dir = tempfile::tempdir()?;
+    let cog = tiled(dir.path(), "hill.tif", None)?;
+    s3.put_file(bucket, "hill.tif", &cog)?;
+    Ok((s3, dir, cog))
+}
+
 fn manifest(dir: &Path, name: &str, path: &str, extra: &str) -> anyhow::Result<PathBuf> {
     let text = format!(
         "[scene]\nname = \"objects\"\n\n[[source]]\nid = \"dem\"\nkind = \"gdal\"\npath = \"{path}\"\n\n[layers]\nheight \
@@ -183,11 +194,7 @@ async fn a_cog_and_a_vrt_of_objects_give_the_same_tiles_as_the_files_on_disk() -
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_overwrite_is_read_by_polling_and_by_a_notice_one_block_at_a_time() -> anyhow::Result<()> {
-    let s3 = S3Server::start()?;
-    s3.create_bucket("dem")?;
-    let dir = tempfile::tempdir()?;
-    let cog = tiled(dir.path(), "hill.tif", None)?;
-    s3.put_file("dem", "hill.tif", &cog)?;
+    let (s3, dir, cog) = hill_object("dem")?;
     let object_len = std::fs::metadata(&cog)?.len();
     // Polling every second.
     let polled = Reliefd::start_with_env(
@@ -269,11 +276,7 @@ async fn an_overwrite_is_read_by_polling_and_by_a_notice_one_block_at_a_time() -
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn bad_objects_keep_the_last_good_tiles_and_no_secret_leaks() -> anyhow::Result<()> {
-    let s3 = S3Server::start()?;
-    s3.create_bucket("bad")?;
-    let dir = tempfile::tempdir()?;
-    let cog = tiled(dir.path(), "hill.tif", None)?;
-    s3.put_file("bad", "hill.tif", &cog)?;
+    let (s3, dir, cog) = hill_object("bad")?;
     let daemon = Reliefd::start_with_env(
         &manifest(dir.path(), "scene.toml", "s3://bad/hill.tif", "[watch]\npoll_s = 0.25\n")?,
         &["--metrics-listen", "127.0.0.1:0"],
@@ -425,11 +428,7 @@ async fn vector_objects_are_read_and_reloaded() -> anyhow::Result<()> {
 /// environment), and the endpoint from the manifest's `[storage]`.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_profile_and_a_storage_section_reach_the_store() -> anyhow::Result<()> {
-    let s3 = S3Server::start()?;
-    s3.create_bucket("profiled")?;
-    let dir = tempfile::tempdir()?;
-    let cog = tiled(dir.path(), "hill.tif", None)?;
-    s3.put_file("profiled", "hill.tif", &cog)?;
+    let (s3, dir, _) = hill_object("profiled")?;
     let home = dir.path().join("home");
     std::fs::create_dir_all(home.join(".aws"))?;
     std::fs::write(
@@ -456,11 +455,7 @@ async fn a_profile_and_a_storage_section_reach_the_store() -> anyhow::Result<()>
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_notice_needs_the_control_scope() -> anyhow::Result<()> {
     use relief_tests::probe::{CONTROL, READ, token_file};
-    let s3 = S3Server::start()?;
-    s3.create_bucket("scoped")?;
-    let dir = tempfile::tempdir()?;
-    let cog = tiled(dir.path(), "hill.tif", None)?;
-    s3.put_file("scoped", "hill.tif", &cog)?;
+    let (s3, dir, cog) = hill_object("scoped")?;
     let tokens = token_file(dir.path())?;
     let scene = manifest(dir.path(), "scene.toml", "s3://scoped/hill.tif", "[watch]\npoll_s = 0\n")?;
     let daemon = Reliefd::start_with_env(&scene, &["--token-file", &tokens], &s3.env())?;

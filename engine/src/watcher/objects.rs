@@ -6,7 +6,7 @@
 //! version is kept) or reachable again.
 
 use std::collections::{BTreeSet, HashMap};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use relief_source::files::FileStamp;
 use relief_source::objects::{S3, is_object};
@@ -48,7 +48,7 @@ impl Polled {
             };
             let now = relief_source::objects::version(&path, true).ok().map(|v| FileStamp::object(&v));
             if now != before {
-                tracing::debug!(object = %shown(&path), "object changed");
+                tracing::debug!(object = %relief_source::objects::display(&path), "object changed");
                 out.extend(sources);
             }
             self.0.insert(path, now);
@@ -121,10 +121,6 @@ fn url_decoded(key: &str) -> String {
         }
     }
     String::from_utf8_lossy(&out).into_owned()
-}
-
-fn shown(path: &Path) -> String {
-    relief_source::objects::shown(path).unwrap_or_else(|| path.display().to_string())
 }
 
 #[cfg(test)]

@@ -77,7 +77,7 @@ const MOST_NESTED: usize = 8;
 
 /// The largest XML file read to check it (a VRT of thousands of members
 /// is a few MB).
-const MOST_XML_BYTES: u64 = 64 << 20;
+pub(crate) const MOST_XML_BYTES: u64 = 64 << 20;
 
 /// Sets GDAL up to read local files only, once per process: the drivers
 /// above deregistered (and skipped by any later registration), VRT Python
@@ -86,9 +86,7 @@ const MOST_XML_BYTES: u64 = 64 << 20;
 pub fn configure() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
-        let set = |key: &str, value: &str| {
-            let _unknown_option_is_harmless = gdal::config::set_config_option(key, value);
-        };
+        let set = crate::set_option;
         set("GDAL_VRT_ENABLE_PYTHON", "NO");
         set("GML_DOWNLOAD_SCHEMA", "NO");
         set("GML_SKIP_RESOLVE_ELEMS", "ALL");
@@ -117,9 +115,7 @@ pub fn configure() {
 /// the checks below keep every object read within the scene's buckets and
 /// hosts.
 pub(crate) fn block_http() {
-    let set = |key: &str, value: &str| {
-        let _unknown_option_is_harmless = gdal::config::set_config_option(key, value);
-    };
+    let set = crate::set_option;
     set("GDAL_HTTP_PROXY", "127.0.0.1:1");
     set("GDAL_HTTPS_PROXY", "127.0.0.1:1");
     set("GDAL_HTTP_TIMEOUT", "1");
@@ -453,46 +449,22 @@ fn refuse_root(path: &Path, root: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// The text of `path` when it is an XML file (it starts with `<`, after
-/// a byte-order mark and white space); None for any other file.
+/// The text of `path` (a file or an object) when it is an XML file (it
+/// starts with `<`, after a byte-order mark and white space); None for any
+/// other file. Its first bytes tell before the rest is read (an object is
+/// most often a large COG).
 fn xml_text(path: &Path) -> Result<Option<String>, String> {
-    use std::io::Read;
-    if is_object(path) {
-        return object_xml_text(path);
-    }
-    let Ok(file) = relief_source::regular::open_regular(path) else { return Ok(None) };
-    let mut bytes = Vec::new();
-    file.take(MOST_XML_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    if body.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'<') {
+    let Ok(file) = crate::objects::RangeFile::open(path) else { return Ok(None) };
+    let cannot = |e: std::io::Error| format!("{}: cannot read: {e}", path.display());
+    let without_mark = |bytes: Vec<u8>| bytes.strip_prefix(b"\xEF\xBB\xBF").map(<[u8]>::to_vec).unwrap_or(bytes);
+    let head = without_mark(file.head(64).map_err(cannot)?);
+    if head.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'<') {
         return Ok(None);
     }
-    if bytes.len() as u64 > MOST_XML_BYTES {
+    let Some(bytes) = file.whole(MOST_XML_BYTES).map_err(cannot)? else {
         return Err(format!("{}: an XML file over {} MB", path.display(), MOST_XML_BYTES >> 20));
-    }
-    String::from_utf8(body.to_vec()).map(Some).map_err(|_| format!("{}: XML that is not UTF-8", path.display()))
-}
-
-/// `xml_text` of an object: its first bytes tell, before the rest is
-/// fetched (an object is most often a large COG).
-fn object_xml_text(path: &Path) -> Result<Option<String>, String> {
-    let file = crate::objects::RangeFile::open(path).map_err(|e| e.to_string())?;
-    let Ok(len) = file.size() else { return Ok(None) };
-    let mut head = vec![0u8; usize::try_from(len.min(64)).unwrap_or(64)];
-    file.read_exact_at(&mut head, 0).map_err(|e| e.to_string())?;
-    let body = head.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&head);
-    if body.iter().find(|b| !b.is_ascii_whitespace()) != Some(&b'<') {
-        return Ok(None);
-    }
-    if len > MOST_XML_BYTES {
-        return Err(format!("{}: an XML file over {} MB", path.display(), MOST_XML_BYTES >> 20));
-    }
-    let mut bytes = vec![0u8; usize::try_from(len).unwrap_or(0)];
-    file.read_exact_at(&mut bytes, 0).map_err(|e| e.to_string())?;
-    let body = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
-    String::from_utf8(body.to_vec()).map(Some).map_err(|_| format!("{}: XML that is not UTF-8", path.display()))
+    };
+    String::from_utf8(without_mark(bytes)).map(Some).map_err(|_| format!("{}: XML that is not UTF-8", path.display()))
 }
 
 /// The archive file of an archive path's inside (`a/b.zip/x/y.tif` or

@@ -44,6 +44,12 @@ pub use raster::{
 };
 pub use source::{GdalSource, KIND, configure_gdal};
 
+/// Sets one of GDAL's process-wide configuration options (an option this
+/// GDAL does not know is harmless, and set anyway).
+pub(crate) fn set_option(key: &str, value: &str) {
+    let _unknown_option_is_harmless = gdal::config::set_config_option(key, value);
+}
+
 /// GDAL's message for a failed call on `path`, without GDAL's own copy of
 /// the path (an error puts it last, once); `unrecognised` when GDAL gave
 /// no words (no driver took the file).

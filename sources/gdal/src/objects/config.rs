@@ -30,9 +30,7 @@ pub struct Storage {
 /// The settings applied last (set again only when they change).
 static APPLIED: Mutex<Option<(Storage, bool)>> = Mutex::new(None);
 
-fn set(key: &str, value: &str) {
-    let _unknown_option_is_harmless = gdal::config::set_config_option(key, value);
-}
+use crate::set_option as set;
 
 fn clear(key: &str) {
     let _unknown_option_is_harmless = gdal::config::clear_config_option(key);

@@ -73,12 +73,12 @@ pub fn version(path: &Path, fresh: bool) -> Result<ObjectVersion, String> {
     }
     vsi::forget(path);
     VERSION_CHECKS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let asked = vsi::headers(path).map_err(|e| describe(path, &e)).and_then(|headers| {
+    let asked = vsi::headers(path).map_err(|e| describe(&e)).and_then(|headers| {
         let find = |name: &str| headers.iter().find(|(k, _)| k.eq_ignore_ascii_case(name)).map(|(_, v)| v.clone());
         let len = find("Content-Range")
             .and_then(|r| r.rsplit_once('/').and_then(|(_, total)| total.parse().ok()))
             .or_else(|| find("Content-Length").and_then(|l| l.parse().ok()))
-            .ok_or_else(|| describe(path, "the server gave no size"))?;
+            .ok_or_else(|| describe("the server gave no size"))?;
         let modified = find("Last-Modified")
             .and_then(|m| httpdate::parse_http_date(&m).ok())
             .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
@@ -100,7 +100,7 @@ pub fn version(path: &Path, fresh: bool) -> Result<ObjectVersion, String> {
 /// What went wrong with an object, in words a user can act on: GDAL's or
 /// the server's message, secrets removed, with what an HTTP status means.
 /// (The error it goes into names the object's URL.)
-pub fn describe(_path: &Path, why: &str) -> String {
+pub fn describe(why: &str) -> String {
     let why = redact(why);
     let status = why.rsplit_once(": ").map(|(_, code)| code.trim());
     let meaning = match status {

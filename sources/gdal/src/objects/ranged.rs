@@ -46,12 +46,36 @@ impl RangeFile {
             Self::Object(path) => {
                 VsiFile::open(path)
                     .and_then(|mut f| f.read_exact_at(buf, offset))
-                    .map_err(|why| std::io::Error::other(super::describe(path, &why)))?;
+                    .map_err(|why| std::io::Error::other(super::describe(&why)))?;
                 BYTES_READ.fetch_add(buf.len() as u64, Ordering::Relaxed);
                 tracing::trace!(object = %path.display(), offset, len = buf.len(), "object range read");
                 Ok(())
             }
         }
+    }
+
+    /// The first `n` bytes (fewer when the file is shorter).
+    pub fn head(&self, n: u64) -> std::io::Result<Vec<u8>> {
+        match self {
+            Self::Local(file) => up_to(file, n),
+            Self::Object(_) => {
+                let mut bytes = vec![0u8; usize::try_from(n.min(self.size()?)).unwrap_or(0)];
+                self.read_exact_at(&mut bytes, 0)?;
+                Ok(bytes)
+            }
+        }
+    }
+
+    /// Every byte, when there are at most `most` (None when there are more).
+    /// A local file is read to its end as it is now (a writer may have
+    /// cut it since it was measured).
+    pub fn whole(&self, most: u64) -> std::io::Result<Option<Vec<u8>>> {
+        let bytes = match self {
+            Self::Local(file) => up_to(file, most.saturating_add(1))?,
+            Self::Object(_) if self.size()? > most => return Ok(None),
+            Self::Object(_) => self.head(most)?,
+        };
+        Ok((bytes.len() as u64 <= most).then_some(bytes))
     }
 
     /// The length of the file, or of the object as last asked.
@@ -61,4 +85,28 @@ impl RangeFile {
             Self::Object(path) => super::version(path, false).map(|v| v.len).map_err(std::io::Error::other),
         }
     }
+}
+
+/// At most `n` bytes of `file` from its start, to its end as it is now
+/// (positioned reads: the handle's cursor is not moved).
+fn up_to(file: &File, n: u64) -> std::io::Result<Vec<u8>> {
+    let mut bytes = vec![0u8; usize::try_from(n.min(1 << 20)).unwrap_or(1 << 20)];
+    let mut filled = 0;
+    loop {
+        if filled == bytes.len() {
+            if filled as u64 >= n {
+                break;
+            }
+            let grown = (bytes.len() * 2).min(usize::try_from(n).unwrap_or(usize::MAX));
+            bytes.resize(grown, 0);
+        }
+        match file.read_at(&mut bytes[filled..], filled as u64) {
+            Ok(0) => break,
+            Ok(read) => filled += read,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    bytes.truncate(filled);
+    Ok(bytes)
 }

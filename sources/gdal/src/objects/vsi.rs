@@ -135,7 +135,3 @@ impl Drop for VsiFile {
         }
     }
 }
-
-// SAFETY: a VSI handle may move between threads; it is used by one at a
-// time (`&mut self`).
-unsafe impl Send for VsiFile {}

@@ -185,13 +185,8 @@ pub(crate) fn members(path: &Path) -> Result<Members, SourceError> {
 /// The VRT's text: a local file's (a regular one) or an object's; None
 /// when it cannot be read (GDAL then says why).
 fn vrt_text(path: &Path) -> Option<String> {
-    if !relief_source::objects::is_object(path) {
-        return relief_source::regular::read_regular_to_string(path).ok();
-    }
     let file = crate::objects::RangeFile::open(path).ok()?;
-    let mut bytes = vec![0u8; usize::try_from(file.size().ok()?).ok()?];
-    file.read_exact_at(&mut bytes, 0).ok()?;
-    String::from_utf8(bytes).ok()
+    String::from_utf8(file.whole(crate::guard::MOST_XML_BYTES).ok()??).ok()
 }
 
 /// A member named relative to the VRT at `vrt`: beside it, a file or an
